@@ -1,0 +1,26 @@
+"""cartlab `ident`: identification of spring-cart runs.
+
+Pure numerical code (arrays in, result objects out) plus thin adapters for files and
+Zenoh. The public API is re-exported here lazily, so `import ident` stays cheap.
+"""
+
+from __future__ import annotations
+
+import importlib
+from typing import Any
+
+__version__ = "0.1.0"
+
+#: public name -> defining module; filled in as the engine grows.
+_EXPORTS: dict[str, str] = {}
+
+
+def __getattr__(name: str) -> Any:
+    module = _EXPORTS.get(name)
+    if module is None:
+        raise AttributeError(f"module 'ident' has no attribute {name!r}")
+    return getattr(importlib.import_module(module), name)
+
+
+def __dir__() -> list[str]:
+    return sorted([*globals(), *_EXPORTS])
