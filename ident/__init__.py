@@ -12,7 +12,22 @@ from typing import Any
 __version__ = "0.1.0"
 
 #: public name -> defining module; filled in as the engine grows.
-_EXPORTS: dict[str, str] = {}
+_EXPORTS: dict[str, str] = {
+    "IdData": "ident.data",
+    "check_arrays": "ident.data",
+    "make_uniform": "ident.data",
+    "step_input": "ident.data",
+    "from_release": "ident.data",
+    "estimate_release_time": "ident.release",
+    "noise_std": "ident.release",
+    "SingleCart": "ident.physics",
+    "TwoCartChain": "ident.physics",
+    "StateSpace": "ident.physics",
+    "Mode": "ident.physics",
+    "load": "ident.io",
+    "load_text": "ident.io",
+    "load_mcap": "ident.io",
+}
 
 
 def __getattr__(name: str) -> Any:

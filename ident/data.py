@@ -1,0 +1,210 @@
+"""Identification data: sampled input and output of one run, validated once.
+
+Convention (written once, checked here): SI units, float seconds, time-major arrays:
+
+- `t`: shape (N,), strictly increasing seconds;
+- `u`: shape (N,), the input (for the lab: the pull distance `r(t) = d·H(t - t_r)`, metres);
+- `y`: shape (N, n_outputs), cart positions in metres in the zeroed frame.
+
+Every public entry point of `ident` that takes arrays goes through `check_arrays`, whose
+errors say "expected …, got …". This module does no file I/O and no fitting.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Literal
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from ident.errors import IdentDimensionError, IdentValueError
+
+FloatArray = NDArray[np.float64]
+
+#: Fewest samples any fit accepts (a lightly damped cart needs several periods anyway).
+MIN_SAMPLES = 20
+#: Time stamps within this fraction of a step of a uniform grid are that grid (rounding, jitter).
+GRID_TOLERANCE = 0.25
+
+
+def check_arrays(t: ArrayLike, u: ArrayLike | None, y: ArrayLike,
+                 min_samples: int = MIN_SAMPLES) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Validate and normalise `(t, u, y)`; return float64 `t` (N,), `u` (N,), `y` (N, n_out).
+
+    `u=None` gives a zero input. Raises `IdentDimensionError` for shapes and
+    `IdentValueError` for NaN/Inf, too few samples and non-increasing time.
+    """
+    t_arr = np.asarray(t, dtype=np.float64)
+    if t_arr.ndim != 1:
+        raise IdentDimensionError("t", "a 1-D array of shape (N,)", f"shape {t_arr.shape}")
+    n = t_arr.shape[0]
+    if n < min_samples:
+        raise IdentValueError("number of samples", f"at least {min_samples}", n)
+    y_arr = _as_outputs(np.asarray(y, dtype=np.float64), n)
+    u_arr = np.zeros(n) if u is None else _as_input(np.asarray(u, dtype=np.float64), n)
+    for name, arr in (("t", t_arr), ("u", u_arr), ("y", y_arr)):
+        _check_finite(name, arr)
+    steps = np.diff(t_arr)
+    if np.any(steps <= 0.0):
+        i = int(np.argmax(steps <= 0.0))
+        kind = "duplicate" if steps[i] == 0.0 else "decreasing"
+        raise IdentValueError("t", "strictly increasing time stamps",
+                              f"{kind} time at index {i + 1} ({t_arr[i]!r} then {t_arr[i + 1]!r})")
+    return t_arr, u_arr, y_arr
+
+
+def _as_outputs(y: NDArray[np.float64], n: int) -> FloatArray:
+    if y.ndim == 1:
+        y = y[:, None]
+    if y.ndim != 2 or y.shape[0] != n:
+        raise IdentDimensionError("y", f"time-major shape ({n},) or ({n}, n_outputs)",
+                                  f"shape {y.shape}")
+    if y.shape[1] < 1 or y.shape[1] > 8:
+        raise IdentDimensionError("y", "1 to 8 output columns", f"shape {y.shape}")
+    return np.ascontiguousarray(y)
+
+
+def _as_input(u: NDArray[np.float64], n: int) -> FloatArray:
+    if u.ndim == 2 and u.shape[1] == 1:
+        u = u[:, 0]
+    if u.ndim != 1 or u.shape[0] != n:
+        raise IdentDimensionError("u", f"one input of shape ({n},) or ({n}, 1)", f"shape {u.shape}")
+    return np.ascontiguousarray(u)
+
+
+def _check_finite(name: str, arr: FloatArray) -> None:
+    bad = ~np.isfinite(arr)
+    if np.any(bad):
+        index = int(np.argwhere(bad)[0][0])
+        raise IdentValueError(name, "finite values", f"{arr.reshape(arr.shape[0], -1)[index]} "
+                              f"at sample {index}")
+
+
+@dataclass(frozen=True)
+class IdData:
+    """One run: time `t` (N,) s, input `u` (N,), outputs `y` (N, n_outputs) m.
+
+    `release_time_s` (float, not rounded to a sample) is the release instant when known
+    (from the run's metadata); `pulled_cart` is 1 or 2 when known. Construct as
+    `IdData(t, u, y)`; arrays are validated and copied read-only.
+    """
+
+    t: FloatArray
+    u: FloatArray
+    y: FloatArray
+    release_time_s: float | None = None
+    pulled_cart: int | None = None
+    name: str = ""
+    notes: tuple[str, ...] = field(default=())
+
+    def __post_init__(self) -> None:
+        t, u, y = check_arrays(self.t, self.u, self.y)
+        for attr, arr in (("t", t), ("u", u), ("y", y)):
+            arr = arr.copy()
+            arr.flags.writeable = False
+            object.__setattr__(self, attr, arr)
+        if self.release_time_s is not None:
+            if not np.isfinite(self.release_time_s) or not t[0] <= self.release_time_s <= t[-1]:
+                raise IdentValueError("release_time_s", f"a time within [{t[0]}, {t[-1]}] s",
+                                      self.release_time_s)
+            object.__setattr__(self, "release_time_s", float(self.release_time_s))
+
+    @property
+    def n_samples(self) -> int:
+        return int(self.t.shape[0])
+
+    @property
+    def n_outputs(self) -> int:
+        return int(self.y.shape[1])
+
+    @property
+    def step_amplitude(self) -> float:
+        """`u[-1] - u[0]`: the size of the step (m for the lab's position step)."""
+        return float(self.u[-1] - self.u[0])
+
+    def step_time(self) -> float | None:
+        """Time of the first sample where `u` leaves its initial value (None if constant)."""
+        moved = np.flatnonzero(self.u != self.u[0])
+        return float(self.t[moved[0]]) if moved.size else None
+
+    def sample_time(self) -> float:
+        """The sample period Ts (s): the slope of a least-squares line through `t`."""
+        k = np.arange(self.n_samples, dtype=np.float64)
+        return float(np.polyfit(k, self.t, 1)[0])
+
+    def is_uniform(self, tolerance: float = GRID_TOLERANCE) -> bool:
+        """True when every stamp is within `tolerance`·Ts of the uniform grid through `t`."""
+        return _grid_deviation(self.t) <= tolerance
+
+    def select_outputs(self, columns: list[int]) -> IdData:
+        """The same run with only the output columns `columns` (0-based)."""
+        return IdData(self.t, self.u, self.y[:, columns], self.release_time_s,
+                      self.pulled_cart, self.name, self.notes)
+
+
+def _grid_deviation(t: FloatArray) -> float:
+    """max |t_k - (a + b k)| / b for the least-squares line a + b k."""
+    k = np.arange(t.shape[0], dtype=np.float64)
+    slope, intercept = np.polyfit(k, t, 1)
+    return float(np.max(np.abs(t - (intercept + slope * k))) / slope)
+
+
+def make_uniform(data: IdData, method: Literal["auto", "grid", "linear"] = "auto") -> IdData:
+    """Return `data` on a uniform time grid, stating what was done in `notes`.
+
+    - `grid`: replace the stamps by the least-squares line `t0 + k·Ts` (right when stamps
+      were rounded on printing or jitter around a regular clock: ECP exports print 3 decimals
+      of an 8.85 ms period);
+    - `linear`: resample `u` and `y` by linear interpolation onto `t0 + k·Ts` with `Ts` the
+      median step (right for missing samples and truly irregular clocks; it low-passes a
+      little: error ≤ h²/8·max|y''|);
+    - `auto`: `grid` when every stamp is within `GRID_TOLERANCE`·Ts of the grid, else `linear`.
+    The input is resampled with zero-order hold (it is a step), not interpolated.
+    """
+    if method == "auto":
+        method = "grid" if data.is_uniform() else "linear"
+    if method == "grid":
+        ts = data.sample_time()
+        grid = data.t[0] + ts * np.arange(data.n_samples)
+        note = f"time stamps replaced by the least-squares grid, Ts = {ts:.6g} s"
+        return IdData(grid, data.u, data.y, data.release_time_s, data.pulled_cart, data.name,
+                      (*data.notes, note))
+    ts = float(np.median(np.diff(data.t)))
+    n = int(np.floor((data.t[-1] - data.t[0]) / ts + 1e-9)) + 1
+    grid = data.t[0] + ts * np.arange(n)
+    y = np.column_stack([np.interp(grid, data.t, col) for col in data.y.T])
+    hold = np.clip(np.searchsorted(data.t, grid, side="right") - 1, 0, data.n_samples - 1)
+    note = f"resampled by linear interpolation onto a uniform grid, Ts = {ts:.6g} s"
+    return IdData(grid, data.u[hold], y, data.release_time_s, data.pulled_cart, data.name,
+                  (*data.notes, note))
+
+
+def step_input(t: ArrayLike, release_time_s: float, amplitude: float) -> FloatArray:
+    """`u_k = amplitude · H(t_k - release_time_s)`; H(0) = 1. Shape (N,).
+
+    The release time is a float and is kept as such by the fitters; this sampled `u` is only
+    the zero-order-hold picture of it on the sample grid.
+    """
+    t_arr = np.asarray(t, dtype=np.float64)
+    return np.where(t_arr >= release_time_s, float(amplitude), 0.0)
+
+
+def from_release(t: ArrayLike, y: ArrayLike, release_time_s: float | None,
+                 amplitude: float = 0.15, pulled_cart: int | None = None,
+                 name: str = "") -> IdData:
+    """Build `IdData` for a release run: the step input from a (float) release time.
+
+    With `release_time_s=None` the release is estimated from the data
+    (`ident.release.estimate_release_time`) and the note says so.
+    """
+    from ident.release import estimate_release_time
+
+    t_arr, _, y_arr = check_arrays(t, None, y)
+    notes: tuple[str, ...] = ()
+    known = release_time_s
+    if release_time_s is None:
+        release_time_s = estimate_release_time(t_arr, y_arr)
+        notes = (f"release time estimated from the data: {release_time_s:.4f} s",)
+    return IdData(t_arr, step_input(t_arr, release_time_s, amplitude), y_arr, known,
+                  pulled_cart, name, notes)

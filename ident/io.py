@@ -1,0 +1,212 @@
+"""Loaders: files to `IdData` (thin adapters; the numerics live elsewhere).
+
+Formats
+- delimited text exports: our CSV (`time_s,pos1_m[,pos2_m]`, no options needed), Logger Pro
+  CSV (`"Time (s)","Position (m)"`), ECP Executive / Teensy TSV (`Sample  Time  Commanded Pos
+  Encoder 2 Pos …` then `[ 0 0.000 2 13 0.0000;` rows). Columns are chosen by name
+  (case-insensitive substring), values scaled to metres (from a unit in the column name, or
+  `scale` in metres per unit). `[`, `;`, `]`, blank lines and `#` comments are ignored.
+- `daq` MCAP runs (`/samples` SampleBatch messages, `cartlab.run` RunMetadata): the release
+  time and pulled cart come from the metadata.
+
+The input is the lab's position step `u = step_m·H(t - t_r)`; with no release time known it
+is estimated from the data (`ident.release`), which the fitters refine anyway.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ident.data import FloatArray, IdData, check_arrays, from_release
+from ident.errors import DataFileError, IdentValueError
+
+#: Default pull distance of the lab (m): the cart is held 0.15 m from rest.
+DEFAULT_STEP_M = 0.15
+
+_UNIT_SCALES = {"m": 1.0, "cm": 1e-2, "mm": 1e-3, "in": 0.0254, "s": 1.0, "ms": 1e-3, "us": 1e-6}
+_POSITION_HINTS = ("pos", "encoder", "x1", "x2", "distance", "position")
+_NUMBER = re.compile(r"^[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?$")
+
+
+@dataclass(frozen=True)
+class Table:
+    """A parsed text export: column names and float rows (N, n_columns)."""
+
+    names: list[str]
+    values: FloatArray
+
+
+def read_table(text: str) -> Table:
+    """Parse a delimited export into named columns (see the module docstring)."""
+    names: list[str] = []
+    rows: list[list[float]] = []
+    for raw in text.splitlines():
+        line = raw.replace("[", " ").replace("]", " ").replace(";", " ").strip()
+        if not line or line.startswith("#"):
+            continue
+        fields = _split(line)
+        if all(_NUMBER.match(f) for f in fields):
+            rows.append([float(f) for f in fields])
+        elif not rows:
+            names = [f.strip().strip('"').strip() for f in _split_header(raw)]
+    if not rows:
+        raise DataFileError("expected numeric rows after the header, got none")
+    width = len(rows[0])
+    bad = [i for i, r in enumerate(rows) if len(r) != width]
+    if bad:
+        raise DataFileError(f"expected {width} values per row, got {len(rows[bad[0]])} in data row {bad[0]}")
+    if len(names) != width:
+        names = [f"col{i}" for i in range(width)] if len(names) != width else names
+    return Table(names, np.asarray(rows, dtype=np.float64))
+
+
+def _split(line: str) -> list[str]:
+    if "," in line:
+        return [f.strip().strip('"') for f in line.split(",") if f.strip()]
+    return line.split()
+
+
+def _split_header(line: str) -> list[str]:
+    line = line.strip()
+    if "," in line:
+        return [f for f in line.split(",") if f.strip()]
+    if "\t" in line:
+        return [f for f in line.split("\t") if f.strip()]
+    return [f for f in re.split(r"\s{2,}", line) if f.strip()]
+
+
+def _find_column(names: list[str], wanted: str) -> int:
+    lowered = [n.lower() for n in names]
+    if wanted.lower() in lowered:
+        return lowered.index(wanted.lower())
+    hits = [i for i, n in enumerate(lowered) if wanted.lower() in n]
+    if len(hits) != 1:
+        raise IdentValueError("column", f"exactly one column matching {wanted!r} in {names}",
+                              f"{len(hits)} matches")
+    return hits[0]
+
+
+def _default_time_column(names: list[str]) -> int:
+    for i, n in enumerate(names):
+        if n.lower() in ("t", "time") or n.lower().startswith(("time", "t_")):
+            return i
+    hits = [i for i, n in enumerate(names) if "time" in n.lower()]
+    if not hits:
+        raise IdentValueError("time column", f"a column named like 'time' in {names}", "none")
+    return hits[0]
+
+
+def _default_position_columns(names: list[str]) -> list[int]:
+    lowered = [n.lower() for n in names]
+    ours = [i for i, n in enumerate(lowered) if re.fullmatch(r"pos\d_m", n)]
+    if ours:
+        return ours
+    hits = [i for i, n in enumerate(lowered)
+            if any(h in n for h in _POSITION_HINTS) and "command" not in n and "target" not in n]
+    if not hits:
+        raise IdentValueError("position columns", f"columns named like position/encoder in {names}",
+                              "none")
+    return hits
+
+
+def unit_scale(name: str) -> float | None:
+    """Scale to SI from a unit in a column name: 'Position (cm)' → 0.01, 'pos1_m' → 1."""
+    match = re.search(r"[\(\[]\s*([a-zA-Zµ]+)\s*[\)\]]\s*$", name) or re.search(r"_([a-z]+)$", name)
+    if match is None:
+        return None
+    return _UNIT_SCALES.get(match.group(1).lower().replace("µ", "u"))
+
+
+def load_text(path: str | Path, time_col: str | None = None, pos_cols: list[str] | None = None,
+              scale: float | None = None, release_time_s: float | None = None,
+              step_m: float = DEFAULT_STEP_M, pulled_cart: int | None = None) -> IdData:
+    """Load a delimited export. `scale` (m per unit) overrides a unit found in the names."""
+    file = Path(path)
+    try:
+        text = file.read_text(encoding="utf-8", errors="replace")
+    except OSError as exc:
+        raise DataFileError(f"cannot read {file}: {exc}") from exc
+    table = read_table(text)
+    t_index = _default_time_column(table.names) if time_col is None else _find_column(table.names, time_col)
+    y_indices = (_default_position_columns(table.names) if pos_cols is None
+                 else [_find_column(table.names, c) for c in pos_cols])
+    t = table.values[:, t_index] * (unit_scale(table.names[t_index]) or 1.0)
+    y = np.column_stack([table.values[:, i] * _position_scale(table.names[i], scale)
+                         for i in y_indices])
+    t, _, y = check_arrays(t, None, y)
+    return from_release(t - t[0], y, release_time_s, step_m, pulled_cart, file.name)
+
+
+def _position_scale(name: str, scale: float | None) -> float:
+    if scale is not None:
+        if not np.isfinite(scale) or scale == 0.0:
+            raise IdentValueError("scale", "a finite non-zero number of metres per unit", scale)
+        return float(scale)
+    found = unit_scale(name)
+    if found is None:
+        raise IdentValueError(f"scale of column {name!r}",
+                              "a unit in the column name or --scale M_PER_UNIT", "neither")
+    return found
+
+
+def load_mcap(path: str | Path, step_m: float = DEFAULT_STEP_M,
+              release_time_s: float | None = None) -> IdData:
+    """Load a `daq` run file: samples, release time and pulled cart from its metadata.
+
+    Read sequentially (`StreamReader`), so a truncated file (a killed writer) yields every
+    complete chunk; the last `cartlab.run` metadata record wins.
+    """
+    from mcap.exceptions import EndOfFile, McapError
+    from mcap.records import Channel, Message, Metadata
+    from mcap.stream_reader import StreamReader
+
+    from schemas import topics
+    from schemas.daq import RunMetadata, SampleBatch
+
+    file = Path(path)
+    sample_channels: set[int] = set()
+    batches: list[SampleBatch] = []
+    metadata: RunMetadata | None = None
+    try:
+        with file.open("rb") as stream:
+            try:
+                for record in StreamReader(stream).records:
+                    if isinstance(record, Channel) and record.topic == topics.SAMPLES:
+                        sample_channels.add(record.id)
+                    elif isinstance(record, Message) and record.channel_id in sample_channels:
+                        batches.append(SampleBatch.from_json_bytes(record.data))
+                    elif isinstance(record, Metadata) and record.name == topics.METADATA_RUN:
+                        metadata = RunMetadata.from_json_bytes(record.metadata[topics.METADATA_JSON_KEY])
+            except EndOfFile:
+                pass  # truncated run file: keep every complete record read so far
+    except (OSError, McapError, KeyError, ValueError) as exc:
+        raise DataFileError(f"cannot read the run file {file}: {exc}") from exc
+    t_ns = [v for b in batches for v in b.t_ns]
+    if not t_ns:
+        raise DataFileError(f"expected {topics.SAMPLES} samples in {file}, got none")
+    columns = [np.concatenate([b.pos1_m for b in batches])]
+    if all(b.pos2_m is not None for b in batches):
+        columns.append(np.concatenate([b.pos2_m or [] for b in batches]))
+    first = metadata.first_t_ns if metadata is not None else t_ns[0]
+    t = (np.asarray(t_ns, dtype=np.int64) - first).astype(np.float64) * 1e-9
+    release = release_time_s
+    if release is None and metadata is not None:
+        release = metadata.release_time_s
+    pulled = metadata.pulled_cart if metadata is not None else None
+    return from_release(t, np.column_stack(columns), release, step_m, pulled, file.name)
+
+
+def load(path: str | Path, time_col: str | None = None, pos_cols: list[str] | None = None,
+         scale: float | None = None, release_time_s: float | None = None,
+         step_m: float = DEFAULT_STEP_M) -> IdData:
+    """Load a run from an MCAP file (`.mcap`) or a delimited text export (anything else)."""
+    file = Path(path)
+    if not file.exists():
+        raise DataFileError(f"expected an existing file, got {str(file)!r}")
+    if file.suffix == ".mcap":
+        return load_mcap(file, step_m, release_time_s)
+    return load_text(file, time_col, pos_cols, scale, release_time_s, step_m)
