@@ -1,0 +1,226 @@
+"""Crash-safe MCAP run files: write `<run_id>.mcap.part`, finish, fsync, rename; recover.
+
+Crash bound: a killed writer loses the open chunk and the Python file buffer. `RunWriter`
+closes the chunk (`Writer.flush()`) and flushes the file at least every `flush_interval_s`
+(the caller passes the time in, from its own clock), so at most that much is lost. The header,
+schemas, channels and the first `RunMetadata` are flushed at open, so even an early kill
+leaves a file that recovery understands.
+
+Recovery reads a `.part` with the streaming reader (every complete chunk), rewrites the
+records into a finished `<run_id>.mcap`, adds the final metadata with status `recovered`,
+fsyncs, renames, then removes the `.part`.
+"""
+
+from __future__ import annotations
+
+import os
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import BinaryIO
+
+from mcap.exceptions import EndOfFile, McapError
+from mcap.reader import make_reader
+from mcap.well_known import MessageEncoding, SchemaEncoding
+from mcap.writer import CompressionType, Writer
+
+import daq
+from daq.errors import DaqIOError
+from daq.run_file import RawRun, parse_metadata, read_raw
+from schemas import Record, topics
+from schemas.daq import DaqCounters, DetectorStateMsg, RunFinished, RunMetadata, SampleBatch
+
+CHUNK_SIZE = 32 * 1024
+LIBRARY = f"cartlab-daq/{daq.__version__}"
+
+
+def utc_now_iso() -> str:
+    return datetime.now(UTC).isoformat(timespec="milliseconds")
+
+
+def part_path(runs_dir: Path, run_id: str) -> Path:
+    return runs_dir / f"{run_id}{topics.PART_SUFFIX}"
+
+
+def final_path(runs_dir: Path, run_id: str) -> Path:
+    return runs_dir / f"{run_id}{topics.RUN_SUFFIX}"
+
+
+def _metadata_map(record: Record) -> dict[str, str]:
+    """The record's JSON under `json`, plus flat scalar fields for viewers' metadata panels."""
+    flat = {k: str(v) for k, v in record.model_dump(mode="json").items()
+            if isinstance(v, str | int | float | bool) or v is None}
+    flat[topics.METADATA_JSON_KEY] = record.model_dump_json()
+    return flat
+
+
+class RunWriter:
+    """One open run file. Not thread-safe: owned by the service loop."""
+
+    def __init__(self, runs_dir: Path, metadata: RunMetadata, now_s: float,
+                 flush_interval_s: float = 0.25) -> None:
+        self.runs_dir = Path(runs_dir)
+        self.run_id = metadata.run_id
+        self.path = part_path(self.runs_dir, self.run_id)
+        self.flush_interval_s = flush_interval_s
+        self.n_samples = 0
+        self.first_t_ns: int | None = None
+        self.last_t_ns: int | None = None
+        try:
+            self.runs_dir.mkdir(parents=True, exist_ok=True)
+            self._file: BinaryIO = open(self.path, "xb")
+        except OSError as exc:
+            raise DaqIOError(f"cannot create run file {self.path}: {exc}") from exc
+        self._writer = Writer(self._file, chunk_size=CHUNK_SIZE, compression=CompressionType.ZSTD)
+        self._writer.start(profile=topics.MCAP_PROFILE, library=LIBRARY)
+        self._samples_channel = self._channel(topics.SAMPLES, SampleBatch)
+        self._state_channel = self._channel(topics.STATE, DetectorStateMsg)
+        self._writer.add_metadata(topics.METADATA_RUN, _metadata_map(metadata))
+        self._batch_seq = 0
+        self._last_flush_s = now_s
+        self.flush(now_s)
+
+    def _channel(self, topic: str, model: type[Record]) -> int:
+        schema_id = self._writer.register_schema(name=model.schema_name(), encoding=SchemaEncoding.JSONSchema,
+                                                 data=model.json_schema_bytes())
+        return self._writer.register_channel(topic=topic, message_encoding=MessageEncoding.JSON,
+                                             schema_id=schema_id)
+
+    def write_samples(self, batch: SampleBatch, now_s: float) -> None:
+        """Append a batch (log time = its first sample's device time)."""
+        if not batch.t_ns:
+            return
+        stamp = max(0, batch.t_ns[0])
+        self._writer.add_message(channel_id=self._samples_channel, log_time=stamp, publish_time=stamp,
+                                 sequence=self._batch_seq, data=batch.to_json_bytes())
+        self._batch_seq += 1
+        self.n_samples += len(batch.t_ns)
+        if self.first_t_ns is None:
+            self.first_t_ns = batch.t_ns[0]
+        self.last_t_ns = batch.t_ns[-1]
+        self.maybe_flush(now_s)
+
+    def write_state(self, msg: DetectorStateMsg, now_s: float) -> None:
+        stamp = max(0, msg.t_ns)
+        self._writer.add_message(channel_id=self._state_channel, log_time=stamp, publish_time=stamp,
+                                 sequence=0, data=msg.to_json_bytes())
+        self.maybe_flush(now_s)
+
+    @property
+    def next_batch_seq(self) -> int:
+        return self._batch_seq
+
+    def maybe_flush(self, now_s: float) -> None:
+        if now_s - self._last_flush_s >= self.flush_interval_s:
+            self.flush(now_s)
+
+    def flush(self, now_s: float) -> None:
+        """Close the open chunk and push it to the OS (no fsync: that is for `finish`)."""
+        self._writer.flush()
+        self._file.flush()
+        self._last_flush_s = now_s
+
+    def finish(self, metadata: RunMetadata, finished: RunFinished) -> Path:
+        """Write the final metadata, close the file, fsync it, rename `.part` → `.mcap`."""
+        self._writer.add_metadata(topics.METADATA_RUN, _metadata_map(metadata))
+        self._writer.add_metadata(topics.METADATA_FINISHED, _metadata_map(finished))
+        self._writer.finish()
+        return _seal(self._file, self.path, final_path(self.runs_dir, self.run_id))
+
+    def abandon(self) -> None:
+        """Close without finishing (the `.part` stays for recovery)."""
+        try:
+            self._writer.flush()
+        finally:
+            self._file.close()
+
+
+def _seal(stream: BinaryIO, written: Path, target: Path) -> Path:
+    try:
+        stream.flush()
+        os.fsync(stream.fileno())
+        stream.close()
+        os.replace(written, target)
+        _fsync_dir(target.parent)
+    except OSError as exc:
+        raise DaqIOError(f"cannot finish run file {target}: {exc}") from exc
+    return target
+
+
+def _fsync_dir(directory: Path) -> None:
+    fd = os.open(directory, os.O_RDONLY)
+    try:
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+
+
+# --- recovery ---------------------------------------------------------------------------------
+
+def recover_part(path: Path) -> RunFinished:
+    """Rewrite a crashed `<run_id>.mcap.part` as a finished `<run_id>.mcap` (status recovered)."""
+    path = Path(path)
+    if not path.name.endswith(topics.PART_SUFFIX):
+        raise DaqIOError(f"not a partial run file (expected *{topics.PART_SUFFIX}): {path}")
+    run_id = path.name[: -len(topics.PART_SUFFIX)]
+    raw = read_raw(path)
+    meta, _ = parse_metadata(raw)
+    target = final_path(path.parent, run_id)
+    temp = path.parent / f"{run_id}.mcap.recovering"
+    with open(temp, "wb") as stream:
+        finished = _rewrite(raw, meta, run_id, stream)
+        _seal(stream, temp, target)
+    path.unlink()
+    _fsync_dir(path.parent)
+    return finished
+
+
+def _rewrite(raw: RawRun, meta: RunMetadata | None, run_id: str, stream: BinaryIO) -> RunFinished:
+    writer = Writer(stream, chunk_size=CHUNK_SIZE, compression=CompressionType.ZSTD)
+    writer.start(profile=topics.MCAP_PROFILE, library=LIBRARY)
+    schema_ids = {s.id: writer.register_schema(s.name, s.encoding, s.data) for s in raw.schemas}
+    channel_ids = {c.id: writer.register_channel(c.topic, c.message_encoding, schema_ids.get(c.schema_id, 0),
+                                                 dict(c.metadata)) for c in raw.channels}
+    samples_channels = {c.id for c in raw.channels if c.topic == topics.SAMPLES}
+    n_samples, first_t, last_t = 0, None, None
+    for message in raw.messages:
+        if message.channel_id not in channel_ids:
+            continue
+        writer.add_message(channel_ids[message.channel_id], message.log_time, message.data,
+                           message.publish_time, message.sequence)
+        if message.channel_id in samples_channels:
+            batch = SampleBatch.from_json_bytes(message.data)
+            n_samples += len(batch.t_ns)
+            first_t = batch.t_ns[0] if first_t is None else min(first_t, batch.t_ns[0])
+            last_t = batch.t_ns[-1] if last_t is None else max(last_t, batch.t_ns[-1])
+    reason = f"recovered after a crash: {raw.stop_reason or 'file ended early'}"
+    finished = RunFinished(
+        bench=meta.bench if meta else "unknown", run_id=run_id, status="recovered",
+        file=f"{run_id}{topics.RUN_SUFFIX}", n_samples=n_samples,
+        release_time_s=meta.release_time_s if meta else None,
+        duration_s=((last_t - first_t) / 1e9) if first_t is not None and last_t is not None else 0.0,
+        counters=meta.counters if meta else DaqCounters(),
+        reason=reason)
+    if meta is not None:
+        final_meta = meta.model_copy(update={"ended_utc": utc_now_iso()})
+        writer.add_metadata(topics.METADATA_RUN, _metadata_map(final_meta))
+    writer.add_metadata(topics.METADATA_FINISHED, _metadata_map(finished))
+    writer.finish()
+    return finished
+
+
+def recover_all(runs_dir: Path) -> list[RunFinished]:
+    """Recover every `.part` in `runs_dir` (oldest name first)."""
+    return [recover_part(p) for p in sorted(Path(runs_dir).glob(f"*{topics.PART_SUFFIX}"))]
+
+
+def finished_of(path: Path) -> RunFinished | None:
+    """The `RunFinished` record of a finished run file (read through its summary index)."""
+    try:
+        with open(path, "rb") as stream:
+            for record in make_reader(stream).iter_metadata():
+                if record.name == topics.METADATA_FINISHED:
+                    return RunFinished.from_json_bytes(record.metadata[topics.METADATA_JSON_KEY])
+    except (McapError, EndOfFile, ValueError, OSError):
+        _, finished = parse_metadata(read_raw(path))
+        return finished
+    return None

@@ -1,0 +1,94 @@
+"""The release detector on seeded synthetic traces (truth used only in the assertions)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from daq.detector import Armed, DetectorSettings, Rejected, Released, ReleaseDetector, Settled, fit_onset
+from daq.errors import DaqValueError
+from tests.daq.synth_runs import LAB_CASES, Trace, idle_handling, lab_run
+
+
+def _events(trace: Trace, offset_m: float = 0.0) -> list[object]:
+    detector = ReleaseDetector()
+    scale = trace.counts_per_m
+    out: list[object] = []
+    for t, (c1, c2) in zip(trace.t_s.tolist(), trace.counts.tolist()):
+        out += detector.feed(t, (c1 / scale + offset_m, c2 / scale - offset_m))
+    return out
+
+
+@pytest.mark.parametrize("rate_hz", [50, 100, 200, 1000])
+@pytest.mark.parametrize("case", LAB_CASES)
+def test_one_release_back_dated_within_one_sample(case: str, rate_hz: int) -> None:
+    seed = 11 + LAB_CASES.index(case) + rate_hz
+    trace = lab_run(case, rate_hz, seed)
+    events = _events(trace)
+    releases = [e for e in events if isinstance(e, Released)]
+    assert len(releases) == 1
+    assert trace.release_t_s is not None
+    assert abs(releases[0].t_release_s - trace.release_t_s) < 1.0 / rate_hz
+    # the threshold crossing is later than the back-dated onset
+    assert releases[0].t_trigger_s > releases[0].t_release_s
+    settled = [e for e in events if isinstance(e, Settled)]
+    assert len(settled) == 1 and settled[0].t_s > releases[0].t_confirmed_s
+    pulled = 1 if case == LAB_CASES[1] else 0
+    assert releases[0].channel == pulled
+
+
+def test_release_of_an_unzeroed_hold_is_found_from_where_the_cart_was_held() -> None:
+    trace = lab_run(LAB_CASES[0], 100, seed=3)
+    events = _events(trace, offset_m=0.4)
+    releases = [e for e in events if isinstance(e, Released)]
+    assert len(releases) == 1
+    assert trace.release_t_s is not None
+    assert abs(releases[0].t_release_s - trace.release_t_s) < 0.01
+    assert releases[0].hold_pos[0] == pytest.approx(0.4 - 0.15, abs=1e-3)
+
+
+@pytest.mark.parametrize("rate_hz", [50, 1000])
+def test_ten_minutes_of_idle_handling_never_fire(rate_hz: int) -> None:
+    trace = idle_handling(rate_hz, seed=5 + rate_hz, duration_s=600.0)
+    events = _events(trace)
+    assert not [e for e in events if isinstance(e, Released)]
+    # the trace did move the carts: the detector armed and turned candidates down
+    assert sum(isinstance(e, Armed) for e in events) > 20
+    assert sum(isinstance(e, Rejected) for e in events) > 20
+
+
+def test_a_single_glitch_is_rejected_as_coming_back() -> None:
+    detector = ReleaseDetector()
+    t = np.arange(0, 3, 0.01)
+    x = np.zeros_like(t)
+    x[150] = 0.01
+    events = [e for ti, xi in zip(t, x) for e in detector.feed(float(ti), (float(xi),))]
+    assert [type(e) for e in events] == [Armed, Rejected, Armed]
+    assert isinstance(events[1], Rejected) and events[1].reason == "came back"
+
+
+def test_max_run_length_settles_a_run_that_never_stops() -> None:
+    settings = DetectorSettings(max_run_s=2.0)
+    detector = ReleaseDetector(settings)
+    t = np.arange(0, 8, 0.005)
+    release = 1.0
+    tau = np.maximum(t - release, 0)
+    x = 0.15 * (1 - np.cos(7.0 * tau))  # undamped: never settles by itself
+    events = [e for ti, xi in zip(t, x) for e in detector.feed(float(ti), (float(xi),))]
+    settled = [e for e in events if isinstance(e, Settled)]
+    assert settled and settled[0].reason == "max_run"
+    assert settled[0].t_s == pytest.approx(release + 2.0, abs=0.02)
+
+
+def test_fit_onset_recovers_a_clean_parabola_onset() -> None:
+    t = np.arange(-0.1, 0.05, 0.001)
+    y = 0.5 * 6.0 * np.maximum(t - (-0.0123), 0) ** 2
+    fit = fit_onset(t, y, (2, 3))
+    assert fit is not None
+    assert fit.t0_s == pytest.approx(-0.0123, abs=2e-5)
+    assert fit.accel_m_s2 == pytest.approx(6.0, rel=1e-3)
+
+
+def test_settings_reject_a_short_pre_trigger() -> None:
+    with pytest.raises(DaqValueError, match="pre_trigger_s: expected >= 0.5 s"):
+        DetectorSettings(pre_trigger_s=0.2)

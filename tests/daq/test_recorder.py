@@ -1,0 +1,141 @@
+"""MCAP run files: write/read round trip, crash salvage and `.part` recovery, exports."""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import os
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import numpy as np
+import pytest
+from mcap.reader import make_reader
+
+from daq.errors import DaqIOError
+from daq.recorder import RunWriter, finished_of, recover_all, recover_part, utc_now_iso
+from daq.run_file import export_csv, export_json, export_mat, load_run, run_info
+from schemas import topics
+from schemas.daq import DaqCounters, DetectorStateMsg, RunFinished, RunMetadata, SampleBatch
+
+REPO = Path(__file__).resolve().parents[2]
+
+
+def _meta(run_id: str = "r1", first_t_ns: int = 1_000_000_000, release_t_ns: int | None = 1_500_000_000) -> RunMetadata:
+    return RunMetadata(bench="b1", run_id=run_id, dialect="cartlab", port="sim://", counts_per_m=20000.0,
+                       signs=[1, -1], zero_offsets_raw=[10.0, 20.0], n_channels=2,
+                       detector_settings={"fire_m": 0.003}, detector_method="test",
+                       release_time_s=None if release_t_ns is None else (release_t_ns - first_t_ns) / 1e9,
+                       release_t_ns=release_t_ns, first_t_ns=first_t_ns, pre_trigger_s=0.5,
+                       software_version="0.1.0", started_utc=utc_now_iso())
+
+
+def _batches(n_batches: int, per_batch: int = 20, rng_seed: int = 1) -> list[SampleBatch]:
+    rng = np.random.default_rng(rng_seed)
+    out = []
+    for b in range(n_batches):
+        t = [1_000_000_000 + (b * per_batch + i) * 1_000_000 for i in range(per_batch)]
+        raw1 = rng.integers(-3000, 3000, per_batch).astype(float).tolist()
+        raw2 = rng.integers(-3000, 3000, per_batch).astype(float).tolist()
+        out.append(SampleBatch(bench="b1", run_id="r1", batch_seq=b, t_ns=t, raw1=raw1, raw2=raw2,
+                               pos1_m=[(r - 10) / 20000 for r in raw1], pos2_m=[-(r - 20) / 20000 for r in raw2]))
+    return out
+
+
+def test_round_trip_keeps_every_sample_and_the_metadata(tmp_path: Path) -> None:
+    batches = _batches(30)
+    writer = RunWriter(tmp_path, _meta(), now_s=0.0)
+    assert writer.path.name == "r1.mcap.part"
+    writer.write_state(DetectorStateMsg(bench="b1", state="released", t_ns=1_500_000_000, run_id="r1"), 0.0)
+    for i, batch in enumerate(batches):
+        writer.write_samples(batch, now_s=i * 0.02)
+    done = RunFinished(bench="b1", run_id="r1", status="complete", file="r1.mcap", n_samples=600,
+                       release_time_s=0.5, duration_s=0.599, counters=DaqCounters(lines=600))
+    path = writer.finish(_meta().model_copy(update={"ended_utc": utc_now_iso()}), done)
+    assert path == tmp_path / "r1.mcap" and not (tmp_path / "r1.mcap.part").exists()
+    run = load_run(path)
+    assert run.complete
+    assert run.t_ns.tolist() == [t for b in batches for t in b.t_ns]
+    assert run.raw[:, 1].tolist() == [r for b in batches for r in (b.raw2 or [])]
+    assert run.pos_m[:, 0].tolist() == [p for b in batches for p in b.pos1_m]
+    assert run.release_time_s == pytest.approx(0.5)
+    assert run.metadata is not None and run.metadata.ended_utc is not None
+    assert run.finished == done
+    assert [s.state for s in run.states] == ["released"]
+    with open(path, "rb") as stream:  # a finished file has a summary readable by the seeking reader
+        summary = make_reader(stream).get_summary()
+    assert summary is not None and summary.statistics is not None
+    assert summary.statistics.message_count == 31
+    schemas = {s.name: s.encoding for s in summary.schemas.values()}
+    assert schemas == {"cartlab.SampleBatch": "jsonschema", "cartlab.DetectorStateMsg": "jsonschema"}
+    assert {c.topic for c in summary.channels.values()} == {topics.SAMPLES, topics.STATE}
+    assert finished_of(path) == done
+
+
+def test_exports_share_the_time_base_of_release_time(tmp_path: Path) -> None:
+    writer = RunWriter(tmp_path, _meta(), now_s=0.0)
+    for batch in _batches(5):
+        writer.write_samples(batch, 0.0)
+    path = writer.finish(_meta(), RunFinished(bench="b1", run_id="r1", status="complete", file="r1.mcap",
+                                              n_samples=100, release_time_s=0.5, duration_s=0.099))
+    run = load_run(path)
+    rows = list(csv.reader(io.StringIO(export_csv(run))))
+    assert rows[0] == ["time_s", "pos1_m", "pos2_m"]
+    assert float(rows[1][0]) == 0.0 and float(rows[2][0]) == pytest.approx(0.001)
+    assert float(rows[3][2]) == run.pos_m[2, 1]
+    body = json.loads(export_json(run, path))
+    assert body["release_time_s"] == pytest.approx(0.5)
+    assert body["pos2_m"] == run.pos_m[:, 1].tolist()
+    assert run_info(run, path)["n_samples"] == 100
+    export_mat(run, tmp_path / "r1.mat")
+    from scipy.io import loadmat
+    mat = loadmat(str(tmp_path / "r1.mat"))
+    assert mat["time_s"].shape == (100, 1)
+    assert float(mat["release_time_s"][0, 0]) == pytest.approx(0.5)
+
+
+_KILLED_WRITER = textwrap.dedent("""
+    import os, sys
+    sys.path.insert(0, {tests!r})
+    from pathlib import Path
+    from test_recorder import _meta, _batches
+    from daq.recorder import RunWriter
+    writer = RunWriter(Path({runs!r}), _meta(), now_s=0.0)
+    for i, batch in enumerate(_batches(50)):
+        writer.write_samples(batch, now_s=i * 0.02)   # 20 ms per batch: flushed every 0.25 s
+    os._exit(0)   # no finish: like kill -9
+""")
+
+
+def test_a_killed_writer_is_recovered_up_to_the_last_flush(tmp_path: Path) -> None:
+    script = _KILLED_WRITER.format(tests=str(Path(__file__).parent), runs=str(tmp_path))
+    subprocess.run([sys.executable, "-c", script], check=True, cwd=REPO, timeout=60)
+    part = tmp_path / "r1.mcap.part"
+    salvaged = load_run(part)
+    assert not salvaged.complete
+    # 50 batches × 20 ms = 1.0 s written; the last flush was at ≥ 0.75 s
+    assert 0.75 <= salvaged.t_ns.size / 1000 < 1.0
+    finished = recover_part(part)
+    assert not part.exists()
+    assert finished.status == "recovered" and finished.n_samples == salvaged.t_ns.size
+    run = load_run(tmp_path / "r1.mcap")
+    assert run.complete and run.finished == finished
+    assert run.t_ns.tolist() == salvaged.t_ns.tolist()
+    assert run.metadata is not None and run.metadata.release_t_ns == 1_500_000_000
+    assert recover_all(tmp_path) == []
+
+
+def test_recovering_a_header_only_part_gives_an_empty_recovered_run(tmp_path: Path) -> None:
+    writer = RunWriter(tmp_path, _meta(run_id="r2"), now_s=0.0)
+    writer.abandon()
+    (finished,) = recover_all(tmp_path)
+    assert finished.run_id == "r2" and finished.n_samples == 0 and finished.status == "recovered"
+    assert os.path.exists(tmp_path / "r2.mcap")
+
+
+def test_recover_refuses_a_file_that_is_not_a_part(tmp_path: Path) -> None:
+    with pytest.raises(DaqIOError, match="expected \\*.mcap.part"):
+        recover_part(tmp_path / "x.mcap")
