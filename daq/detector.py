@@ -161,6 +161,15 @@ class ReleaseDetector:
         self._restart_anchor(t_s, sample)
         return []
 
+    def arm_now(self, t_s: float, pos: Sequence[float]) -> list[Event]:
+        """Arm at `pos` at once (a command), unless a run is in progress."""
+        if self.state == "released":
+            return []
+        self.state = "armed"
+        self._trigger_t = None
+        self._hold = tuple(pos)
+        return [Armed(t_s, self._hold)]
+
     def reset(self) -> list[Event]:
         """Forget the hold (e.g. after a gap in the data); a run in progress is left alone."""
         if self.state in ("armed", "settled"):
