@@ -8,7 +8,9 @@ import sys
 from collections.abc import Sequence
 
 #: Subcommand modules under `ident.commands`, in the order `--help` lists them.
-COMMANDS: tuple[str, ...] = ()
+COMMANDS: tuple[str, ...] = (
+    "worker",
+)
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -1,0 +1,75 @@
+"""`ident worker`: serve finished runs over Zenoh, fitting each exactly once (see `ident.worker`)."""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import os
+import signal
+import socket
+import threading
+from pathlib import Path
+from typing import Any
+
+from schemas.bus import BusConfig
+
+
+def add_parser(sub: Any) -> None:
+    parser: argparse.ArgumentParser = sub.add_parser(
+        "worker", help="fit every finished run published over Zenoh, exactly once per run",
+        description="Subscribe to cartlab/*/runs/*/finished, fit each run (simple ID, PEM, "
+                    "diagnosis), publish the report on cartlab/<bench>/runs/<run_id>/fit and "
+                    "write <run_id>.fit/.")
+    parser.add_argument("--runs-dir", type=Path, default=Path("runs"),
+                        help="local runs directory: scanned at start, fits written beside runs "
+                             "(default: ./runs)")
+    parser.add_argument("--listen", action="append", default=None, metavar="ENDPOINT",
+                        help="Zenoh endpoint to listen on (repeatable; default: none)")
+    parser.add_argument("--connect", action="append", default=None, metavar="ENDPOINT",
+                        help="Zenoh endpoint to connect to (repeatable; default tcp/127.0.0.1:7447)")
+    parser.add_argument("--mode", choices=("peer", "client"), default="peer",
+                        help="Zenoh session mode (client when a router is used)")
+    parser.add_argument("--zenoh-config", type=Path, default=None,
+                        help="a Zenoh JSON5 config file, used as it is (overrides the above)")
+    parser.add_argument("--name", default=None,
+                        help="worker name, unique among workers (default: <host>-<pid>)")
+    parser.add_argument("--settle-s", type=float, default=0.2,
+                        help="how long a claim waits for rival claims, seconds (default 0.2)")
+    parser.add_argument("--fitter", default=None, metavar="MODULE:FUNCTION",
+                        help="fitting pipeline plug-in (default ident.worker.pipeline:fit_run)")
+    parser.add_argument("-v", "--verbose", action="store_true", help="log every decision")
+    parser.set_defaults(func=run)
+
+
+def bus_config(args: argparse.Namespace) -> BusConfig:
+    if args.zenoh_config is not None:
+        return BusConfig(config_file=str(args.zenoh_config))
+    connect = args.connect if args.connect is not None else (
+        [] if args.listen else ["tcp/127.0.0.1:7447"])
+    return BusConfig(mode=args.mode, listen=args.listen or [], connect=connect)
+
+
+def default_name() -> str:
+    host = "".join(c if c.isalnum() or c in "_.-" else "-" for c in socket.gethostname())
+    return f"{host or 'worker'}-{os.getpid()}"
+
+
+def run(args: argparse.Namespace) -> int:
+    from ident.worker.service import DEFAULT_FITTER, WorkerOptions, run_worker
+
+    logging.basicConfig(level=logging.DEBUG if args.verbose else logging.INFO,
+                        format="%(asctime)s ident worker %(message)s")
+    options = WorkerOptions(name=args.name or default_name(), runs_dir=args.runs_dir,
+                            bus=bus_config(args), fitter=args.fitter or DEFAULT_FITTER,
+                            settle_s=args.settle_s)
+    stop = threading.Event()
+
+    def _stop(signum: int, frame: object) -> None:
+        stop.set()
+
+    signal.signal(signal.SIGTERM, _stop)
+    signal.signal(signal.SIGINT, _stop)
+    logging.getLogger("ident.worker").info("worker %s serving %s", options.name,
+                                           options.runs_dir)
+    run_worker(options, stop)
+    return 0

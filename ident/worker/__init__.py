@@ -1,0 +1,47 @@
+"""`ident worker`: fit every finished run of every bench, exactly once, over Zenoh.
+
+Modules: `schedule` (pure: who fits what), `bus` (Zenoh adapter, callbacks only enqueue),
+`runs_dir` (files), `service` (the loop), `pipeline` (the default fitter: simple ID with
+RK4 and Euler, PEM of order 2 or 4, diagnosis, figures).
+
+How a run is fitted exactly once
+--------------------------------
+Every worker holds a liveliness token `keys.ident_alive(name)` and follows the others'
+tokens (liveliness subscriber with history), so each knows the set A of alive workers;
+a token disappears within milliseconds of a clean exit or a kill -9 on a LAN (the TCP
+reset), or after the Zenoh lease (10 s) for a hung host.
+
+1. Ownership by rendezvous hashing. The owner of run r is `argmax_{w in A} h(w, r)`
+   (`schedule.owner`). All workers compute it from the same A, so they agree without
+   talking; when a worker leaves, only its runs move, each to its next-highest scorer.
+2. Done means a final report exists. A run is skipped when an `ok`/`failed` report was
+   seen on `runs/<run_id>/fit` (advanced subscriber with history: reports published
+   before this worker started arrive too) or is stored in `<run_id>.fit/report.json`
+   (written atomically before it is published; a stored report is republished, not
+   refitted).
+3. Claim, settle, check. Before fitting, the owner publishes a `fitting` claim on the
+   run's fit key, handles events for `settle_s` (0.2 s by default; claims cross a LAN in
+   milliseconds), then fits only if it is the highest-scoring alive claimant and no final
+   report arrived. A worker never claims a run that another alive worker has claimed.
+   Two workers whose views of A briefly differed (one just started) can both claim; both
+   see both claims after the window and apply the same rule, so exactly one proceeds and
+   the other publishes `withdrawn`.
+4. Take-over. A claim is void once its worker's token is gone. When a worker dies
+   mid-fit, the others drop its claims, recompute owners over the smaller A, and the new
+   owner of each orphaned run claims and fits it. The dead worker published no final
+   report (it publishes only after writing the complete report), so the run is still
+   fitted once. A worker that restarts recovers its state from history, the runs
+   directory and each daq's `runs` queryable.
+
+Limits: the argument assumes claims reach the other workers within `settle_s`, and that
+a worker whose token vanished (a network partition, not a crash) is really gone; after a
+partition that outlasts the lease, both sides may fit the same run once each.
+
+Late start and restarts: finished records come from the daq's advanced publishers
+(history), from the `runs` queryable of every alive daq (asked at start and whenever a
+daq appears) and from a scan of `--runs-dir`.
+"""
+
+from ident.worker.schedule import RunRef, Scheduler, owner, score
+
+__all__ = ["RunRef", "Scheduler", "owner", "score"]

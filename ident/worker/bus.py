@@ -1,0 +1,183 @@
+"""The worker's Zenoh adapter: callbacks enqueue raw messages, methods publish and query.
+
+Nothing here decides anything and no callback does more than `queue.put`: parsing and
+scheduling happen on the worker's own thread (`ident.worker.service`). Subscriptions:
+
+| key | how | event |
+|---|---|---|
+| `keys.ALL_FINISHED` | advanced subscriber, history + late publishers + recovery | `finished` |
+| `keys.ALL_FITS` | advanced subscriber, history (claims and reports of other workers) | `fit` |
+| liveliness `keys.ALL_IDENT_ALIVE` | history | `worker` PUT/DELETE |
+| liveliness `keys.ALL_DAQ_ALIVE` | history | `daq` PUT/DELETE |
+
+Published: liveliness token `keys.ident_alive(name)`, and per run an advanced publisher with
+a cache on `keys.run_fit(bench, run_id)` (claim first, then the report).
+"""
+
+from __future__ import annotations
+
+import json
+import queue
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Literal
+
+import zenoh
+import zenoh.ext
+
+from schemas import keys
+from schemas.bus import BusConfig
+from schemas.daq import RunList
+from schemas.fit import FitReport
+
+EventKind = Literal["finished", "fit", "worker", "daq"]
+
+#: How many messages each advanced subscriber asks every publisher's cache for.
+HISTORY_SAMPLES = 64
+#: Most fit publishers a worker keeps (their caches answer late subscribers); oldest go first.
+MAX_FIT_PUBLISHERS = 512
+
+
+@dataclass(frozen=True, slots=True)
+class BusEvent:
+    """A raw message as a callback saw it; `up` is the liveliness sense (PUT = True)."""
+
+    kind: EventKind
+    key: str
+    payload: bytes = b""
+    up: bool = True
+
+
+def zenoh_config(bus: BusConfig) -> zenoh.Config:
+    """The `zenoh.Config` of a `BusConfig` (a config file, when given, is used as it is)."""
+    if bus.config_file:
+        return zenoh.Config.from_file(bus.config_file)
+    return zenoh.Config.from_json5(bus.zenoh_json5())
+
+
+class WorkerBus:
+    """One Zenoh session of one worker. Use as a context manager."""
+
+    def __init__(self, bus: BusConfig, name: str, events: queue.Queue[BusEvent]) -> None:
+        self.name = keys.check_name("worker", name)
+        self._bus = bus
+        self._events = events
+        self._session: zenoh.Session | None = None
+        self._handles: list[Any] = []
+        self._fit_publishers: dict[str, Any] = {}
+
+    # -- lifecycle ----------------------------------------------------------------------
+    def __enter__(self) -> WorkerBus:
+        self.open()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    @property
+    def session(self) -> zenoh.Session:
+        if self._session is None:
+            raise RuntimeError("worker bus: expected an open session, got a closed one")
+        return self._session
+
+    def open(self) -> None:
+        zenoh.init_log_from_env_or("error")
+        session = self._session = zenoh.open(zenoh_config(self._bus))
+        history = zenoh.ext.HistoryConfig(detect_late_publishers=True, max_samples=HISTORY_SAMPLES)
+        recovery = zenoh.ext.RecoveryConfig(periodic_queries=None, heartbeat=True)
+        live = session.liveliness()
+        self._handles = [
+            zenoh.ext.declare_advanced_subscriber(session, keys.ALL_FINISHED, self._on_finished,
+                                                  history=history, recovery=recovery),
+            zenoh.ext.declare_advanced_subscriber(session, keys.ALL_FITS, self._on_fit,
+                                                  history=history),
+            live.declare_subscriber(keys.ALL_IDENT_ALIVE, self._on_worker, history=True),
+            live.declare_subscriber(keys.ALL_DAQ_ALIVE, self._on_daq, history=True),
+            live.declare_token(keys.ident_alive(self.name)),
+        ]
+
+    def close(self) -> None:
+        for handle in [*self._fit_publishers.values(), *reversed(self._handles)]:
+            try:
+                handle.undeclare()
+            except Exception:  # noqa: BLE001 - closing anyway; the session close cleans up
+                pass
+        self._fit_publishers.clear()
+        self._handles.clear()
+        if self._session is not None:
+            self._session.close()
+            self._session = None
+
+    # -- callbacks: enqueue only --------------------------------------------------------
+    def _on_finished(self, sample: zenoh.Sample) -> None:
+        self._events.put(BusEvent("finished", str(sample.key_expr), sample.payload.to_bytes()))
+
+    def _on_fit(self, sample: zenoh.Sample) -> None:
+        self._events.put(BusEvent("fit", str(sample.key_expr), sample.payload.to_bytes()))
+
+    def _on_worker(self, sample: zenoh.Sample) -> None:
+        self._events.put(BusEvent("worker", str(sample.key_expr),
+                                  up=sample.kind == zenoh.SampleKind.PUT))
+
+    def _on_daq(self, sample: zenoh.Sample) -> None:
+        self._events.put(BusEvent("daq", str(sample.key_expr),
+                                  up=sample.kind == zenoh.SampleKind.PUT))
+
+    # -- publishing ---------------------------------------------------------------------
+    def publish_fit(self, report: FitReport) -> None:
+        """Put a claim or report on `runs/<run_id>/fit` through that run's cached publisher."""
+        key = keys.run_fit(report.bench, report.run_id)
+        publisher = self._fit_publishers.get(key)
+        if publisher is None:
+            if len(self._fit_publishers) >= MAX_FIT_PUBLISHERS:
+                oldest = next(iter(self._fit_publishers))
+                self._fit_publishers.pop(oldest).undeclare()
+            publisher = zenoh.ext.declare_advanced_publisher(
+                self.session, key, encoding=zenoh.Encoding.APPLICATION_JSON,
+                congestion_control=zenoh.CongestionControl.BLOCK,
+                reliability=zenoh.Reliability.RELIABLE,
+                cache=zenoh.ext.CacheConfig(max_samples=2), publisher_detection=True,
+                sample_miss_detection=zenoh.ext.MissDetectionConfig(
+                    heartbeat=None, sporadic_heartbeat=1.0))
+            self._fit_publishers[key] = publisher
+        publisher.put(report.to_json_bytes())
+
+    # -- queries (blocking, called from the worker thread only) -------------------------
+    def alive_workers(self, timeout_s: float = 1.0) -> set[str]:
+        names = set()
+        for reply in self.session.liveliness().get(keys.ALL_IDENT_ALIVE, timeout=timeout_s):
+            if reply.ok is not None:
+                names.add(str(reply.ok.key_expr).rsplit("/", 1)[-1])
+        return names
+
+    def alive_benches(self, timeout_s: float = 1.0) -> set[str]:
+        benches = set()
+        for reply in self.session.liveliness().get(keys.ALL_DAQ_ALIVE, timeout=timeout_s):
+            if reply.ok is not None:
+                benches.add(keys.bench_of(str(reply.ok.key_expr)))
+        return benches
+
+    def list_runs(self, bench: str, timeout_s: float = 2.0) -> RunList | None:
+        """The `runs` queryable of one bench's daq, or None when it does not answer."""
+        for reply in self.session.get(keys.daq_query(bench, "runs"), timeout=timeout_s):
+            if reply.ok is not None:
+                return RunList.from_json_bytes(reply.ok.payload.to_bytes())
+        return None
+
+    def fetch_run(self, bench: str, run_id: str, dest: Path, timeout_s: float = 10.0) -> Path:
+        """Fetch a run's MCAP bytes from its daq's `run` queryable into `dest`."""
+        selector = f"{keys.daq_query(bench, 'run')}?run_id={keys.check_name('run_id', run_id)}"
+        errors = []
+        for reply in self.session.get(selector, timeout=timeout_s):
+            if reply.ok is not None:
+                from ident.worker.runs_dir import write_atomic
+
+                write_atomic(dest, reply.ok.payload.to_bytes())
+                return dest
+            errors.append(reply.err.payload.to_string() if reply.err is not None else "?")
+        raise FileNotFoundError(
+            f"run {bench}/{run_id}: expected its MCAP bytes from {selector}, got "
+            + (json.dumps(errors) if errors else "no reply"))
+
+
+__all__ = ["BusEvent", "WorkerBus", "zenoh_config"]

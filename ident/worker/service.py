@@ -1,0 +1,219 @@
+"""The worker's main loop: drain events, claim, fit, report. One thread does it all.
+
+Zenoh callbacks (`ident.worker.bus`) only enqueue `BusEvent`s; this loop parses them,
+updates the `Scheduler`, and runs the fitter (a plug-in: `FitJob -> FitReport`). Waits are
+bounded by the injected clock; the loop ends when `stop` is set.
+"""
+
+from __future__ import annotations
+
+import importlib
+import logging
+import queue
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from datetime import UTC, datetime
+from pathlib import Path
+
+from schemas import keys
+from schemas.bus import BusConfig
+from schemas.daq import RunFinished
+from schemas.errors import SchemaError
+from schemas.fit import FitReport
+from ident.worker.bus import BusEvent, WorkerBus
+from ident.worker.runs_dir import (find_run_file, fit_dir_for, read_report, scan_runs,
+                                   write_report)
+from ident.worker.schedule import RunRef, Scheduler
+
+log = logging.getLogger("ident.worker")
+
+DEFAULT_FITTER = "ident.worker.pipeline:fit_run"
+
+
+@dataclass(frozen=True)
+class FitJob:
+    """One run to fit: its finished record, the local MCAP, and where figures go."""
+
+    finished: RunFinished
+    run_file: Path
+    fit_dir: Path
+    worker: str
+
+
+Fitter = Callable[[FitJob], FitReport]
+
+
+@dataclass
+class WorkerOptions:
+    """Settings of one worker. `settle_s` is how long a claim waits for rival claims."""
+
+    name: str
+    runs_dir: Path
+    bus: BusConfig = field(default_factory=BusConfig.connector)
+    fitter: str = DEFAULT_FITTER
+    settle_s: float = 0.2
+    sync_s: float = 0.3
+    poll_s: float = 0.05
+
+
+def load_fitter(spec: str) -> Fitter:
+    """`"package.module:function"` -> the function."""
+    module_name, _, attr = spec.partition(":")
+    if not module_name or not attr:
+        raise ValueError(f"fitter: expected 'module:function', got {spec!r}")
+    fitter: Fitter = getattr(importlib.import_module(module_name), attr)
+    return fitter
+
+
+def failed_report(finished: RunFinished, worker: str, reason: str) -> FitReport:
+    return FitReport(bench=finished.bench, run_id=finished.run_id, worker=worker,
+                     status="failed", reason=reason, release_time_s=finished.release_time_s,
+                     fitted_utc=datetime.now(UTC).isoformat())
+
+
+class Worker:
+    """A worker bound to an open `WorkerBus` (see `run_worker` for the usual entry)."""
+
+    def __init__(self, options: WorkerOptions, bus: WorkerBus, events: queue.Queue[BusEvent],
+                 fitter: Fitter, clock: Callable[[], float] = time.monotonic) -> None:
+        self.options = options
+        self.bus = bus
+        self.events = events
+        self.fitter = fitter
+        self.clock = clock
+        self.sched = Scheduler(options.name)
+        self.fitted: list[FitReport] = []
+
+    # -- events -------------------------------------------------------------------------
+    def pump(self, duration_s: float) -> None:
+        """Handle events for `duration_s` (at least the ones already queued)."""
+        deadline = self.clock() + duration_s
+        while True:
+            remaining = deadline - self.clock()
+            try:
+                event = self.events.get(timeout=max(remaining, 0.0)) if remaining > 0 else \
+                    self.events.get_nowait()
+            except queue.Empty:
+                return
+            self.handle(event)
+
+    def handle(self, event: BusEvent) -> None:
+        try:
+            if event.kind == "finished":
+                self.sched.run_announced(RunFinished.from_json_bytes(event.payload))
+            elif event.kind == "fit":
+                self.sched.fit_seen(FitReport.from_json_bytes(event.payload))
+            elif event.kind == "worker":
+                self._worker_event(event.key.rsplit("/", 1)[-1], event.up)
+            elif event.kind == "daq" and event.up:
+                self.catch_up_bench(keys.bench_of(event.key))
+        except SchemaError as exc:
+            log.warning("ignored a message on %s: %s", event.key, exc)
+
+    def _worker_event(self, name: str, up: bool) -> None:
+        if up:
+            self.sched.worker_up(name)
+            return
+        orphaned = self.sched.worker_down(name)
+        log.info("worker %s is gone; its claimed runs are open again: %s", name,
+                 ", ".join(map(str, orphaned)) or "none")
+
+    # -- catch-up -----------------------------------------------------------------------
+    def catch_up_bench(self, bench: str) -> None:
+        runs = self.bus.list_runs(bench)
+        for finished in runs.runs if runs is not None else []:
+            self.sched.run_announced(finished)
+
+    def start(self) -> None:
+        """Learn who is alive, scan the runs directory, ask each daq, gather history."""
+        for name in self.bus.alive_workers():
+            self.sched.worker_up(name)
+        for _, finished in scan_runs(self.options.runs_dir):
+            self.sched.run_announced(finished)
+        for bench in sorted(self.bus.alive_benches()):
+            self.catch_up_bench(bench)
+        self.pump(self.options.sync_s)
+
+    # -- one step -----------------------------------------------------------------------
+    def step(self) -> bool:
+        """Handle queued events, then claim and fit one run if one is mine. True if fitted."""
+        self.pump(0.0)
+        run = self.sched.next_claim()
+        if run is None:
+            self.pump(self.options.poll_s)
+            return False
+        return self.process(run)
+
+    def process(self, run: RunRef) -> bool:
+        finished = self.sched.runs[run].finished
+        assert finished is not None
+        run_file = find_run_file(self.options.runs_dir, run.bench, finished.file)
+        fit_dir = fit_dir_for(self.options.runs_dir, run.bench, run.run_id, run_file)
+        stored = read_report(fit_dir)
+        if stored is not None:
+            log.info("%s: already fitted (%s); republishing the stored report", run, fit_dir)
+            self.sched.fit_seen(stored)
+            self.bus.publish_fit(stored)
+            return False
+        if not self._claim(run, finished):
+            return False
+        report = self._fit(finished, run_file, fit_dir)
+        write_report(fit_dir, report)
+        self.bus.publish_fit(report)
+        self.sched.fit_seen(report)
+        self.fitted.append(report)
+        log.info("%s: %s in %.2f s%s", run, report.status, report.timings.total_s,
+                 f" ({report.reason})" if report.reason else "")
+        return True
+
+    def _claim(self, run: RunRef, finished: RunFinished) -> bool:
+        name = self.options.name
+        self.sched.claim(run)
+        self.bus.publish_fit(FitReport(bench=run.bench, run_id=run.run_id, worker=name,
+                                       status="fitting"))
+        self.pump(self.options.settle_s)
+        if self.sched.claim_won(run):
+            return True
+        self.sched.withdraw(run)
+        self.bus.publish_fit(FitReport(bench=run.bench, run_id=run.run_id, worker=name,
+                                       status="withdrawn"))
+        log.info("%s: another worker claimed it first; withdrawn", run)
+        return False
+
+    def _fit(self, finished: RunFinished, run_file: Path | None, fit_dir: Path) -> FitReport:
+        name = self.options.name
+        started = self.clock()
+        try:
+            if run_file is None:
+                dest = self.options.runs_dir / finished.bench / Path(finished.file).name
+                run_file = self.bus.fetch_run(finished.bench, finished.run_id, dest)
+            report = self.fitter(FitJob(finished, run_file, fit_dir, name))
+        except Exception as exc:  # noqa: BLE001 - any failure becomes a failed report
+            log.exception("%s/%s: fit failed", finished.bench, finished.run_id)
+            report = failed_report(finished, name, f"{type(exc).__name__}: {exc}")
+        if report.timings.total_s == 0.0:
+            timings = report.timings.model_copy(update={"total_s": self.clock() - started})
+            report = report.model_copy(update={"timings": timings})
+        return report
+
+    def serve(self, stop: threading.Event) -> None:
+        self.start()
+        while not stop.is_set():
+            self.step()
+
+
+def run_worker(options: WorkerOptions, stop: threading.Event) -> list[FitReport]:
+    """Open the bus, serve until `stop` is set, close. Returns the reports this worker made."""
+    events: queue.Queue[BusEvent] = queue.Queue()
+    fitter = load_fitter(options.fitter)
+    options.runs_dir.mkdir(parents=True, exist_ok=True)
+    with WorkerBus(options.bus, options.name, events) as bus:
+        worker = Worker(options, bus, events, fitter)
+        worker.serve(stop)
+        return worker.fitted
+
+
+__all__ = ["DEFAULT_FITTER", "FitJob", "Fitter", "Worker", "WorkerOptions", "failed_report",
+           "load_fitter", "run_worker"]

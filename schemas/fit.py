@@ -1,0 +1,139 @@
+"""The fit report of one run: what `ident worker` publishes and writes.
+
+Published on `keys.run_fit(bench, run_id)` (advanced publisher with a cache, so late
+subscribers get it) and written as `<run_id>.fit/report.json` beside the figures.
+
+`status` is one of:
+
+- `fitting`: the claim a worker announces before it starts (`worker` names it). It is not
+  a result: consumers that want results keep only `final` reports. A claim is void once
+  its worker's liveliness token is gone.
+- `withdrawn`: that worker takes its claim back (it lost the tie-break with another claim).
+- `ok`: every requested fit ran; the result fields are filled in.
+- `failed`: the run could not be fitted; `reason` says why ("expected X, got Y" style).
+  Whatever was computed before the failure is still reported.
+
+Transfer functions are continuous-time, from the release step input `r` (metres of pull,
+`r = d·H(t - t_r)`) to each cart position (metres), as coefficient lists of `s`, highest
+power first. `wn_rad_s` is in rad/s, `zeta` dimensionless, fit % as MATLAB `compare`:
+`100 (1 - |y - y_hat| / |y - mean(y)|)` on the simulated output.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Literal
+
+from pydantic import Field, model_validator
+
+from schemas.base import Record
+from schemas.diagnosis import DiagnosisReport
+
+FitStatus = Literal["fitting", "withdrawn", "ok", "failed"]
+LabCase = Literal["cart1", "cart2", "both"]
+SimpleMethod = Literal["rk4", "euler"]
+
+#: The lab cases, in the handout's order.
+LAB_CASES: tuple[LabCase, ...] = ("cart1", "cart2", "both")
+
+
+class TransferFunctionRec(Record):
+    """`G(s) = num(s) / den(s)`, coefficients highest power of `s` first."""
+
+    output: int = Field(ge=1, le=2, description="cart number whose position is the output")
+    num: list[float]
+    den: list[float]
+    text: str = ""
+
+    @model_validator(mode="after")
+    def _nonempty(self) -> TransferFunctionRec:
+        if not self.num or not self.den:
+            raise ValueError(f"expected non-empty num and den, got {self.num} / {self.den}")
+        return self
+
+
+class ModeRec(Record):
+    """One oscillatory mode (pole pair) of a model."""
+
+    wn_rad_s: float
+    zeta: float
+
+
+class SimpleFitRec(Record):
+    """Simple identification (handout Part 2): the physical model fitted by simulation."""
+
+    method: SimpleMethod
+    output: int = Field(ge=1, le=2)
+    tf: TransferFunctionRec
+    wn_rad_s: float
+    zeta: float
+    gain: float
+    fit_percent: float
+    coulomb_accel_m_s2: float | None = None
+
+
+class PemFitRec(Record):
+    """Prediction-error model (Parts 3-4): order 2 for one cart, 4 for two carts."""
+
+    order: int = Field(ge=1)
+    tfs: list[TransferFunctionRec]
+    modes: list[ModeRec]
+    fit_percent: list[float]
+    outputs: list[int]
+
+
+class FitTimings(Record):
+    """Wall time of each stage, seconds."""
+
+    load_s: float = 0.0
+    simple_s: float = 0.0
+    pem_s: float = 0.0
+    diagnose_s: float = 0.0
+    figures_s: float = 0.0
+    total_s: float = 0.0
+
+
+class FitReport(Record):
+    """The fit report of one run (see the module docstring for `status`)."""
+
+    bench: str
+    run_id: str
+    worker: str
+    status: FitStatus
+    reason: str | None = None
+    case: LabCase | None = None
+    release_time_s: float | None = None
+    sample_rate_hz: float | None = None
+    duration_s: float | None = None
+    simple: list[SimpleFitRec] = Field(default_factory=list)
+    pem: PemFitRec | None = None
+    diagnosis: DiagnosisReport | None = None
+    figures: list[str] = Field(default_factory=list)
+    timings: FitTimings = Field(default_factory=FitTimings)
+    fitted_utc: str | None = None
+    software_version: str = ""
+    extra: dict[str, Any] = Field(default_factory=dict)
+
+    @property
+    def final(self) -> bool:
+        """True for a result (`ok` or `failed`), False for a claim or its withdrawal."""
+        return self.status in ("ok", "failed")
+
+    @model_validator(mode="after")
+    def _reason_when_failed(self) -> FitReport:
+        if self.status == "failed" and not self.reason:
+            raise ValueError("expected a reason for a failed fit report, got none")
+        return self
+
+
+__all__ = [
+    "LAB_CASES",
+    "FitReport",
+    "FitStatus",
+    "FitTimings",
+    "LabCase",
+    "ModeRec",
+    "PemFitRec",
+    "SimpleFitRec",
+    "SimpleMethod",
+    "TransferFunctionRec",
+]

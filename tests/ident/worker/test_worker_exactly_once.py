@@ -1,0 +1,117 @@
+"""Two worker processes on one bus: every run fitted exactly once, also across a kill -9.
+
+Topology: this test process is a Zenoh router (loopback, ephemeral port) that also plays
+the daq (announcing runs) and collects fit messages; workers are separate processes
+connected as clients. The fitter is a logging plug-in (tests/.../plugins/fake_fitters.py),
+so these tests are about scheduling, not numerics.
+"""
+
+from __future__ import annotations
+
+import signal
+from pathlib import Path
+
+import pytest
+
+from schemas.bus import BusConfig
+from worker_harness import (FakeDaq, FitCollector, alive_workers, fit_log_counts, open_session,
+                            start_worker, stop, wait_for)
+
+pytestmark = pytest.mark.timeout(90)
+
+
+@pytest.fixture
+def router(free_port: int):  # type: ignore[no-untyped-def]
+    endpoint = f"tcp/127.0.0.1:{free_port}"
+    session = open_session(BusConfig(mode="router", listen=[endpoint]))
+    try:
+        yield endpoint, session
+    finally:
+        session.close()
+
+
+def _client(endpoint: str) -> list[str]:
+    return ["--mode", "client", "--connect", endpoint]
+
+
+def test_two_workers_fit_each_run_exactly_once(router, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
+    endpoint, session = router
+    runs_dir = tmp_path / "runs"
+    runs_dir.mkdir()
+    env = {"FAKE_FIT_LOG": str(tmp_path / "fits.log")}
+    daq = FakeDaq(session, "bench1", runs_dir)
+    collector = FitCollector(session)
+    early = [daq.announce(f"r{i:02d}") for i in range(4)]     # before any worker runs
+    workers = [start_worker(n, _client(endpoint), runs_dir, tmp_path, "fake_fitters:instant_fit", env)
+               for n in ("wa", "wb")]
+    try:
+        wait_for(lambda: alive_workers(session) == {"wa", "wb"}, 20, "both workers alive")
+        late = [daq.announce(f"r{i:02d}") for i in range(4, 12)]
+        finals = collector.wait_finals(early + late, timeout_s=30)
+    finally:
+        codes = [stop(w) for w in workers]
+    assert codes == [0, 0]
+    done = fit_log_counts(tmp_path / "fits.log")["done"]
+    assert sorted(done) == sorted(str(r) for r in early + late)
+    assert all(len(ws) == 1 for ws in done.values()), done
+    assert all(len(reports) == 1 and reports[0].status == "ok" for reports in finals.values())
+    fitters = {ws[0] for ws in done.values()}
+    assert fitters == {"wa", "wb"}                    # the work was shared
+    for run, reports in finals.items():               # the report names the worker that fitted
+        assert [reports[0].worker] == done[str(run)]
+        assert (runs_dir / f"{run.run_id}.fit" / "report.json").is_file()
+
+
+def test_kill_9_mid_fit_the_other_worker_takes_over(router, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
+    endpoint, session = router
+    runs_dir = tmp_path / "runs"
+    runs_dir.mkdir()
+    log, gate = tmp_path / "fits.log", tmp_path / "gate"
+    env = {"FAKE_FIT_LOG": str(log), "FAKE_FIT_GATE": str(gate)}
+    daq = FakeDaq(session, "bench1", runs_dir)
+    collector = FitCollector(session)
+    workers = {n: start_worker(n, _client(endpoint), runs_dir, tmp_path, "fake_fitters:gated_fit", env)
+               for n in ("wa", "wb")}
+    try:
+        wait_for(lambda: alive_workers(session) == {"wa", "wb"}, 20, "both workers alive")
+        runs = [daq.announce(f"r{i:02d}") for i in range(8)]
+        wait_for(lambda: len(fit_log_counts(log)["start"]) == 2, 20, "each worker mid-fit")
+        started = fit_log_counts(log)["start"]
+        victim_run = next(run for run, ws in started.items() if ws == ["wa"])
+        workers["wa"].send_signal(signal.SIGKILL)
+        workers["wa"].wait(timeout=10)
+        wait_for(lambda: alive_workers(session) == {"wb"}, 20, "the killed worker's token gone")
+        gate.touch()
+        finals = collector.wait_finals(runs, timeout_s=40)
+    finally:
+        gate.touch()
+        code_b = stop(workers["wb"])
+        stop(workers["wa"])
+    assert code_b == 0
+    counts = fit_log_counts(log)
+    assert sorted(counts["done"]) == sorted(str(r) for r in runs)
+    assert all(len(ws) == 1 for ws in counts["done"].values()), counts["done"]
+    assert counts["done"][victim_run] == ["wb"]       # taken over, fitted once
+    assert all(len(reports) == 1 for reports in finals.values())
+    assert {r[0].worker for r in finals.values()} == {"wb"}
+
+
+def test_unloadable_run_gets_a_failed_report_and_the_worker_goes_on(router, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
+    endpoint, session = router
+    runs_dir = tmp_path / "runs"
+    runs_dir.mkdir()
+    env = {"FAKE_FIT_LOG": str(tmp_path / "fits.log")}
+    daq = FakeDaq(session, "bench1", runs_dir)
+    collector = FitCollector(session)
+    worker = start_worker("wa", _client(endpoint), runs_dir, tmp_path, "fake_fitters:instant_fit", env)
+    try:
+        missing = daq.announce("gone", content=None)   # no file, and no `run` queryable answers
+        good = daq.announce("fine")
+        finals = collector.wait_finals([missing, good], timeout_s=30)
+        assert worker.poll() is None
+    finally:
+        assert stop(worker) == 0
+    failed = finals[missing][0]
+    assert failed.status == "failed" and "gone" in (failed.reason or "")
+    assert "no reply" in (failed.reason or "")
+    assert finals[good][0].status == "ok"

@@ -1,0 +1,139 @@
+"""Helpers for the worker's multi-process tests: sessions, workers, a stand-in daq, a collector.
+
+Every wait is bounded and polls a condition; nothing sleeps "to let things happen".
+"""
+
+from __future__ import annotations
+
+import os
+import queue
+import signal
+import subprocess
+import sys
+import time
+from collections import defaultdict
+from collections.abc import Callable, Iterable
+from pathlib import Path
+from typing import Any
+
+import zenoh
+import zenoh.ext
+
+from schemas import keys
+from schemas.bus import BusConfig
+from schemas.daq import RunFinished
+from schemas.fit import FitReport
+from ident.worker.schedule import RunRef
+
+REPO = Path(__file__).resolve().parents[3]
+PLUGINS = Path(__file__).resolve().parent / "plugins"
+
+
+def open_session(bus: BusConfig) -> zenoh.Session:
+    return zenoh.open(zenoh.Config.from_json5(bus.zenoh_json5()))
+
+
+def wait_for(condition: Callable[[], bool], timeout_s: float, what: str,
+             poll_s: float = 0.02) -> None:
+    deadline = time.monotonic() + timeout_s
+    while not condition():
+        if time.monotonic() > deadline:
+            raise AssertionError(f"timed out after {timeout_s} s waiting for {what}")
+        time.sleep(poll_s)
+
+
+def alive_workers(session: zenoh.Session) -> set[str]:
+    return {str(r.ok.key_expr).rsplit("/", 1)[-1]
+            for r in session.liveliness().get(keys.ALL_IDENT_ALIVE, timeout=1.0) if r.ok}
+
+
+class FitCollector:
+    """Every message on `cartlab/*/runs/*/fit` (history included), parsed."""
+
+    def __init__(self, session: zenoh.Session) -> None:
+        self._queue: queue.Queue[bytes] = queue.Queue()
+        self.messages: list[FitReport] = []
+        self._sub = zenoh.ext.declare_advanced_subscriber(
+            session, keys.ALL_FITS, lambda s: self._queue.put(s.payload.to_bytes()),
+            history=zenoh.ext.HistoryConfig(detect_late_publishers=True, max_samples=64),
+            recovery=zenoh.ext.RecoveryConfig(periodic_queries=None, heartbeat=True))
+
+    def drain(self) -> None:
+        while True:
+            try:
+                self.messages.append(FitReport.from_json_bytes(self._queue.get_nowait()))
+            except queue.Empty:
+                return
+
+    def finals(self) -> dict[RunRef, list[FitReport]]:
+        self.drain()
+        out: dict[RunRef, list[FitReport]] = defaultdict(list)
+        for report in self.messages:
+            if report.final:
+                out[RunRef(report.bench, report.run_id)].append(report)
+        return out
+
+    def wait_finals(self, runs: Iterable[RunRef], timeout_s: float) -> dict[RunRef, list[FitReport]]:
+        wanted = set(runs)
+        wait_for(lambda: wanted <= set(self.finals()), timeout_s,
+                 f"final fit reports of {sorted(map(str, wanted))}")
+        return self.finals()
+
+    def close(self) -> None:
+        self._sub.undeclare()
+
+
+class FakeDaq:
+    """Announces runs as a daq would (advanced publisher with cache per run)."""
+
+    def __init__(self, session: zenoh.Session, bench: str, runs_dir: Path) -> None:
+        self.session, self.bench, self.runs_dir = session, bench, runs_dir
+        self._publishers: list[Any] = []
+        self.token = session.liveliness().declare_token(keys.daq_alive(bench))
+
+    def announce(self, run_id: str, content: bytes | None = b"fake-run") -> RunRef:
+        if content is not None:
+            (self.runs_dir / f"{run_id}.mcap").write_bytes(content)
+        finished = RunFinished(bench=self.bench, run_id=run_id, status="complete",
+                               file=f"{run_id}.mcap", n_samples=100, release_time_s=0.5,
+                               duration_s=1.0)
+        pub = zenoh.ext.declare_advanced_publisher(
+            self.session, keys.run_finished(self.bench, run_id),
+            cache=zenoh.ext.CacheConfig(max_samples=1), publisher_detection=True,
+            sample_miss_detection=zenoh.ext.MissDetectionConfig(heartbeat=0.5, sporadic_heartbeat=None))
+        pub.put(finished.to_json_bytes())
+        self._publishers.append(pub)
+        return RunRef(self.bench, run_id)
+
+
+def start_worker(name: str, bus_args: list[str], runs_dir: Path, log_dir: Path,
+                 fitter: str | None = None, env: dict[str, str] | None = None) -> subprocess.Popen[bytes]:
+    args = [sys.executable, "-m", "ident.cli", "worker", "--name", name,
+            "--runs-dir", str(runs_dir), *bus_args]
+    if fitter:
+        args += ["--fitter", fitter]
+    full_env = {**os.environ, **(env or {})}
+    full_env["PYTHONPATH"] = os.pathsep.join([str(PLUGINS), full_env.get("PYTHONPATH", "")])
+    out = (log_dir / f"{name}.log").open("wb")
+    return subprocess.Popen(args, cwd=REPO, env=full_env, stdout=out, stderr=subprocess.STDOUT)
+
+
+def stop(proc: subprocess.Popen[bytes], timeout_s: float = 10.0) -> int:
+    if proc.poll() is None:
+        proc.send_signal(signal.SIGTERM)
+        try:
+            proc.wait(timeout=timeout_s)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait(timeout=timeout_s)
+    return proc.returncode
+
+
+def fit_log_counts(path: Path) -> dict[str, dict[str, list[str]]]:
+    """`{"start"|"done": {"bench/run": [worker, ...]}}` from a fake fitter's log."""
+    counts: dict[str, dict[str, list[str]]] = {"start": defaultdict(list), "done": defaultdict(list)}
+    if path.exists():
+        for line in path.read_text().splitlines():
+            kind, run, worker = line.split()
+            counts[kind][run].append(worker)
+    return counts
