@@ -1,0 +1,124 @@
+"""Model validation as MATLAB reports it: `compare` (fit %) and `resid` (residual tests).
+
+fit % (per output j), on the free-run SIMULATED output ŷ (not the one-step prediction):
+
+    fit_j = 100 · (1 - ‖y_j - ŷ_j‖ / ‖y_j - mean(y_j)‖).
+
+resid: normalised residual autocorrelation ρ_ee(τ), τ = 1 … M, and residual-input
+cross-correlation ρ_eu(τ), τ = -M … M, with 99 % confidence bounds ±2.576/√N for whiteness
+and ±2.576·√(Σ_k ρ_ee(k) ρ_uu(k))/√N for independence (Ljung, System Identification, 16.6);
+whiteness passes when the portmanteau statistic N Σ_{τ≥1} ρ_ee² is below the 99 % point of
+χ²(M); independence passes when every |ρ_eu(τ)| is inside its bound.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Protocol
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ident.data import IdData
+from ident.errors import IdentDimensionError
+
+FloatArray = NDArray[np.float64]
+
+#: Two-sided 99 % quantile of the standard normal distribution.
+Z99 = 2.5758293035489004
+
+
+class Simulates(Protocol):
+    """Anything with `simulate(u, t) -> y_hat (N, n_out)`: a `Model`, a physical fit."""
+
+    def simulate(self, u: NDArray[np.float64], t: NDArray[np.float64] | None = None) -> FloatArray: ...
+
+
+def fit_percent(y: FloatArray, y_hat: FloatArray) -> list[float]:
+    """MATLAB `compare` fit % per output column of time-major `y`, `y_hat` (N, n_out)."""
+    y2 = np.asarray(y, dtype=np.float64).reshape(len(y), -1)
+    y_hat2 = np.asarray(y_hat, dtype=np.float64).reshape(len(y_hat), -1)
+    if y2.shape != y_hat2.shape:
+        raise IdentDimensionError("y_hat", f"shape {y2.shape}", f"shape {y_hat2.shape}")
+    spread = np.linalg.norm(y2 - y2.mean(axis=0), axis=0)
+    error = np.linalg.norm(y2 - y_hat2, axis=0)
+    return [float(100.0 * (1.0 - e / s)) if s > 0 else float("-inf") for e, s in zip(error, spread, strict=True)]
+
+
+def compare(model: Simulates, data: IdData) -> list[float]:
+    """Fit % per output of `model`'s free-run simulation of `data.u` against `data.y`."""
+    return fit_percent(data.y, model.simulate(data.u, data.t))
+
+
+@dataclass(frozen=True)
+class ResidualTest:
+    """Residual analysis of one output.
+
+    `autocorrelation` (M+1,) at lags 0 … M (ρ(0) = 1); `cross_correlation` (2M+1,) at lags
+    -M … M (positive lag: input leads); bounds are the 99 % half-widths.
+    """
+
+    lags: NDArray[np.int64]
+    autocorrelation: FloatArray
+    auto_bound: float
+    cross_lags: NDArray[np.int64]
+    cross_correlation: FloatArray
+    cross_bound: float
+    whiteness_statistic: float
+    whiteness_threshold: float
+    independence_statistic: float
+    independence_threshold: float
+
+    @property
+    def white(self) -> bool:
+        return self.whiteness_statistic <= self.whiteness_threshold
+
+    @property
+    def independent(self) -> bool:
+        """Every |ρ_eu(τ)| inside its 99 % bound (a step input makes the lags strongly
+        correlated, so a portmanteau sum over them would not be χ²)."""
+        return bool(np.all(np.abs(self.cross_correlation) <= self.cross_bound))
+
+    @property
+    def passed(self) -> bool:
+        return self.white and self.independent
+
+
+def _correlation(a: FloatArray, b: FloatArray, max_lag: int) -> FloatArray:
+    """ρ_ab(τ) = Σ_k a[k+τ] b[k] / (N σ_a σ_b), τ = -max_lag … max_lag (means removed)."""
+    a0, b0 = a - a.mean(), b - b.mean()
+    norm = np.sqrt(np.sum(a0 * a0) * np.sum(b0 * b0))
+    n = len(a0)
+    out = np.zeros(2 * max_lag + 1)
+    if norm == 0.0:
+        return out
+    for i, lag in enumerate(range(-max_lag, max_lag + 1)):
+        out[i] = np.dot(a0[max(lag, 0):n + min(lag, 0)], b0[max(-lag, 0):n - max(lag, 0)]) / norm
+    return out
+
+
+def residual_test(residuals: FloatArray, u: FloatArray, max_lag: int = 25) -> ResidualTest:
+    """Whiteness and input-independence tests of one output's residual (N,)."""
+    from scipy.stats import chi2
+
+    e = np.asarray(residuals, dtype=np.float64)
+    n = len(e)
+    auto_full = _correlation(e, e, max_lag)
+    auto = auto_full[max_lag:]
+    cross = _correlation(e, np.asarray(u, dtype=np.float64), max_lag)
+    uu = _correlation(np.asarray(u, dtype=np.float64), np.asarray(u, dtype=np.float64), max_lag)
+    spread = float(np.sum(auto_full * uu)) if np.any(uu) else 1.0
+    return ResidualTest(
+        lags=np.arange(max_lag + 1), autocorrelation=auto, auto_bound=Z99 / np.sqrt(n),
+        cross_lags=np.arange(-max_lag, max_lag + 1), cross_correlation=cross,
+        cross_bound=Z99 * np.sqrt(max(spread, 0.0)) / np.sqrt(n),
+        whiteness_statistic=float(n * np.sum(auto[1:] ** 2)),
+        whiteness_threshold=float(chi2.ppf(0.99, max_lag)),
+        independence_statistic=float(np.max(np.abs(cross))),
+        independence_threshold=float(Z99 * np.sqrt(max(spread, 0.0)) / np.sqrt(n)))
+
+
+def resid(model: Simulates, data: IdData, max_lag: int = 25) -> list[ResidualTest]:
+    """MATLAB-style `resid`: one `ResidualTest` per output of the simulation error."""
+    errors = data.y - model.simulate(data.u, data.t)
+    return [residual_test(errors[:, j], data.u, max_lag) for j in range(data.n_outputs)]

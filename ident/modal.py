@@ -1,0 +1,161 @@
+"""Continuous-time modal model structure and its linear-in-parameters basis (pure numpy).
+
+A linear model with m oscillatory modes is written as a sum of second-order sections in
+companion form, one per mode i with pole -σ_i ± jω_i (wn_i² = σ_i² + ω_i²):
+
+    G_j(s) = D_j + Σ_i (c0_ij + c1_ij s) / (s² + 2σ_i s + wn_i²),   output j.
+
+State space: A = blkdiag([[0, 1], [-wn_i², -2σ_i]]), B = (0, 1, 0, 1, …)ᵀ,
+C_j = (c0_1j, c1_1j, …), D_j. Given the modes (the nonlinear parameters), every output is
+LINEAR in (D_j, c0_ij, c1_ij) and in an output offset, so these are solved by least squares
+inside the nonlinear fit (variable projection): only σ_i, ω_i (and the release time) are
+iterated on, a well-conditioned continuous parametrisation at any sampling rate — unlike
+discrete polynomial coefficients with poles crowding z = 1.
+
+Basis responses (columns) for a unit step at τ = t - t_r (0 for τ < 0):
+    direct:   1,
+    p_i(τ) = (1 - e^{-σ τ}(cos ωτ + (σ/ω) sin ωτ)) / wn²     (state 1 of section i),
+    q_i(τ) = e^{-σ τ} sin(ωτ) / ω                             (state 2 = p_i').
+
+Structural constraints are linear in the coefficients (Markov parameters):
+relative degree ≥ r ⇔ D = 0 and C A^k B = 0 for k = 0 … r-2; DC gain G(0) = D + Σ c0_i/wn_i².
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.linalg import expm
+from scipy.signal import lfilter
+
+FloatArray = NDArray[np.float64]
+
+
+def n_coefficients(n_modes: int) -> int:
+    """Linear coefficients per output: D and (c0, c1) per mode."""
+    return 1 + 2 * n_modes
+
+
+def step_basis(t: FloatArray, release_time_s: float, sigma: FloatArray,
+               omega: FloatArray) -> FloatArray:
+    """Responses to a unit step at `release_time_s`, shape (N, 1 + 2m): [1, p_1, q_1, …]·H(τ)."""
+    tau = t - release_time_s
+    after = tau >= 0.0
+    tau_pos = np.where(after, tau, 0.0)
+    columns = [after.astype(np.float64)]
+    for s, w in zip(sigma, omega, strict=True):
+        decay = np.exp(-s * tau_pos)
+        cos_wt = np.cos(w * tau_pos)
+        sin_wt = np.sin(w * tau_pos)
+        columns.append(np.where(after, (1.0 - decay * (cos_wt + (s / w) * sin_wt)) / (s * s + w * w), 0.0))
+        columns.append(np.where(after, decay * sin_wt / w, 0.0))
+    return np.column_stack(columns)
+
+
+def section_matrices(sigma: float, omega: float) -> tuple[FloatArray, FloatArray]:
+    """Companion section A_i = [[0, 1], [-wn², -2σ]], B_i = [0, 1]ᵀ."""
+    wn2 = sigma * sigma + omega * omega
+    return np.array([[0.0, 1.0], [-wn2, -2.0 * sigma]]), np.array([0.0, 1.0])
+
+
+def input_basis(u: FloatArray, ts: float, sigma: FloatArray, omega: FloatArray) -> FloatArray:
+    """Responses to an arbitrary input `u` (N,), held constant over each sample (zoh), from rest.
+
+    Column 0 is `u - u[0]` (direct term), then the two states of each section, exact zoh:
+    x[k+1] = Φ x[k] + Γ (u[k] - u[0]), Φ = e^{A Ts}, Γ = ∫_0^Ts e^{Aσ} dσ B (an augmented expm).
+    Shape (N, 1 + 2m).
+    """
+    du = u - u[0]
+    columns = [du]
+    for s, w in zip(sigma, omega, strict=True):
+        a_sec, b_sec = section_matrices(float(s), float(w))
+        aug = np.zeros((3, 3))
+        aug[:2, :2] = a_sec * ts
+        aug[:2, 2] = b_sec * ts
+        e = expm(aug)
+        phi, gamma = e[:2, :2], e[:2, 2]
+        den = np.array([1.0, -np.trace(phi), np.linalg.det(phi)])
+        # state k of (zI - Φ)⁻¹ Γ: adj(zI - Φ) Γ / det(zI - Φ), written out for 2×2
+        adj0 = np.array([gamma[0], phi[0, 1] * gamma[1] - phi[1, 1] * gamma[0]])
+        adj1 = np.array([gamma[1], phi[1, 0] * gamma[0] - phi[0, 0] * gamma[1]])
+        for numerator in (adj0, adj1):
+            columns.append(lfilter(np.concatenate([[0.0], numerator]), den, du))
+    return np.column_stack(columns)
+
+
+def constraint_rows(sigma: FloatArray, omega: FloatArray, relative_degree: int,
+                    dc_gain: float | None) -> tuple[FloatArray, FloatArray]:
+    """Linear constraints `G θ = h` on θ = (D, c0_1, c1_1, …) for one output.
+
+    Rows: D = 0 when relative_degree ≥ 1; C A^k B = 0 for k = 0 … relative_degree - 2;
+    D + Σ c0_i / wn_i² = dc_gain when given.
+    """
+    m = len(sigma)
+    rows: list[FloatArray] = []
+    rhs: list[float] = []
+    if relative_degree >= 1:
+        rows.append(np.eye(1, 1 + 2 * m, 0)[0])
+        rhs.append(0.0)
+    vectors = [section_matrices(float(s), float(w)) for s, w in zip(sigma, omega, strict=True)]
+    powers = [b.copy() for _, b in vectors]
+    for _ in range(relative_degree - 1):
+        row = np.zeros(1 + 2 * m)
+        for i, v in enumerate(powers):
+            row[1 + 2 * i: 3 + 2 * i] = v
+        rows.append(row / max(1.0, float(np.max(np.abs(row)))))
+        rhs.append(0.0)
+        powers = [a @ v for (a, _), v in zip(vectors, powers, strict=True)]
+    if dc_gain is not None:
+        row = np.zeros(1 + 2 * m)
+        row[0] = 1.0
+        for i, (s, w) in enumerate(zip(sigma, omega, strict=True)):
+            row[1 + 2 * i] = 1.0 / (s * s + w * w)
+        rows.append(row)
+        rhs.append(float(dc_gain))
+    if not rows:
+        return np.zeros((0, 1 + 2 * m)), np.zeros(0)
+    return np.array(rows), np.array(rhs)
+
+
+def constrained_parametrisation(rows: FloatArray, rhs: FloatArray,
+                                size: int) -> tuple[FloatArray, FloatArray]:
+    """θ = θ_p + N β spanning {θ : rows θ = rhs}; returns (θ_p (size,), N (size, size - rank))."""
+    if rows.shape[0] == 0:
+        return np.zeros(size), np.eye(size)
+    _, singular, vt = np.linalg.svd(rows)
+    rank = int(np.sum(singular > 1e-12 * singular[0]))
+    null = vt[rank:].T
+    particular = np.linalg.lstsq(rows, rhs, rcond=None)[0]
+    return np.asarray(particular, dtype=np.float64), np.asarray(null, dtype=np.float64)
+
+
+def state_space(sigma: FloatArray, omega: FloatArray,
+                theta: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    """(A, B, C, D) of the modal model; `theta` (n_out, 1 + 2m) rows (D, c0_1, c1_1, …)."""
+    m = len(sigma)
+    A = np.zeros((2 * m, 2 * m))
+    B = np.zeros((2 * m, 1))
+    for i, (s, w) in enumerate(zip(sigma, omega, strict=True)):
+        a_sec, b_sec = section_matrices(float(s), float(w))
+        A[2 * i:2 * i + 2, 2 * i:2 * i + 2] = a_sec
+        B[2 * i:2 * i + 2, 0] = b_sec
+    return A, B, np.asarray(theta[:, 1:], dtype=np.float64), np.asarray(theta[:, :1], dtype=np.float64)
+
+
+def tf_coefficients(sigma: FloatArray, omega: FloatArray, theta_row: FloatArray,
+                    relative_degree: int) -> tuple[FloatArray, FloatArray]:
+    """(num, den) of G_j(s), highest power first; leading numerator terms that the
+    relative-degree constraint makes zero are removed exactly."""
+    sections = [np.array([1.0, 2.0 * s, s * s + w * w]) for s, w in zip(sigma, omega, strict=True)]
+    den = np.array([1.0])
+    for sec in sections:
+        den = np.polymul(den, sec)
+    num = theta_row[0] * den
+    for i in range(len(sections)):
+        others = np.array([1.0])
+        for k, sec in enumerate(sections):
+            if k != i:
+                others = np.polymul(others, sec)
+        num = np.polyadd(num, np.polymul([theta_row[2 + 2 * i], theta_row[1 + 2 * i]], others))
+    num = np.concatenate([np.zeros(len(den) - len(num)), num])
+    return num[relative_degree:] if relative_degree > 0 else num, den

@@ -1,0 +1,195 @@
+"""The identified linear model: continuous-time modal state space plus the run's facts.
+
+`Model.simulate(u)` gives the free-run (output-error) simulation on the data's time base:
+the input is held between samples and delayed by `input_delay_s`, which is where the
+continuously estimated release time lives (the step in the sampled `u` is at a sample; the
+release is between samples). For a single-step `u` the response is evaluated in closed form
+(exact on any time base); otherwise by exact zero-order-hold discretisation with the
+fractional delay split over the sample interval, on a uniform time base.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.linalg import expm
+from scipy.signal import lfilter
+
+from ident import modal
+from ident.errors import IdentDimensionError, IdentValueError
+from ident.physics import Mode, StateSpace
+
+if TYPE_CHECKING:
+    import control
+
+FloatArray = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class ModeEstimate:
+    """A mode with its standard errors (NaN when not available)."""
+
+    wn: float
+    zeta: float
+    wn_std: float = float("nan")
+    zeta_std: float = float("nan")
+
+    @property
+    def mode(self) -> Mode:
+        return Mode(self.wn, self.zeta)
+
+
+@dataclass(frozen=True)
+class Model:
+    """A fitted model `y = offset + G(s) (u(t - input_delay_s) - u[0]) + e`.
+
+    `sigma`, `omega` (m,): poles -σ ± jω; `theta` (n_out, 1 + 2m): (D, c0_i, c1_i) of
+    `ident.modal`; `t` (N,) the time base; `relative_degree` per output as fitted.
+    """
+
+    sigma: FloatArray
+    omega: FloatArray
+    theta: FloatArray
+    offset: FloatArray
+    t: FloatArray
+    input_delay_s: float
+    release_time_s: float | None
+    relative_degree: tuple[int, ...]
+    modes: tuple[ModeEstimate, ...]
+    fit_percent: tuple[float, ...]
+    noise_std: FloatArray
+    residuals: FloatArray
+    covariance: FloatArray
+    method: str
+    nfev: int
+    success: bool
+    message: str
+    notes: tuple[str, ...] = field(default=())
+
+    @property
+    def order(self) -> int:
+        return 2 * len(self.sigma)
+
+    @property
+    def n_outputs(self) -> int:
+        return int(self.theta.shape[0])
+
+    @property
+    def state_space(self) -> StateSpace:
+        A, B, C, D = modal.state_space(self.sigma, self.omega, self.theta)
+        return StateSpace(A, B, C, D)
+
+    @property
+    def poles(self) -> NDArray[np.complex128]:
+        upper = self.omega * 1j - self.sigma
+        return np.concatenate([upper, np.conj(upper)])
+
+    @property
+    def dc_gain(self) -> FloatArray:
+        """G_j(0) = D_j + Σ c0_ij / wn_i², shape (n_out,)."""
+        wn2 = self.sigma ** 2 + self.omega ** 2
+        return np.asarray(self.theta[:, 0] + self.theta[:, 1::2] @ (1.0 / wn2))
+
+    def tf_coefficients(self) -> list[tuple[FloatArray, FloatArray]]:
+        """[(num, den)] per output, continuous time, highest power first."""
+        return [modal.tf_coefficients(self.sigma, self.omega, self.theta[j], self.relative_degree[j])
+                for j in range(self.n_outputs)]
+
+    @property
+    def tf(self) -> list[control.TransferFunction]:
+        """Continuous-time `control.TransferFunction`, one per output (control imported lazily)."""
+        from ident.physics import transfer_functions
+
+        return transfer_functions(self.tf_coefficients())
+
+    def discrete(self, ts: float | None = None) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
+        """Innovation form (Ad, Bd, C, D, K) at sample time `ts` (default: the time base's), zoh.
+
+        The noise model is output error (H = 1), so K = 0.
+        """
+        step = float(np.median(np.diff(self.t))) if ts is None else ts
+        ss = self.state_space
+        n = ss.A.shape[0]
+        aug = np.zeros((n + 1, n + 1))
+        aug[:n, :n] = ss.A * step
+        aug[:n, n:] = ss.B * step
+        e = expm(aug)
+        return e[:n, :n], e[:n, n:], ss.C, ss.D, np.zeros((n, self.n_outputs))
+
+    def simulate(self, u: ArrayLike, t: ArrayLike | None = None) -> FloatArray:
+        """Free-run simulated output (N, n_out) for input `u` (N,) on time base `t` (default:
+        the fitted data's), starting at rest at `u[0]`."""
+        t_arr = self.t if t is None else np.asarray(t, dtype=np.float64)
+        u_arr = np.asarray(u, dtype=np.float64).reshape(-1)
+        if u_arr.shape != t_arr.shape:
+            raise IdentDimensionError("u", f"shape {t_arr.shape} (one value per time stamp)",
+                                      f"shape {np.asarray(u).shape}")
+        jumps = np.flatnonzero(np.diff(u_arr) != 0.0)
+        if jumps.size == 0:
+            return np.tile(self.offset, (len(t_arr), 1))
+        if jumps.size == 1:
+            release = float(t_arr[jumps[0] + 1]) + self.input_delay_s
+            phi = (u_arr[-1] - u_arr[0]) * modal.step_basis(t_arr, release, self.sigma, self.omega)
+            return np.asarray(self.offset + phi @ self.theta.T)
+        return self._simulate_zoh(u_arr, t_arr)
+
+    def _simulate_zoh(self, u: FloatArray, t: FloatArray) -> FloatArray:
+        steps = np.diff(t)
+        ts = float(np.median(steps))
+        if np.max(np.abs(steps - ts)) > 0.25 * ts:
+            raise IdentValueError("time base", "uniform sampling to simulate a general input",
+                                  f"steps from {steps.min():.4g} to {steps.max():.4g} s")
+        delay_samples = self.input_delay_s / ts
+        whole = int(np.floor(delay_samples))
+        frac = delay_samples - whole
+        shifted = _shift(u - u[0], whole)
+        columns = [_shift(shifted, 1) if frac > 0 else shifted]
+        for s, w in zip(self.sigma, self.omega, strict=True):
+            columns.extend(_section_states(float(s), float(w), ts, frac, shifted))
+        return np.asarray(self.offset + np.column_stack(columns) @ self.theta.T)
+
+
+def _shift(x: FloatArray, samples: int) -> FloatArray:
+    """x delayed by `samples` (advanced when negative), padded with the edge values."""
+    if samples == 0:
+        return x
+    if samples > 0:
+        return np.concatenate([np.full(min(samples, len(x)), x[0]), x[:-samples] if samples < len(x) else []])
+    k = -samples
+    return np.concatenate([x[k:], np.full(min(k, len(x)), x[-1])])
+
+
+def _section_states(sigma: float, omega: float, ts: float, frac: float,
+                    v: FloatArray) -> list[FloatArray]:
+    """Both states of one section for input v held over samples and delayed by frac·Ts.
+
+    Over [t_k, t_k+1) the input is v[k-1] for frac·Ts, then v[k]:
+    x[k+1] = Φ x[k] + Γ1 v[k-1] + Γ2 v[k], Γ1 = e^{A(1-f)Ts} Γ(f Ts), Γ2 = Γ((1-f) Ts),
+    Γ(h) = ∫_0^h e^{Aσ} dσ B.
+    """
+    a_sec, b_sec = modal.section_matrices(sigma, omega)
+
+    def phi_gamma(h: float) -> tuple[FloatArray, FloatArray]:
+        aug = np.zeros((3, 3))
+        aug[:2, :2] = a_sec * h
+        aug[:2, 2] = b_sec * h
+        e = expm(aug)
+        return e[:2, :2], e[:2, 2]
+
+    phi, _ = phi_gamma(ts)
+    phi_rest, gamma2 = phi_gamma((1.0 - frac) * ts)
+    gamma1 = phi_rest @ phi_gamma(frac * ts)[1] if frac > 0 else np.zeros(2)
+    den = np.array([1.0, -np.trace(phi), np.linalg.det(phi)])
+    states = []
+    for row in range(2):
+        # row of adj(zI - Φ) applied to Γ: adj = [[z - Φ11, Φ01], [Φ10, z - Φ00]]
+        def numerator(g: FloatArray, r: int = row) -> FloatArray:
+            if r == 0:
+                return np.array([g[0], phi[0, 1] * g[1] - phi[1, 1] * g[0]])
+            return np.array([g[1], phi[1, 0] * g[0] - phi[0, 0] * g[1]])
+        num = np.concatenate([[0.0], numerator(gamma2), [0.0]]) + np.concatenate([[0.0, 0.0], numerator(gamma1)])
+        states.append(lfilter(num, den, v))
+    return states

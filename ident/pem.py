@@ -1,0 +1,197 @@
+"""Prediction-error identification of the carts' linear models (`ident.pem(data, order)`).
+
+Pipeline (MATLAB `pem` → `d2c` → `tf`, made robust for lightly damped poles at high rates):
+1. start values: release time from the onset of the motion (`ident.release`), modes from a
+   subspace (Hankel/shift-invariance) estimate on the free response after the release,
+   decimated so the poles do not crowd z = 1 (`ident.subspace`); FFT peaks as fallback;
+2. refinement: minimise the output prediction error of the continuous-time modal model
+   (noise model H = 1: white measurement noise, for which the one-step predictor equals the
+   simulation, so PEM = output error) by variable projection (`ident.varpro`), with the
+   release time a continuous parameter and the physical structure (relative degree, DC gain)
+   as linear constraints;
+3. the result is continuous-time already: poles, `wn`, `zeta` per mode, transfer functions.
+   The discrete innovation form is available from `Model.discrete()`.
+
+Order selection: `order=None` fits 2, 4 and 6 and keeps the smallest BIC.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from ident import subspace, varpro
+from ident.data import FloatArray, IdData, make_uniform
+from ident.errors import FitFailed, IdentValueError
+from ident.model import Model, ModeEstimate
+from ident.release import check_motion, estimate_release_time, noise_std
+
+#: Orders tried by the order selection.
+CANDIDATE_ORDERS = (2, 4, 6)
+
+
+def pem(data: IdData, order: int | None = None, *, relative_degree: int | Sequence[int] = 2,
+        dc_gain: float | None | Sequence[float | None] = None, fit_release: bool = True,
+        fit_offset: bool = True) -> Model:
+    """Identify a linear model of even `order` (2: one cart, 4: two carts; None: BIC choice).
+
+    `relative_degree` (per output or one for all) and `dc_gain` (per output, None = free)
+    are the physical structure imposed as constraints: relative degree 2 is what every
+    input structure of the lab implies. `fit_release=False` keeps the step where `u` has it.
+    Raises `IdentValueError` for unusable data and `FitFailed` when no fit converges.
+    """
+    if order is None:
+        models = [pem(data, n, relative_degree=relative_degree, dc_gain=dc_gain,
+                      fit_release=fit_release, fit_offset=fit_offset) for n in CANDIDATE_ORDERS]
+        return min(models, key=lambda model: _bic(model, data))
+    if order < 2 or order % 2:
+        raise IdentValueError("order", "an even order ≥ 2 (2 per oscillatory mode) or None", order)
+    check_motion(data.y)
+    problem, release0 = _problem(data, _per_output(relative_degree, data.n_outputs, "relative_degree"),
+                                 _per_output(dc_gain, data.n_outputs, "dc_gain"), fit_release, fit_offset)
+    n_modes = order // 2
+    solution = _best_fit(problem, data, release0, n_modes)
+    if problem.y.shape[1] > 1:
+        solution = _reweighted(problem, solution)
+    return _to_model(data, problem, solution)
+
+
+def _per_output(value: object, n_out: int, name: str) -> tuple[Any, ...]:
+    if isinstance(value, (list, tuple)):
+        if len(value) != n_out:
+            raise IdentValueError(name, f"one value per output ({n_out})", len(value))
+        return tuple(value)
+    return (value,) * n_out
+
+
+def _problem(data: IdData, relative_degree: tuple[int, ...], dc_gain: tuple[float | None, ...],
+             fit_release: bool, fit_offset: bool) -> tuple[varpro.Problem, float]:
+    jumps = np.flatnonzero(np.diff(data.u) != 0.0)
+    if jumps.size == 0:
+        raise IdentValueError("u", "a step at the release (or an input that changes)", "a constant input")
+    step = jumps.size == 1
+    release0 = (data.release_time_s if data.release_time_s is not None
+                else estimate_release_time(data.t, data.y)) if step else float(data.t[0])
+    source = data if (step or data.is_uniform()) else make_uniform(data, "linear")
+    weights = 1.0 / _noise_level(source, release0)
+    fixed = None if (fit_release and step) else float(data.t[jumps[0] + 1])
+    problem = varpro.Problem(
+        t=source.t, y=np.asarray(source.y), weights=weights, amplitude=data.step_amplitude,
+        step=step, u=np.asarray(source.u), ts=source.sample_time(), relative_degree=relative_degree,
+        dc_gain=dc_gain, fit_offset=fit_offset, fixed_release_s=fixed)
+    return problem, (release0 if fixed is None else fixed)
+
+
+def _noise_level(data: IdData, release0: float) -> FloatArray:
+    """Noise std per output: from the rest before the release when there are ≥ 10 samples."""
+    before = data.y[data.t < release0 - 0.02]
+    rest = np.std(before, axis=0) if len(before) >= 10 else np.zeros(data.n_outputs)
+    fallback = noise_std(data.y)
+    return np.where(rest > 0.0, rest, fallback)
+
+
+def _start_modes(data: IdData, release0: float, n_modes: int) -> list[tuple[FloatArray, FloatArray]]:
+    """Start values (σ, ω): subspace estimate first, then FFT peaks with ζ = 0.02 and 0.1."""
+    after = data.t > release0 + 0.02
+    uniform = make_uniform(IdData(data.t[after], data.u[after], data.y[after]), "auto")
+    ts = uniform.sample_time()
+    peaks = subspace.spectral_peaks(uniform.y, ts, n_modes)
+    starts = []
+    if peaks.size:
+        q = subspace.decimation_for(float(np.max(peaks)), ts)
+        try:
+            poles = subspace.free_response_poles(uniform.y, ts, 2 * n_modes + 1, q)
+            found = subspace.oscillatory_modes(poles, n_modes)
+            if found is not None:
+                starts.append((np.abs(found[0]), found[1]))
+        except (ValueError, np.linalg.LinAlgError):
+            pass
+    if peaks.size == n_modes:
+        starts += [(zeta * peaks, peaks) for zeta in (0.02, 0.1)]
+    if not starts:
+        raise FitFailed(f"expected {n_modes} oscillatory modes in the response, found "
+                        f"{peaks.size} spectral peaks")
+    return starts
+
+
+def _best_fit(problem: varpro.Problem, data: IdData, release0: float, n_modes: int) -> varpro.Solution:
+    best: varpro.Solution | None = None
+    for sigma, omega in _start_modes(data, release0, n_modes):
+        try:
+            solution = varpro.fit(problem, release0, sigma, omega)
+        except (ValueError, np.linalg.LinAlgError):
+            continue
+        if best is None or solution.cost < best.cost:
+            best = solution
+        if _fit_percent(data.y, solution.residuals).min() > 95.0:
+            break
+    if best is None:
+        raise FitFailed(f"no start value led to a converged fit of {2 * n_modes} states")
+    return best
+
+
+def _reweighted(problem: varpro.Problem, solution: varpro.Solution) -> varpro.Solution:
+    """Refit with weights 1/(residual std) when they differ from the noise-based ones by > 20 %."""
+    residual_std = np.std(solution.residuals, axis=0)
+    ratio = (1.0 / problem.weights) / np.maximum(residual_std, 1e-15)
+    if np.max(ratio) / np.min(ratio) < 1.2:
+        return solution
+    from dataclasses import replace
+
+    reweighted = replace(problem, weights=1.0 / np.maximum(residual_std, 1e-15))
+    return varpro.fit(reweighted, solution.release_time_s, solution.sigma, solution.omega)
+
+
+def _fit_percent(y: FloatArray, residuals: FloatArray) -> FloatArray:
+    spread = np.linalg.norm(y - y.mean(axis=0), axis=0)
+    return np.asarray(100.0 * (1.0 - np.linalg.norm(residuals, axis=0) / np.maximum(spread, 1e-300)))
+
+
+def mode_estimates(sigma: FloatArray, omega: FloatArray, covariance: FloatArray,
+                   offset_index: int) -> tuple[ModeEstimate, ...]:
+    """wn = √(σ² + ω²), ζ = σ/wn with delta-method standard errors from cov(σ, ω)."""
+    m = len(sigma)
+    estimates = []
+    for i in range(m):
+        s, w = float(sigma[i]), float(omega[i])
+        wn = float(np.hypot(s, w))
+        idx = [offset_index + i, offset_index + m + i]
+        cov = covariance[np.ix_(idx, idx)]
+        grad_wn = np.array([s / wn, w / wn])
+        grad_zeta = np.array([w * w / wn ** 3, -s * w / wn ** 3])
+        estimates.append(ModeEstimate(wn, s / wn, float(np.sqrt(max(grad_wn @ cov @ grad_wn, 0.0))),
+                                      float(np.sqrt(max(grad_zeta @ cov @ grad_zeta, 0.0)))))
+    return tuple(estimates)
+
+
+def _to_model(data: IdData, problem: varpro.Problem, solution: varpro.Solution) -> Model:
+    jumps = np.flatnonzero(np.diff(data.u) != 0.0)
+    step_time = float(data.t[jumps[0] + 1])
+    release = solution.release_time_s if problem.step else None
+    order = np.argsort(solution.omega)
+    sigma, omega = solution.sigma[order], solution.omega[order]
+    m = len(sigma)
+    theta = solution.theta.copy()
+    for new, old in enumerate(order):
+        theta[:, 1 + 2 * new:3 + 2 * new] = solution.theta[:, 1 + 2 * old:3 + 2 * old]
+    offset_index = 1 if solution.free_release else 0
+    perm = np.concatenate([np.arange(offset_index), offset_index + order, offset_index + m + order])
+    covariance = solution.covariance[np.ix_(perm, perm)]
+    modes = mode_estimates(sigma, omega, covariance, offset_index)
+    fit = tuple(float(v) for v in _fit_percent(problem.y, solution.residuals))
+    return Model(sigma=sigma, omega=omega, theta=theta, offset=solution.offset, t=problem.t,
+                 input_delay_s=(release - step_time) if release is not None else 0.0,
+                 release_time_s=release, relative_degree=problem.relative_degree, modes=modes,
+                 fit_percent=fit, noise_std=1.0 / problem.weights, residuals=solution.residuals,
+                 covariance=covariance, method=f"pem-oe-ct order {2 * m}", nfev=solution.nfev,
+                 success=solution.success, message=solution.message, notes=data.notes)
+
+
+def _bic(model: Model, data: IdData) -> float:
+    """N log(RSS/N) + p log N over all outputs (p: modes, release, linear coefficients)."""
+    n_total = model.residuals.size
+    rss = float(np.sum((model.residuals / model.noise_std) ** 2))
+    n_params = 2 * len(model.sigma) + 1 + model.theta.size + model.offset.size
+    return n_total * np.log(rss / n_total) + n_params * np.log(n_total)

@@ -1,0 +1,80 @@
+"""Subspace start values: modes from a Hankel matrix of the response (pure numpy).
+
+After a step the response is the free response of the augmented system (modes plus a
+constant), so the sampled outputs obey y[k] = C_a Φ^k x_0 and the block-Hankel matrix
+
+    H = [y[s + i q]]  (block row i = 0 … L, column s)
+
+has rank n = 2m + 1 with column space the extended observability matrix Γ = [C; CΦ_q; …].
+The SVD gives Γ (first n left singular vectors); shift invariance Γ_↓ = Γ_↑ Φ_q gives
+Φ_q = Γ_↑⁺ Γ_↓ and the continuous poles s = ln(eig Φ_q) / (q Ts) (MOESP/N4SID on a free
+response; Kung's method). Every sample is used: columns start at every index s while rows
+step by q samples. The decimation q keeps the fastest mode at ~0.5 rad per row step, so
+the poles do not crowd z = 1 however fast the sampling is.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+FloatArray = NDArray[np.float64]
+
+#: Radians per (decimated) row step for the fastest mode.
+TARGET_ANGLE_RAD = 0.5
+
+
+def spectral_peaks(y: FloatArray, ts: float, n_peaks: int) -> FloatArray:
+    """Angular frequencies (rad/s) of the `n_peaks` largest peaks of |FFT(y - mean)| summed
+    over outputs, zero-padded 8×, refined by a parabola through the top three bins; ascending."""
+    y2 = y.reshape(len(y), -1)
+    centred = y2 - y2.mean(axis=0)
+    n_fft = 8 * int(2 ** np.ceil(np.log2(len(y2))))
+    window = np.hanning(len(y2))[:, None]
+    spectrum = np.sum(np.abs(np.fft.rfft(centred * window, n=n_fft, axis=0)), axis=1)
+    spectrum[:4] = 0.0  # the trend and DC
+    interior = np.flatnonzero((spectrum[1:-1] > spectrum[:-2]) & (spectrum[1:-1] >= spectrum[2:])) + 1
+    best = interior[np.argsort(spectrum[interior])[::-1][:n_peaks]]
+    freqs = []
+    for k in best:
+        a, b, c = np.log(spectrum[k - 1:k + 2] + 1e-300)
+        shift = 0.5 * (a - c) / (a - 2 * b + c) if a - 2 * b + c != 0 else 0.0
+        freqs.append(2.0 * np.pi * (k + shift) / (n_fft * ts))
+    return np.sort(np.array(freqs, dtype=np.float64))
+
+
+def decimation_for(omega_max: float, ts: float) -> int:
+    """Row step q so that omega_max·q·Ts ≈ TARGET_ANGLE_RAD (q ≥ 1)."""
+    return max(1, int(TARGET_ANGLE_RAD / max(omega_max * ts, 1e-12)))
+
+
+def free_response_poles(y: FloatArray, ts: float, order: int, step: int = 1,
+                        block_rows: int | None = None) -> NDArray[np.complex128]:
+    """Continuous poles (1/s) of a free response `y` (N, n_out) of state dimension `order`.
+
+    `step` is the decimation q between block rows; `block_rows` L defaults to ~N/(3q).
+    """
+    y2 = y.reshape(len(y), -1)
+    n, n_out = y2.shape
+    rows = block_rows or max(order + 1, min(40, n // (3 * step)))
+    n_cols = n - rows * step
+    if n_cols < order + 1:
+        raise ValueError(f"expected more samples for a Hankel matrix, got {n}")
+    hankel = np.vstack([y2[i * step:i * step + n_cols].T for i in range(rows + 1)])
+    # left singular vectors of H = eigenvectors of H Hᵀ (small and square: a wide SVD is slow)
+    _, vectors = np.linalg.eigh(hankel @ hankel.T)
+    gamma = vectors[:, ::-1][:, :order]
+    phi = np.linalg.lstsq(gamma[:-n_out], gamma[n_out:], rcond=None)[0]
+    z = np.linalg.eigvals(phi).astype(np.complex128)
+    return np.asarray(np.log(z) / (step * ts), dtype=np.complex128)
+
+
+def oscillatory_modes(poles: NDArray[np.complex128], n_modes: int) -> tuple[FloatArray, FloatArray] | None:
+    """(σ, ω) of the `n_modes` oscillatory upper-half-plane poles, ascending ω; None if too few."""
+    upper = [p for p in poles if p.imag > 1e-6]
+    if len(upper) < n_modes:
+        return None
+    upper.sort(key=lambda p: -abs(p.real) / abs(p))  # least damped first
+    chosen = sorted(upper[:n_modes], key=lambda p: p.imag)
+    return (np.array([-p.real for p in chosen], dtype=np.float64),
+            np.array([p.imag for p in chosen], dtype=np.float64))

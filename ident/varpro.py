@@ -1,0 +1,150 @@
+"""Continuous-time output-error fit by variable projection (pure numpy/scipy).
+
+Model (see `ident.modal`): y_j(t) = o_j + U·Σ_c θ_jc φ_c(t; t_r, σ, ω) + e_j(t), with e white.
+The nonlinear parameters p = (t_r, σ_1 … σ_m, ω_1 … ω_m) (t_r only for a step input) are
+iterated on by `scipy.optimize.least_squares`; for each p the linear ones (o_j, θ_j, under
+the linear structural constraints θ_j = θ_p + N β_j) are the least-squares solution, so the
+cost is the projected residual ‖P⊥(p) (y - U Φ θ_p)‖² (Golub & Pereyra). Outputs are
+weighted by 1/σ_j (their noise std), which makes this the maximum-likelihood estimate for
+independent white output noise, i.e. the prediction-error estimate with noise model H = 1.
+
+The Jacobian is taken by finite differences of the projected residual in these continuous
+parameters (at most 1 + 2m columns); it is well conditioned at any sampling rate because
+nothing here is a discrete polynomial coefficient. Covariance: s²(JᵀJ)⁻¹ with J the
+central-difference Jacobian at the optimum (the exact profile Jacobian, so these are the
+marginal covariances of p with the linear parameters estimated).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.optimize import least_squares
+
+from ident import modal
+
+FloatArray = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class Problem:
+    """Arrays of one fit. `u` is used only when `step` is False (general-input basis)."""
+
+    t: FloatArray
+    y: FloatArray
+    weights: FloatArray
+    amplitude: float
+    step: bool
+    u: FloatArray
+    ts: float
+    relative_degree: tuple[int, ...]
+    dc_gain: tuple[float | None, ...]
+    fit_offset: bool = True
+    fixed_release_s: float | None = None
+
+
+@dataclass(frozen=True)
+class Solution:
+    """Nonlinear parameters, linear coefficients and the fit's numerical facts."""
+
+    release_time_s: float
+    sigma: FloatArray
+    omega: FloatArray
+    theta: FloatArray          # (n_out, 1 + 2m): D, c0_1, c1_1, … per unit input
+    offset: FloatArray         # (n_out,)
+    residuals: FloatArray      # (N, n_out), unweighted, m
+    covariance: FloatArray     # of the free nonlinear parameters
+    free_release: bool
+    cost: float
+    nfev: int
+    success: bool
+    message: str
+
+
+def _split(problem: Problem, p: FloatArray) -> tuple[float, FloatArray, FloatArray]:
+    if problem.step and problem.fixed_release_s is None:
+        t_r, rest = float(p[0]), p[1:]
+    else:
+        t_r, rest = (problem.fixed_release_s or 0.0), p
+    m = len(rest) // 2
+    return t_r, rest[:m], rest[m:]
+
+
+def basis(problem: Problem, t_r: float, sigma: FloatArray, omega: FloatArray) -> FloatArray:
+    """Basis responses for the problem's input, scaled to its amplitude, (N, 1 + 2m)."""
+    if problem.step:
+        return problem.amplitude * modal.step_basis(problem.t, t_r, sigma, omega)
+    return modal.input_basis(problem.u, problem.ts, sigma, omega)
+
+
+def solve_linear(problem: Problem, t_r: float, sigma: FloatArray,
+                 omega: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """(theta (n_out, 1+2m), offset (n_out,), residuals (N, n_out)) for fixed modes."""
+    phi = basis(problem, t_r, sigma, omega)
+    n, n_out = problem.y.shape
+    size = phi.shape[1]
+    theta = np.zeros((n_out, size))
+    offset = np.zeros(n_out)
+    residuals = np.empty((n, n_out))
+    for j in range(n_out):
+        rows, rhs = modal.constraint_rows(sigma, omega, problem.relative_degree[j], problem.dc_gain[j])
+        particular, null = modal.constrained_parametrisation(rows, rhs, size)
+        target = problem.y[:, j] - phi @ particular
+        design = phi @ null
+        if problem.fit_offset:
+            design = np.column_stack([np.ones(n), design])
+        scale = np.linalg.norm(design, axis=0)
+        scale[scale == 0.0] = 1.0
+        coef = np.linalg.lstsq(design / scale, target, rcond=None)[0] / scale
+        residuals[:, j] = target - design @ coef
+        beta = coef[1:] if problem.fit_offset else coef
+        offset[j] = coef[0] if problem.fit_offset else 0.0
+        theta[j] = particular + null @ beta
+    return theta, offset, residuals
+
+
+def _weighted_residual(p: FloatArray, problem: Problem) -> FloatArray:
+    t_r, sigma, omega = _split(problem, p)
+    _, _, residuals = solve_linear(problem, t_r, sigma, omega)
+    return np.asarray((residuals * problem.weights).ravel())
+
+
+def central_jacobian(problem: Problem, p: FloatArray) -> FloatArray:
+    """d(weighted residual)/dp by central differences, relative steps ~ eps^(1/3)."""
+    steps = 6e-6 * np.maximum(np.abs(p), 1e-3)
+    columns = []
+    for k in range(len(p)):
+        dp = np.zeros_like(p)
+        dp[k] = steps[k]
+        columns.append((_weighted_residual(p + dp, problem) - _weighted_residual(p - dp, problem))
+                       / (2.0 * steps[k]))
+    return np.column_stack(columns)
+
+
+def fit(problem: Problem, release_s: float, sigma: FloatArray, omega: FloatArray,
+        max_nfev: int = 200) -> Solution:
+    """Refine (t_r, σ, ω) from the given start; linear parameters by projection."""
+    free_release = problem.step and problem.fixed_release_s is None
+    start = np.concatenate([[release_s] if free_release else [], sigma, omega])
+    m = len(sigma)
+    t_lo, t_hi = float(problem.t[0]), float(problem.t[-1])
+    lower = np.concatenate([[t_lo] if free_release else [], np.full(m, -0.2 * np.min(omega)),
+                            np.full(m, 1e-3 * np.min(omega))])
+    upper = np.concatenate([[t_hi] if free_release else [], np.full(m, np.inf), np.full(m, np.inf)])
+    start = np.clip(start, lower + 1e-12, upper)
+    result = least_squares(_weighted_residual, start, args=(problem,), bounds=(lower, upper),
+                           method="trf", x_scale="jac", diff_step=1e-7, xtol=1e-12, ftol=1e-12,
+                           gtol=1e-10, max_nfev=max_nfev)
+    p = result.x
+    t_r, sig, om = _split(problem, p)
+    theta, offset, residuals = solve_linear(problem, t_r, sig, om)
+    weighted = residuals * problem.weights
+    n_linear = theta.shape[0] * (theta.shape[1] - 0) + (theta.shape[0] if problem.fit_offset else 0)
+    dof = max(1, weighted.size - len(p) - n_linear)
+    s2 = float(np.sum(weighted ** 2)) / dof
+    jac = central_jacobian(problem, p)
+    covariance = s2 * np.linalg.pinv(jac.T @ jac)
+    return Solution(t_r, sig, om, theta, offset, residuals, covariance, free_release,
+                    float(result.cost), int(result.nfev), bool(result.success), str(result.message))
