@@ -1,0 +1,81 @@
+"""Rows of the page's run list, built from a `RunFinished` and a `FitReport`.
+
+A row carries what the table shows (status, release time, identified `wn`, `zeta`, fit %,
+diagnosed cause and gain, or why the fit failed) and the names of the files it links to;
+the server turns names into URLs under its runs directory. Pure: no I/O.
+"""
+
+from __future__ import annotations
+
+from pathlib import PurePosixPath
+from typing import Any
+
+from schemas import keys
+from schemas.daq import RunFinished
+from schemas.diagnosis import DiagnosisReport
+from schemas.errors import SchemaError
+from schemas.fit import FitReport
+
+def diagnosis_summary(diagnosis: DiagnosisReport | None) -> dict[str, Any] | None:
+    """The diagnosed cause, its gain in fit-% points and the baseline and extended fit %."""
+    if diagnosis is None:
+        return None
+    return {
+        "cause": diagnosis.cause,
+        "gain_points": diagnosis.gain_points,
+        "baseline_fit_percent": diagnosis.baseline.fit_percent,
+        "extended_fit_percent": diagnosis.extended.fit_percent,
+        "explanation": diagnosis.explanation,
+    }
+
+
+def safe_file_name(name: str) -> str | None:
+    """The last path component of `name` if it is a safe file name, else None."""
+    base = PurePosixPath(str(name).replace("\\", "/")).name
+    try:
+        return keys.check_name("file", base)
+    except SchemaError:
+        return None
+
+
+def fit_summary(report: FitReport) -> dict[str, Any]:
+    """What the run list shows of a fit report (JSON-ready)."""
+    simple = [{"method": s.method, "output": s.output, "wn_rad_s": s.wn_rad_s, "zeta": s.zeta,
+               "fit_percent": s.fit_percent} for s in report.simple]
+    pem = None
+    if report.pem is not None:
+        pem = {"order": report.pem.order, "outputs": report.pem.outputs,
+               "wn_rad_s": [m.wn_rad_s for m in report.pem.modes],
+               "zeta": [m.zeta for m in report.pem.modes],
+               "fit_percent": report.pem.fit_percent}
+    figures = [n for n in (safe_file_name(f) for f in report.figures) if n is not None]
+    return {
+        "status": report.status,
+        "reason": report.reason,
+        "worker": report.worker,
+        "case": report.case,
+        "release_time_s": report.release_time_s,
+        "simple": simple,
+        "pem": pem,
+        "diagnosis": diagnosis_summary(report.diagnosis),
+        "figures": figures,
+    }
+
+
+def run_row(bench: str, run_id: str, finished: RunFinished | None,
+            fit: dict[str, Any] | None) -> dict[str, Any]:
+    """One row of the run list (JSON-ready)."""
+    release = None if finished is None else finished.release_time_s
+    if release is None and fit is not None:
+        release = fit["release_time_s"]
+    return {
+        "bench": bench,
+        "run_id": run_id,
+        "status": None if finished is None else finished.status,
+        "reason": None if finished is None else finished.reason,
+        "release_time_s": release,
+        "duration_s": None if finished is None else finished.duration_s,
+        "n_samples": None if finished is None else finished.n_samples,
+        "file": None if finished is None else safe_file_name(finished.file),
+        "fit": fit,
+    }

@@ -1,0 +1,199 @@
+"""The page server's engine: drains the Zenoh inbox into the hub and pushes events.
+
+Runs on the asyncio loop of the web server:
+
+- `pump`: every `flush_s` (50 ms), parse what the Zenoh callbacks enqueued (bounded per
+  tick), feed the `Hub`, and hand its events to the `Broadcaster`: at most 20 pushes/s
+  per page whatever the sample rate.
+- `poll_status`: once per `status_every_s`, one `status` query per alive bench (not per
+  page), so port and zero changes show without any page polling.
+- `zero`/`arm`: a page's button press, one query in a worker thread.
+
+Zenoh calls that block (queries) run in worker threads; declaring subscribers runs on the
+loop (it does not wait on the network).
+"""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+import queue
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import anyio.to_thread
+
+from daq.web.broadcast import Broadcaster
+from daq.web.files import REPORT_NAME, RunFileError, fit_dir, list_fit_files
+from daq.web.hub import Hub
+from daq.web.link import InboxItem, QueryFailed, WebLink
+from daq.web.live import DEFAULT_DISPLAY_HZ
+from schemas import keys
+from schemas.bus import BusConfig
+from schemas.daq import DetectorStateMsg, RunFinished, SampleBatch
+from schemas.fit import FitReport
+
+log = logging.getLogger(__name__)
+
+#: Most inbox items parsed per flush (about 25 s of 1 kHz batches of 20 for one bench).
+MAX_ITEMS_PER_TICK = 5000
+
+
+@dataclass(frozen=True)
+class WebSettings:
+    """How the page server joins Zenoh and what it serves."""
+
+    bus: BusConfig
+    runs_dir: Path | None = None
+    display_hz: float = DEFAULT_DISPLAY_HZ
+    flush_s: float = 0.05
+    status_every_s: float = 1.0
+    query_timeout_s: float = 2.0
+
+
+class WebService:
+    def __init__(self, settings: WebSettings) -> None:
+        self.settings = settings
+        self.inbox: queue.SimpleQueue[InboxItem] = queue.SimpleQueue()
+        self.hub = Hub(settings.display_hz, fit_files=self._fit_files)
+        self.broadcaster = Broadcaster()
+        self.link = WebLink(settings.bus, self.inbox)
+        self.bad_messages = 0
+        self.flushes = 0
+        self._tasks: list[asyncio.Task[None]] = []
+
+    # -- lifecycle ---------------------------------------------------------------------
+    async def start(self) -> None:
+        await anyio.to_thread.run_sync(self.link.open)
+        self._tasks = [asyncio.create_task(self._pump()),
+                       asyncio.create_task(self._poll_status())]
+
+    async def stop(self) -> None:
+        for task in self._tasks:
+            task.cancel()
+        for task in self._tasks:
+            try:
+                await task
+            except asyncio.CancelledError:
+                pass
+        self.broadcaster.close_all()
+        await anyio.to_thread.run_sync(self.link.close)
+
+    # -- the inbox ---------------------------------------------------------------------
+    def _fit_files(self, run_id: str) -> list[str]:
+        runs_dir = self.settings.runs_dir
+        return [] if runs_dir is None else list_fit_files(runs_dir, run_id)
+
+    def _load_local_fit(self, bench: str, run_id: str) -> None:
+        runs_dir = self.settings.runs_dir
+        if runs_dir is None or run_id in self.hub.bench(bench).fits:
+            return
+        path = fit_dir(runs_dir, run_id) / REPORT_NAME
+        if path.is_file():
+            try:
+                report = FitReport.from_json_bytes(path.read_bytes())
+            except (OSError, ValueError) as exc:
+                log.warning("unreadable fit report %s: %s", path.name, exc)
+                return
+            if report.bench == bench and report.run_id == run_id:
+                self.hub.on_fit(report)
+
+    def handle(self, item: InboxItem) -> None:
+        """Parse one inbox item and feed the hub (bad payloads are counted and skipped)."""
+        try:
+            if item.kind == "alive":
+                bench = keys.bench_of(item.key)
+                self.hub.on_alive(bench, item.up)
+                if item.up:
+                    self.link.follow(bench)
+                    asyncio.get_running_loop().create_task(self.refresh(bench))
+            elif item.kind == "samples":
+                self.hub.on_samples(SampleBatch.from_json_bytes(item.payload))
+            elif item.kind == "state":
+                self.hub.on_state(DetectorStateMsg.from_json_bytes(item.payload))
+            elif item.kind == "finished":
+                rec = RunFinished.from_json_bytes(item.payload)
+                self.hub.on_finished(rec)
+                self._load_local_fit(rec.bench, rec.run_id)
+            elif item.kind == "fit":
+                self.hub.on_fit(FitReport.from_json_bytes(item.payload))
+        except ValueError as exc:
+            self.bad_messages += 1
+            log.warning("skipped a bad %s message on %s: %s", item.kind, item.key, exc)
+
+    def drain(self) -> int:
+        count = 0
+        while count < MAX_ITEMS_PER_TICK:
+            try:
+                item = self.inbox.get_nowait()
+            except queue.Empty:
+                break
+            self.handle(item)
+            count += 1
+        return count
+
+    async def _pump(self) -> None:
+        while True:
+            await asyncio.sleep(self.settings.flush_s)
+            self.drain()
+            self.broadcaster.publish(self.hub.flush())
+            self.flushes += 1
+
+    # -- queries -----------------------------------------------------------------------
+    async def _call(self, fn: Any, *args: Any) -> Any:
+        return await anyio.to_thread.run_sync(fn, *args, self.settings.query_timeout_s)
+
+    async def refresh_status(self, bench: str) -> None:
+        try:
+            status = await self._call(self.link.status, bench)
+        except (QueryFailed, ValueError) as exc:
+            if self.hub.bench(bench).alive:
+                self.hub.on_status(bench, None, f"daq for bench {bench} does not answer: {exc}")
+            return
+        self.hub.on_status(bench, status, None)
+
+    async def refresh(self, bench: str) -> None:
+        """Runs and status of a bench whose daq just appeared."""
+        try:
+            runs = await self._call(self.link.runs, bench)
+        except (QueryFailed, ValueError) as exc:
+            log.warning("run list of %s: %s", bench, exc)
+        else:
+            self.hub.on_runs(runs)
+            for rec in runs.runs:
+                self._load_local_fit(rec.bench, rec.run_id)
+        await self.refresh_status(bench)
+
+    async def _poll_status(self) -> None:
+        while True:
+            await asyncio.sleep(self.settings.status_every_s)
+            for bench in [name for name, view in self.hub.benches.items() if view.alive]:
+                await self.refresh_status(bench)
+
+    async def zero(self, bench: str) -> dict[str, Any]:
+        """Zero a bench now; the reply as the page shows it."""
+        try:
+            reply = await self._call(self.link.zero, bench)
+        except (QueryFailed, ValueError) as exc:
+            return {"ok": False, "message": f"zero failed: {exc}"}
+        await self.refresh_status(bench)
+        text = reply.message or ("zeroed: offsets " + ", ".join(f"{x:g}" for x in reply.zero_offsets_raw))
+        return {"ok": reply.ok, "message": text, "reply": reply.model_dump(mode="json")}
+
+    async def arm(self, bench: str) -> dict[str, Any]:
+        """Arm a bench's release detector; the reply as the page shows it."""
+        try:
+            status = await self._call(self.link.arm, bench)
+        except (QueryFailed, ValueError) as exc:
+            return {"ok": False, "message": f"arm failed: {exc}"}
+        self.hub.on_status(bench, status, None)
+        return {"ok": status.state == "armed", "message": f"detector {status.state}",
+                "reply": status.model_dump(mode="json")}
+
+    async def run_bytes(self, bench: str, run_id: str) -> bytes:
+        """A run's MCAP bytes over Zenoh (when the runs directory is not local)."""
+        try:
+            return bytes(await anyio.to_thread.run_sync(self.link.run_bytes, bench, run_id))
+        except QueryFailed as exc:
+            raise RunFileError(str(exc)) from exc

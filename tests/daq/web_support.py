@@ -1,0 +1,292 @@
+"""Test helpers for the bench page: a real page server in a thread, an SSE reader, and a
+stand-in daq that is a real Zenoh peer publishing real `schemas` records and answering the
+`status`, `zero`, `arm` and `runs` queryables.
+
+Loopback only, ephemeral ports, no sleeps: waits are on events or bounded deadlines.
+"""
+
+from __future__ import annotations
+
+import http.client
+import json
+import math
+import socket
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import uvicorn
+import zenoh
+import zenoh.ext
+
+from daq.web.app import create_app
+from daq.web.service import WebSettings
+from schemas import keys
+from schemas.bus import BusConfig
+from schemas.daq import (DaqCounters, DaqStatus, DetectorState, DetectorStateMsg, RunFinished,
+                         RunList, SampleBatch, ZeroReply)
+from schemas.fit import FitReport
+
+COUNTS_PER_M = 20000.0
+
+
+def free_port() -> int:  # also a conftest fixture; this one is for plain helpers
+    with socket.socket() as sock:
+        sock.bind(("127.0.0.1", 0))
+        return int(sock.getsockname()[1])
+
+
+def wait_for(condition: Callable[[], Any], timeout_s: float, what: str, every_s: float = 0.02) -> Any:
+    """Return `condition()` once truthy; fail after `timeout_s` naming `what`."""
+    deadline = time.monotonic() + timeout_s
+    done = threading.Event()
+    while True:
+        value = condition()
+        if value:
+            return value
+        if time.monotonic() > deadline:
+            raise AssertionError(f"timed out after {timeout_s} s waiting for {what}")
+        done.wait(every_s)
+
+
+# -- the page server --------------------------------------------------------------------
+class PageServer:
+    """`create_app(settings)` served by uvicorn on an ephemeral loopback port, in a thread."""
+
+    def __init__(self, settings: WebSettings) -> None:
+        self.sock = socket.socket()
+        self.sock.bind(("127.0.0.1", 0))
+        self.port = int(self.sock.getsockname()[1])
+        self.app = create_app(settings)
+        config = uvicorn.Config(self.app, log_level="warning", lifespan="on",
+                                timeout_graceful_shutdown=1)
+        self.server = uvicorn.Server(config)
+        self.thread = threading.Thread(target=self.server.run, kwargs={"sockets": [self.sock]},
+                                       daemon=True)
+
+    @property
+    def url(self) -> str:
+        return f"http://127.0.0.1:{self.port}"
+
+    def __enter__(self) -> PageServer:
+        self.thread.start()
+        wait_for(lambda: self.server.started or not self.thread.is_alive(), 15, "uvicorn to start")
+        assert self.server.started, "the page server did not start"
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.server.should_exit = True
+        self.thread.join(10)
+        self.sock.close()
+
+    def request(self, method: str, path: str, timeout_s: float = 10) -> tuple[int, bytes]:
+        conn = http.client.HTTPConnection("127.0.0.1", self.port, timeout=timeout_s)
+        try:
+            conn.request(method, path)
+            resp = conn.getresponse()
+            return resp.status, resp.read()
+        finally:
+            conn.close()
+
+    def json(self, method: str, path: str) -> tuple[int, Any]:
+        status, body = self.request(method, path)
+        return status, json.loads(body)
+
+
+@dataclass
+class SseEvent:
+    name: str
+    data: Any
+
+
+class SseReader:
+    """Reads `text/event-stream` events from the page server."""
+
+    def __init__(self, port: int, path: str, timeout_s: float = 10) -> None:
+        self.conn = http.client.HTTPConnection("127.0.0.1", port, timeout=timeout_s)
+        self.conn.request("GET", path, headers={"Accept": "text/event-stream"})
+        self.resp = self.conn.getresponse()
+        assert self.resp.status == 200, self.resp.status
+        assert self.resp.getheader("content-type", "").startswith("text/event-stream")
+
+    def next(self) -> SseEvent:
+        name, data = "message", []
+        while True:
+            line = self.resp.readline()
+            if not line:
+                raise EOFError("event stream closed")
+            text = line.decode().rstrip("\n")
+            if text == "":
+                if data:
+                    return SseEvent(name, json.loads("\n".join(data)))
+                name = "message"
+                continue
+            if text.startswith(":"):
+                continue
+            field_name, _, value = text.partition(": ")
+            if field_name == "event":
+                name = value
+            elif field_name == "data":
+                data.append(value)
+
+    def until(self, predicate: Callable[[SseEvent], bool], timeout_s: float, what: str,
+              seen: list[SseEvent] | None = None) -> SseEvent:
+        deadline = time.monotonic() + timeout_s
+        while time.monotonic() < deadline:
+            event = self.next()
+            if seen is not None:
+                seen.append(event)
+            if predicate(event):
+                return event
+        raise AssertionError(f"timed out after {timeout_s} s waiting for {what}")
+
+    def close(self) -> None:
+        self.conn.close()
+
+
+# -- the stand-in daq ---------------------------------------------------------------------
+def position_m(t_s: float, channel: int) -> float:
+    """The stand-in rig's trace: two damped oscillations (m) at known frequencies."""
+    if channel == 1:
+        return 0.15 * math.exp(-0.2 * t_s) * math.cos(2 * math.pi * 0.9 * t_s)
+    return -0.05 * math.exp(-0.2 * t_s) * math.sin(2 * math.pi * 1.4 * t_s)
+
+
+def sample_batch(bench: str, batch_seq: int, first: int, n: int, rate_hz: float) -> SampleBatch:
+    t_ns = [round((first + i) * 1e9 / rate_hz) for i in range(n)]
+    p1 = [position_m(t * 1e-9, 1) for t in t_ns]
+    p2 = [position_m(t * 1e-9, 2) for t in t_ns]
+    return SampleBatch(bench=bench, batch_seq=batch_seq, t_ns=t_ns, pos1_m=p1, pos2_m=p2,
+                       raw1=[p * COUNTS_PER_M for p in p1], raw2=[p * COUNTS_PER_M for p in p2])
+
+
+@dataclass
+class FakeDaqState:
+    state: DetectorState = "idle"
+    connected: bool = True
+    zero_offsets_raw: list[float] = field(default_factory=lambda: [0.0, 0.0])
+    raw_now: list[float] = field(default_factory=lambda: [1234.0, -567.0])
+    zero_calls: int = 0
+    arm_calls: int = 0
+    runs: list[RunFinished] = field(default_factory=list)
+
+
+class FakeDaq:
+    """A real Zenoh peer standing in for `daq run`: queryables, liveliness, publishers."""
+
+    def __init__(self, bench: str, listen: str) -> None:
+        self.bench = bench
+        self.listen = listen
+        self.st = FakeDaqState()
+        self.lock = threading.Lock()
+        self.session = zenoh.open(zenoh.Config.from_json5(BusConfig.listener(listen).zenoh_json5()))
+        s = self.session
+        self.handles: list[Any] = [
+            s.declare_queryable(keys.daq_query(bench, "status"), self._on_status),
+            s.declare_queryable(keys.daq_query(bench, "zero"), self._on_zero),
+            s.declare_queryable(keys.daq_query(bench, "arm"), self._on_arm),
+            s.declare_queryable(keys.daq_query(bench, "runs"), self._on_runs),
+        ]
+        self.samples_pub = s.declare_publisher(keys.samples(bench))
+        self.state_pub = s.declare_publisher(keys.state(bench))
+        self.token: Any = s.liveliness().declare_token(keys.daq_alive(bench))
+        self.publishers: list[Any] = []
+        self._stream_stop = threading.Event()
+        self._stream: threading.Thread | None = None
+        self.batches_sent = 0
+
+    def status(self) -> DaqStatus:
+        with self.lock:
+            st = self.st
+            pos = [(r - z) / COUNTS_PER_M for r, z in zip(st.raw_now, st.zero_offsets_raw)]
+            return DaqStatus(bench=self.bench, state=st.state, run_id=None, port="sim://fake",
+                             dialect="cartlab", connected=st.connected, counts_per_m=COUNTS_PER_M,
+                             zero_offsets_raw=list(st.zero_offsets_raw), last_t_ns=1,
+                             last_pos_m=pos, n_runs=len(st.runs), counters=DaqCounters(lines=10),
+                             software_version="test")
+
+    # queryable callbacks: answer at once from memory (they never block)
+    def _on_status(self, query: zenoh.Query) -> None:
+        query.reply(query.key_expr, self.status().to_json_bytes())
+
+    def _on_zero(self, query: zenoh.Query) -> None:
+        with self.lock:
+            self.st.zero_calls += 1
+            self.st.zero_offsets_raw = list(self.st.raw_now)
+            offsets = list(self.st.zero_offsets_raw)
+        reply = ZeroReply(bench=self.bench, ok=True, zero_offsets_raw=offsets)
+        query.reply(query.key_expr, reply.to_json_bytes())
+
+    def _on_arm(self, query: zenoh.Query) -> None:
+        with self.lock:
+            self.st.arm_calls += 1
+            self.st.state = "armed"
+        query.reply(query.key_expr, self.status().to_json_bytes())
+
+    def _on_runs(self, query: zenoh.Query) -> None:
+        with self.lock:
+            runs = RunList(bench=self.bench, runs=list(self.st.runs))
+        query.reply(query.key_expr, runs.to_json_bytes())
+
+    # publishing
+    def publish_state(self, state: DetectorState, run_id: str | None = None) -> None:
+        with self.lock:
+            self.st.state = state
+        self.state_pub.put(DetectorStateMsg(bench=self.bench, state=state, t_ns=1,
+                                            run_id=run_id).to_json_bytes())
+
+    def _advanced_put(self, key: str, payload: bytes) -> None:
+        pub = zenoh.ext.declare_advanced_publisher(
+            self.session, key, cache=zenoh.ext.CacheConfig(max_samples=1), publisher_detection=True,
+            sample_miss_detection=zenoh.ext.MissDetectionConfig(heartbeat=1.0))
+        self.publishers.append(pub)
+        pub.put(payload)
+
+    def publish_finished(self, rec: RunFinished) -> None:
+        with self.lock:
+            self.st.runs.append(rec)
+        self._advanced_put(keys.run_finished(rec.bench, rec.run_id), rec.to_json_bytes())
+
+    def publish_fit(self, report: FitReport) -> None:
+        self._advanced_put(keys.run_fit(report.bench, report.run_id), report.to_json_bytes())
+
+    def start_stream(self, rate_hz: float = 1000.0, batch: int = 20) -> None:
+        """Publish batches of `batch` samples paced at `rate_hz` (real time) until stopped."""
+        def run() -> None:
+            seq, first, t0 = 0, 0, time.monotonic()
+            while not self._stream_stop.is_set():
+                self.samples_pub.put(sample_batch(self.bench, seq, first, batch, rate_hz)
+                                     .to_json_bytes())
+                seq, first = seq + 1, first + batch
+                self.batches_sent = seq
+                self._stream_stop.wait(max(0.0, t0 + first / rate_hz - time.monotonic()))
+
+        self._stream = threading.Thread(target=run, daemon=True)
+        self._stream.start()
+
+    def stop_stream(self) -> None:
+        self._stream_stop.set()
+        if self._stream is not None:
+            self._stream.join(5)
+
+    def leave(self) -> None:
+        """Drop the liveliness token (the daq 'dies' as far as the page can tell)."""
+        if self.token is not None:
+            self.token.undeclare()
+            self.token = None
+
+    def close(self) -> None:
+        self.stop_stream()
+        for handle in [*self.publishers, *self.handles, self.samples_pub, self.state_pub]:
+            handle.undeclare()
+        self.leave()
+        self.session.close()
+
+
+def page_settings(endpoint: str, runs_dir: Any = None, **kw: Any) -> WebSettings:
+    """Settings of a page server that connects to `endpoint`, fast timeouts for tests."""
+    kw.setdefault("query_timeout_s", 1.0)
+    kw.setdefault("status_every_s", 0.3)
+    return WebSettings(bus=BusConfig.connector(endpoint), runs_dir=runs_dir, **kw)
