@@ -64,6 +64,11 @@ class Calibration:
         scale = self.counts_per_m
         return tuple(s * r / scale for s, r in zip(self.signs, raw))
 
+    def linear_terms(self) -> tuple[tuple[float, ...], tuple[float, ...]]:
+        """(gains, offsets_m) with `unzeroed = raw * gain` and `pos_m = unzeroed - offset_m`."""
+        gains = tuple(s / self.counts_per_m for s in self.signs)
+        return gains, tuple(g * z for g, z in zip(gains, self.zero_offsets_raw))
+
     def raw_of_unzeroed(self, unzeroed_m: Sequence[float]) -> tuple[float, ...]:
         """Inverse of `unzeroed_metres`: raw values of positions in metres."""
         scale = self.counts_per_m

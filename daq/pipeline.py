@@ -1,0 +1,344 @@
+"""The acquisition core: bytes → frames → device time → metres → detector → runs.
+
+`Acquisition` is fed the port's byte chunks and link events and calls an `Outputs` sink
+with what to publish and record: live sample batches, detector state changes, and per
+run the start (metadata + pre-trigger samples), sample batches and the end. It does no
+I/O and reads no clock: the caller passes `now_s` (monotonic seconds, for batching and
+flush pacing) and a wall-clock function for run ids and UTC stamps.
+
+Runs. A run starts at the detector's back-dated release minus `pre_trigger_s` (samples
+come from a ring buffer, so the file starts before the release) and ends when the carts
+settle (`complete`), or early at shutdown or end of stream (`aborted`, with the reason).
+A run keeps the calibration (zero offsets) it started with; zeroing during a run only
+affects the live view. A disconnected port leaves a gap interval in the counters; the
+run keeps what it has and continues when the port comes back.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from datetime import datetime
+from typing import Protocol
+
+import daq
+from daq.calibration import Calibration
+from daq.decode import make_decoder
+from daq.detector import (METHOD, Armed, DetectorSettings, Disarmed, Event, Rejected, Released,
+                          ReleaseDetector, Settled)
+from daq.frames import DataFrame, Dialect, InfoFrame
+from daq.run_ids import new_run_id
+from daq.timeline import Timeline
+from schemas.daq import (DaqCounters, DetectorState, DetectorStateMsg, GapInterval, GapReason, RawUnit,
+                         RunFinished, RunMetadata, SampleBatch)
+
+DEFAULT_COUNTS_PER_M: dict[str, float] = {"cartlab": 20000.0, "csv": 1.0, "ecp": 56000.0}
+BATCH_NS = 20_000_000
+MAX_BATCH = 500
+
+
+class Outputs(Protocol):
+    def live(self, batch: SampleBatch) -> None: ...
+    def state(self, msg: DetectorStateMsg) -> None: ...
+    def run_started(self, metadata: RunMetadata) -> None: ...
+    def run_samples(self, batch: SampleBatch) -> None: ...
+    def run_finished(self, metadata: RunMetadata, finished: RunFinished) -> None: ...
+
+
+@dataclass(frozen=True)
+class AcquisitionConfig:
+    bench: str
+    port: str
+    dialect: Dialect = "cartlab"
+    counts_per_m: float | None = None
+    signs: tuple[int, int] = (1, 1)
+    detector: DetectorSettings = field(default_factory=DetectorSettings)
+    auto_zero: bool = True
+    lab_case: str | None = None
+
+
+class _Batch:
+    """Column lists of samples waiting to be sent (one per destination)."""
+
+    def __init__(self) -> None:
+        self.clear()
+
+    def clear(self) -> None:
+        self.t_ns: list[int] = []
+        self.raw: list[list[float]] = [[], []]
+        self.pos: list[list[float]] = [[], []]
+
+    def add(self, t_ns: int, raw: tuple[float, ...], pos: tuple[float, ...]) -> None:
+        self.t_ns.append(t_ns)
+        self.raw[0].append(raw[0])
+        self.pos[0].append(pos[0])
+        if len(raw) == 2:
+            self.raw[1].append(raw[1])
+            self.pos[1].append(pos[1])
+
+    def take(self, bench: str, run_id: str | None, seq: int, unit: RawUnit, n_channels: int) -> SampleBatch:
+        two = n_channels == 2
+        batch = SampleBatch.model_construct(
+            bench=bench, run_id=run_id, batch_seq=seq, t_ns=self.t_ns, pos1_m=self.pos[0],
+            pos2_m=self.pos[1] if two else None, raw1=self.raw[0], raw2=self.raw[1] if two else None,
+            raw_unit=unit, schema_version=1)
+        self.clear()
+        return batch
+
+
+@dataclass
+class _Run:
+    metadata: RunMetadata
+    calibration: Calibration
+    counters_at_start: DaqCounters
+    batch: _Batch = field(default_factory=_Batch)
+    batch_seq: int = 0
+    n_samples: int = 0
+    last_t_ns: int = 0
+
+
+class Acquisition:
+    """Feed `data(chunk, now_s)`; call `disconnected`/`reconnected`/`finish` on link events."""
+
+    def __init__(self, config: AcquisitionConfig, outputs: Outputs,
+                 wall_clock: Callable[[], datetime], existing_run_ids: Callable[[str], bool]) -> None:
+        self.config = config
+        self.outputs = outputs
+        self._wall_clock = wall_clock
+        self._run_id_taken = existing_run_ids
+        self.decoder = make_decoder(config.dialect)
+        self.timeline = Timeline(clock_bits=32 if config.dialect == "cartlab" else None)
+        cpm = config.counts_per_m or DEFAULT_COUNTS_PER_M[config.dialect]
+        self.calibration = Calibration(cpm, config.signs, (0.0, 0.0))
+        self.detector = ReleaseDetector(config.detector)
+        self.info: InfoFrame | None = None
+        self.reconnects = 0
+        self.gaps: list[GapInterval] = []
+        self.n_channels: int | None = None
+        self.last_t_ns: int | None = None
+        self.last_raw: tuple[float, ...] | None = None
+        self.runs_started = 0
+        self.run: _Run | None = None
+        self._unit: RawUnit = "m" if config.dialect == "csv" else "counts"
+        self._ring: deque[tuple[int, tuple[float, ...]]] = deque()
+        self._ring_ns = int((config.detector.pre_trigger_s + 1.5) * 1e9)
+        self._live = _Batch()
+        self._live_seq = 0
+        self._batch_start_ns = 0
+        self._disconnected_at: int | None = None
+        self.state: DetectorState = "idle"
+
+    # --- link events ------------------------------------------------------------------------------
+    def data(self, chunk: bytes) -> None:
+        for frame in self.decoder.feed(chunk):
+            if isinstance(frame, DataFrame):
+                self._sample(frame)
+            else:
+                self._info(frame)
+
+    def disconnected(self) -> None:
+        self._flush_batches()
+        self._disconnected_at = self.last_t_ns
+
+    def reconnected(self) -> None:
+        self.reconnects += 1
+
+    def finish(self, reason: str) -> None:
+        """End of stream or shutdown: send what is batched, close an open run as aborted."""
+        self._flush_batches()
+        if self.run is not None:
+            self._end_run("aborted", reason)
+
+    def flush(self) -> None:
+        """Send the batched samples now (the loop calls it when the port is quiet)."""
+        self._flush_batches()
+
+    # --- commands -----------------------------------------------------------------------------------
+    def zero_now(self) -> tuple[float, ...] | None:
+        """Zero the live positions at the last sample; None before the first sample."""
+        if self.last_raw is None:
+            return None
+        self.calibration = self.calibration.zeroed_at(self.last_raw)
+        return self.calibration.zero_offsets_raw
+
+    def arm_now(self) -> bool:
+        """Arm the detector at the current position (no stillness wait); False if not possible."""
+        if self.last_raw is None or self.last_t_ns is None or self.run is not None:
+            return False
+        pos = self.calibration.unzeroed_metres(self.last_raw)
+        self._events(self.detector.arm_now(self.last_t_ns / 1e9, pos), self.last_t_ns)
+        return True
+
+    # --- samples -------------------------------------------------------------------------------------
+    def _info(self, frame: InfoFrame) -> None:
+        self.info = frame
+        if self.config.counts_per_m is None and frame.counts_per_m > 0:
+            self.calibration = self.calibration.with_counts_per_m(frame.counts_per_m)
+
+    @property
+    def calibration(self) -> Calibration:
+        return self._calibration
+
+    @calibration.setter
+    def calibration(self, value: Calibration) -> None:
+        self._calibration = value
+        self._gains, self._offsets_m = value.linear_terms()
+
+    def _sample(self, frame: DataFrame) -> None:
+        step = self.timeline.push(frame.seq, frame.t_us)
+        if step.duplicate:
+            return
+        raw = frame.raw
+        if self.n_channels is None:
+            self.n_channels = min(2, len(raw))
+            self.calibration = self.calibration.with_channels(self.n_channels)
+        if len(raw) != self.n_channels:
+            raw = (tuple(raw) + (0.0, 0.0))[: self.n_channels]
+        t_ns = step.t_ns
+        if step.lost or self._disconnected_at is not None or step.anomaly:
+            self._gap(t_ns, step.lost, step.anomaly)
+        self.last_t_ns, self.last_raw = t_ns, raw
+        ring = self._ring
+        ring.append((t_ns, raw))
+        while ring[0][0] < t_ns - self._ring_ns:
+            ring.popleft()
+        g, o = self._gains, self._offsets_m
+        if len(raw) == 2:
+            unzeroed: tuple[float, ...] = (raw[0] * g[0], raw[1] * g[1])
+            pos: tuple[float, ...] = (unzeroed[0] - o[0], unzeroed[1] - o[1])
+        else:
+            unzeroed = (raw[0] * g[0],)
+            pos = (unzeroed[0] - o[0],)
+        live = self._live
+        if not live.t_ns:
+            self._batch_start_ns = t_ns
+        live.add(t_ns, raw, pos)
+        run = self.run
+        if run is not None:
+            self._run_add(run, t_ns, raw)
+        events = self.detector.feed(t_ns * 1e-9, unzeroed)
+        if events:
+            self._events(events, t_ns)
+        if t_ns - self._batch_start_ns >= BATCH_NS or len(live.t_ns) >= MAX_BATCH:
+            self._flush_batches()
+
+    def _gap(self, t_ns: int, lost: int, anomaly: str | None) -> None:
+        start = self._disconnected_at if self._disconnected_at is not None else (self.last_t_ns or t_ns)
+        reason: GapReason = "disconnect" if self._disconnected_at is not None else (
+            "clock_jump" if anomaly else "seq_gap")
+        self.gaps.append(GapInterval(start_t_ns=start, end_t_ns=t_ns, reason=reason, lost_frames=lost or None))
+        self._disconnected_at = None
+        if self.run is None:
+            self._events(self.detector.reset(), t_ns)
+
+    def _run_add(self, run: _Run, t_ns: int, raw: tuple[float, ...]) -> None:
+        run.batch.add(t_ns, raw, run.calibration.metres(raw))
+        run.n_samples += 1
+        run.last_t_ns = t_ns
+
+    # --- detector events ---------------------------------------------------------------------------
+    def _events(self, events: list[Event], t_ns: int) -> None:
+        for event in events:
+            if isinstance(event, Armed):
+                if self.config.auto_zero:
+                    self.calibration = self.calibration.zeroed_at(self.calibration.raw_of_unzeroed(event.hold_pos))
+                self._set_state("armed", t_ns)
+            elif isinstance(event, Released):
+                self._start_run(event)
+                self._set_state("released", round(event.t_release_s * 1e9))
+            elif isinstance(event, Settled):
+                self._set_state("settled", t_ns)
+                if self.run is not None:
+                    self._end_run("complete", f"settled ({event.reason})")
+            elif isinstance(event, Rejected | Disarmed):
+                self._set_state("idle", t_ns)
+        if self.detector.state == "idle" and self.state == "settled":
+            self._set_state("idle", t_ns)
+
+    def _set_state(self, state: DetectorState, t_ns: int) -> None:
+        if state == self.state:
+            return
+        self.state = state
+        run_id = self.run.metadata.run_id if self.run is not None else None
+        msg = DetectorStateMsg(bench=self.config.bench, state=state, t_ns=t_ns, run_id=run_id)
+        self.outputs.state(msg)
+
+    # --- runs ------------------------------------------------------------------------------------------
+    def counters(self) -> DaqCounters:
+        d, tl = self.decoder.counters, self.timeline.counters
+        return DaqCounters(lines=d.lines, frames=d.frames, bad_lines=d.rejected, bad_checksum=d.bad_checksum,
+                           torn=d.torn, non_ascii=d.non_ascii, overlong=d.overlong, malformed=d.malformed,
+                           seq_gaps=tl.seq_gaps, lost_frames=tl.lost_lines, clock_wraps=tl.clock_wraps,
+                           reconnects=self.reconnects, gap_intervals=list(self.gaps))
+
+    def _start_run(self, event: Released) -> None:
+        self._flush_batches()
+        release_ns = round(event.t_release_s * 1e9)
+        first_ns = release_ns - int(self.config.detector.pre_trigger_s * 1e9)
+        ring = list(self._ring)
+        start = next((i for i, (t, _) in enumerate(ring) if t >= first_ns), len(ring))
+        pre = ring[max(0, start - 1):]   # one sample more, so at least pre_trigger_s precede the release
+        first_t = pre[0][0] if pre else release_ns
+        now = self._wall_clock()
+        run_id = new_run_id(self.config.bench, now, self._run_id_taken)
+        self.runs_started += 1
+        cal = self.calibration
+        info = self.info
+        meta = RunMetadata(
+            bench=self.config.bench, run_id=run_id, dialect=self.config.dialect, port=self.config.port,
+            counts_per_m=cal.counts_per_m, signs=list(cal.signs), zero_offsets_raw=list(cal.zero_offsets_raw),
+            n_channels=cal.n_channels, rate_hz=info.rate_hz if info else None,
+            device_model=info.model if info else None, firmware=info.firmware if info else None,
+            detector_settings=self.config.detector.as_metadata(), detector_method=METHOD,
+            release_time_s=(release_ns - first_t) / 1e9, release_t_ns=release_ns, first_t_ns=first_t,
+            pre_trigger_s=self.config.detector.pre_trigger_s, pulled_cart=event.channel + 1,
+            lab_case=self.config.lab_case, counters=self.counters(), software_version=daq.__version__,
+            started_utc=now.isoformat(timespec="milliseconds"))
+        self.run = _Run(meta, cal, self.counters())
+        self.outputs.run_started(meta)
+        for t, raw in pre:
+            self._run_add(self.run, t, raw)
+
+    def _end_run(self, status: str, reason: str) -> None:
+        run = self.run
+        assert run is not None
+        self._flush_run(run)
+        counters = _delta(self.counters(), run.counters_at_start)
+        meta = run.metadata.model_copy(update={
+            "counters": counters, "ended_utc": self._wall_clock().isoformat(timespec="milliseconds")})
+        finished = RunFinished(
+            bench=meta.bench, run_id=meta.run_id, status="complete" if status == "complete" else "aborted",
+            file=f"{meta.run_id}.mcap", n_samples=run.n_samples, release_time_s=meta.release_time_s,
+            duration_s=(run.last_t_ns - meta.first_t_ns) / 1e9 if run.n_samples else 0.0,
+            counters=counters, reason=reason)
+        self.run = None
+        self.outputs.run_finished(meta, finished)
+
+    def _flush_batches(self) -> None:
+        n_channels = self.n_channels or 1
+        if self._live.t_ns:
+            run_id = self.run.metadata.run_id if self.run is not None else None
+            self.outputs.live(self._live.take(self.config.bench, run_id, self._live_seq, self._unit, n_channels))
+            self._live_seq += 1
+        if self.run is not None:
+            self._flush_run(self.run)
+
+    def _flush_run(self, run: _Run) -> None:
+        if run.batch.t_ns:
+            batch = run.batch.take(self.config.bench, run.metadata.run_id, run.batch_seq, self._unit,
+                                   run.calibration.n_channels)
+            run.batch_seq += 1
+            self.outputs.run_samples(batch)
+
+
+def _delta(now: DaqCounters, start: DaqCounters) -> DaqCounters:
+    """Counters accumulated since `start` (gap intervals: those that began after it)."""
+    fields = {name: getattr(now, name) - getattr(start, name)
+              for name, info in DaqCounters.model_fields.items()
+              if info.annotation is int and name != "schema_version"}
+    gaps = now.gap_intervals[len(start.gap_intervals):]
+    return now.model_copy(update={**fields, "gap_intervals": gaps})
+
+
+__all__ = ["Acquisition", "AcquisitionConfig", "Outputs"]

@@ -1,0 +1,265 @@
+"""The `daq` service loop: serial link → acquisition core → Zenoh + one MCAP file per run.
+
+One thread owns everything (link, core, writer, bus publishers); Zenoh callbacks only
+enqueue requests or read immutable snapshots (`daq.bus`). Each turn of the loop reads one
+chunk (the link's read timeout bounds a turn), feeds the core, answers queued requests,
+sends batches the port left waiting, and flushes the open run file on its cadence, so a
+`kill -9` loses at most `flush_interval_s` plus one batch.
+
+Start-up recovers `.part` files left by a crash and announces them as finished with status
+`recovered`. `request_stop()` (called from a signal handler: it only sets a flag) makes the
+loop finish the open run (status `aborted`, reason given) and return. Clocks are injected.
+"""
+
+from __future__ import annotations
+
+import logging
+import queue
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from datetime import UTC, datetime
+from pathlib import Path
+
+from daq import __version__
+from daq.bus import BusRequest, DaqBus
+from daq.detector import DetectorSettings
+from daq.errors import DaqIOError
+from daq.frames import Dialect
+from daq.pipeline import Acquisition, AcquisitionConfig
+from daq.recorder import RunWriter, final_path, finished_of, part_path, recover_all
+from daq.serial_link import LinkEvent, SerialLink
+from schemas import SchemaError, keys, topics
+from schemas.bus import BusConfig
+from schemas.daq import (DaqStatus, DetectorStateMsg, RunFinished, RunList, RunMetadata, SampleBatch,
+                         ZeroReply)
+
+log = logging.getLogger("daq")
+SNAPSHOT_EVERY_S = 0.2
+QUIET_FLUSH_S = 0.05
+
+
+@dataclass(frozen=True)
+class ServiceConfig:
+    port: str
+    runs_dir: Path
+    bench: str = "bench1"
+    dialect: Dialect = "cartlab"
+    bus: BusConfig | None = field(default_factory=BusConfig)
+    counts_per_m: float | None = None
+    signs: tuple[int, int] = (1, 1)
+    detector: DetectorSettings = field(default_factory=DetectorSettings)
+    until_eof: bool = False
+    baudrate: int = 115200
+    flush_interval_s: float = 0.25
+
+
+class _Outputs:
+    """The core's sink: live data to the bus, runs to files (and their end to the bus)."""
+
+    def __init__(self, service: Service) -> None:
+        self.service = service
+        self.writer: RunWriter | None = None
+
+    def live(self, batch: SampleBatch) -> None:
+        if self.service.bus is not None:
+            self.service.bus.publish_samples(batch.to_json_bytes())
+
+    def state(self, msg: DetectorStateMsg) -> None:
+        if self.service.bus is not None:
+            self.service.bus.publish_state(msg)
+        if self.writer is not None:
+            self.writer.write_state(msg, self.service.clock())
+        log.debug("detector %s at %.3f s", msg.state, msg.t_ns / 1e9)
+
+    def run_started(self, metadata: RunMetadata) -> None:
+        self.writer = RunWriter(self.service.config.runs_dir, metadata, self.service.clock(),
+                                self.service.config.flush_interval_s)
+        log.info("run %s: release at %.3f s (device), recording to %s", metadata.run_id,
+                 (metadata.release_t_ns or 0) / 1e9, self.writer.path.name)
+
+    def run_samples(self, batch: SampleBatch) -> None:
+        if self.writer is not None:
+            self.writer.write_samples(batch, self.service.clock())
+
+    def run_finished(self, metadata: RunMetadata, finished: RunFinished) -> None:
+        writer, self.writer = self.writer, None
+        if writer is not None:
+            writer.finish(metadata, finished)
+        self.service.announce(finished)
+        log.info("run %s %s: %d samples, release at %.3f s, %s", finished.run_id, finished.status,
+                 finished.n_samples, finished.release_time_s or float("nan"), finished.reason or "")
+
+
+class Service:
+    """Build with a config; `run()` until EOF (with `until_eof`) or `request_stop()`."""
+
+    def __init__(self, config: ServiceConfig, clock: Callable[[], float] = time.monotonic,
+                 wall_clock: Callable[[], datetime] = lambda: datetime.now(UTC),
+                 link: SerialLink | None = None) -> None:
+        self.config = config
+        self.clock = clock
+        keys.check_name("bench", config.bench)
+        self.link = link or SerialLink(config.port, baudrate=config.baudrate, clock=clock)
+        self.outputs = _Outputs(self)
+        self.acq = Acquisition(
+            AcquisitionConfig(bench=config.bench, port=config.port, dialect=config.dialect,
+                              counts_per_m=config.counts_per_m, signs=config.signs, detector=config.detector),
+            self.outputs, wall_clock=wall_clock, existing_run_ids=self._run_id_taken)
+        self.bus: DaqBus | None = None
+        self.finished_runs: list[RunFinished] = []
+        self.connected = False
+        self._stop = threading.Event()
+        self._last_snapshot = -1e9
+        self._last_data = 0.0
+
+    # --- control ---------------------------------------------------------------------------------
+    def request_stop(self) -> None:
+        """Safe from a signal handler: only sets a flag the loop checks every turn."""
+        self._stop.set()
+
+    def announce(self, finished: RunFinished) -> None:
+        self.finished_runs.append(finished)
+        if self.bus is not None:
+            self.bus.publish_finished(finished)
+        self._publish_snapshot(force=True)
+
+    # --- main loop ---------------------------------------------------------------------------------
+    def run(self) -> int:
+        """Serve until stopped; returns the number of runs finished in this session."""
+        self.config.runs_dir.mkdir(parents=True, exist_ok=True)
+        recovered = recover_all(self.config.runs_dir)
+        self.finished_runs = self._scan_runs()
+        try:
+            self.link.open()
+            self.connected = True
+            if self.config.bus is not None:
+                self.bus = DaqBus(self.config.bench, self.config.bus)
+            for finished in recovered:
+                log.info("recovered %s from a crash: %d samples", finished.file, finished.n_samples)
+                if self.bus is not None:
+                    self.bus.publish_finished(finished)
+            self._publish_snapshot(force=True)
+            return self._loop()
+        finally:
+            self._shutdown()
+
+    def _loop(self) -> int:
+        started = self.acq.runs_started
+        eof = False
+        while not self._stop.is_set():
+            if eof:
+                if self.config.until_eof:
+                    break
+                self._stop.wait(0.05)
+            else:
+                eof = self._turn()
+            self._serve_requests()
+            self._publish_snapshot()
+        self.acq.finish("stopped by signal" if self._stop.is_set() else "end of stream")
+        return self.acq.runs_started - started
+
+    def _turn(self) -> bool:
+        got = self.link.read()
+        now = self.clock()
+        if got.data:
+            self.acq.data(got.data)
+            self._last_data = now
+        elif got.event is LinkEvent.DATA and now - self._last_data > QUIET_FLUSH_S:
+            self.acq.flush()
+        if got.event is LinkEvent.DISCONNECTED:
+            self.connected = False
+            self.acq.disconnected()
+            log.warning("serial port %s disconnected; reopening with back-off", self.config.port)
+        elif got.event is LinkEvent.RECONNECTED:
+            self.connected = True
+            self.acq.reconnected()
+            log.warning("serial port %s back after %.1f s", self.config.port, got.gap_s or 0.0)
+        writer = self.outputs.writer
+        if writer is not None:
+            writer.maybe_flush(now)
+        return got.event is LinkEvent.EOF
+
+    def _shutdown(self) -> None:
+        writer = self.outputs.writer
+        if writer is not None:   # only after an exception: a normal stop finished the run
+            writer.abandon()
+        self.link.close()
+        if self.bus is not None:
+            self.bus.close()
+            self.bus = None
+
+    # --- requests and snapshots ----------------------------------------------------------------------
+    def _serve_requests(self) -> None:
+        if self.bus is None:
+            return
+        while True:
+            try:
+                request = self.bus.requests.get_nowait()
+            except queue.Empty:
+                return
+            self._answer(self.bus, request)
+
+    def _answer(self, bus: DaqBus, request: BusRequest) -> None:
+        if request.kind == "zero":
+            offsets = self.acq.zero_now()
+            reply = ZeroReply(bench=self.config.bench, ok=offsets is not None,
+                              zero_offsets_raw=list(offsets or ()),
+                              message="" if offsets is not None else "no sample received yet")
+            bus.reply_record(request, reply)
+        elif request.kind == "arm":
+            self.acq.arm_now()
+            bus.reply_record(request, self.status())
+        else:
+            self._answer_run(bus, request)
+        self._publish_snapshot(force=True)
+
+    def _answer_run(self, bus: DaqBus, request: BusRequest) -> None:
+        try:
+            run_id = keys.check_name("run_id", request.run_id or "")
+        except SchemaError as exc:
+            bus.reply_error(request, f"run: {exc}")
+            return
+        runs_dir = self.config.runs_dir.resolve()
+        path = final_path(runs_dir, run_id).resolve()
+        if path.parent != runs_dir or not path.is_file():
+            bus.reply_error(request, f"run: expected the id of a finished run in this bench's runs directory, "
+                                     f"got {run_id!r}")
+            return
+        bus.reply_bytes(request, path.read_bytes())
+
+    def status(self) -> DaqStatus:
+        acq = self.acq
+        last = acq.calibration.metres(acq.last_raw) if acq.last_raw is not None else None
+        return DaqStatus(bench=self.config.bench, state=acq.state,
+                         run_id=acq.run.metadata.run_id if acq.run is not None else None,
+                         port=self.config.port, dialect=self.config.dialect, connected=self.connected,
+                         counts_per_m=acq.calibration.counts_per_m,
+                         zero_offsets_raw=list(acq.calibration.zero_offsets_raw), last_t_ns=acq.last_t_ns,
+                         last_pos_m=list(last) if last is not None else None, n_runs=len(self.finished_runs),
+                         counters=acq.counters(), software_version=__version__)
+
+    def _publish_snapshot(self, force: bool = False) -> None:
+        now = self.clock()
+        if self.bus is None or (not force and now - self._last_snapshot < SNAPSHOT_EVERY_S):
+            return
+        self._last_snapshot = now
+        self.bus.set_snapshot(self.status(), RunList(bench=self.config.bench, runs=list(self.finished_runs)))
+
+    # --- runs directory ---------------------------------------------------------------------------------
+    def _run_id_taken(self, run_id: str) -> bool:
+        runs_dir = self.config.runs_dir
+        return final_path(runs_dir, run_id).exists() or part_path(runs_dir, run_id).exists()
+
+    def _scan_runs(self) -> list[RunFinished]:
+        found = []
+        for path in sorted(self.config.runs_dir.glob(f"*{topics.RUN_SUFFIX}")):
+            try:
+                finished = finished_of(path)
+            except (DaqIOError, SchemaError) as exc:
+                log.warning("skipping %s: %s", path.name, exc)
+                continue
+            if finished is not None and finished.bench == self.config.bench:
+                found.append(finished)
+        return found

@@ -1,0 +1,101 @@
+"""The acquisition core on encoded synthetic streams, with a recording fake sink."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from datetime import UTC, datetime
+
+import numpy as np
+import pytest
+
+from daq.decode import encode_data, encode_info
+from daq.pipeline import Acquisition, AcquisitionConfig
+from schemas.daq import DetectorStateMsg, RunFinished, RunMetadata, SampleBatch
+from tests.daq.synth_runs import LAB_CASES, Trace, lab_run
+
+
+@dataclass
+class FakeOutputs:
+    live_batches: list[SampleBatch] = field(default_factory=list)
+    states: list[DetectorStateMsg] = field(default_factory=list)
+    started: list[RunMetadata] = field(default_factory=list)
+    run_batches: list[SampleBatch] = field(default_factory=list)
+    finished: list[tuple[RunMetadata, RunFinished]] = field(default_factory=list)
+
+    def live(self, batch: SampleBatch) -> None:
+        self.live_batches.append(batch)
+
+    def state(self, msg: DetectorStateMsg) -> None:
+        self.states.append(msg)
+
+    def run_started(self, metadata: RunMetadata) -> None:
+        self.started.append(metadata)
+
+    def run_samples(self, batch: SampleBatch) -> None:
+        self.run_batches.append(batch)
+
+    def run_finished(self, metadata: RunMetadata, finished: RunFinished) -> None:
+        self.finished.append((metadata, finished))
+
+
+def _stream(trace: Trace, t0_us: int = 0) -> bytes:
+    lines = [encode_info("sim", "1.0", trace.counts_per_m, 100.0)]
+    for i, (t, (c1, c2)) in enumerate(zip(trace.t_s.tolist(), trace.counts.tolist())):
+        lines.append(encode_data(i, (t0_us + round(t * 1e6)) % (1 << 32), (int(c1), int(c2))))
+    return b"".join(lines)
+
+
+def t_ns_of_first(out: FakeOutputs) -> int:
+    """Device time of the stream's first sample (from the live batches)."""
+    return out.live_batches[0].t_ns[0]
+
+
+def _acquire(data: bytes, chunk: int = 4096) -> FakeOutputs:
+    out = FakeOutputs()
+    acq = Acquisition(AcquisitionConfig(bench="b1", port="test://"), out,
+                      wall_clock=lambda: datetime(2026, 11, 22, 1, 2, 3, tzinfo=UTC),
+                      existing_run_ids=lambda run_id: run_id in {m.run_id for m in out.started})
+    for i in range(0, len(data), chunk):
+        acq.data(data[i:i + chunk])
+    acq.finish("end of stream")
+    return out
+
+
+def test_one_run_with_pre_trigger_samples_zeroed_at_the_hold() -> None:
+    trace = lab_run(LAB_CASES[2], 200, seed=4, after_s=14.0)
+    assert trace.release_t_s is not None
+    wrap_in_run = (1 << 32) - round((trace.release_t_s + 2.0) * 1e6)   # the device clock wraps mid-run
+    out = _acquire(_stream(trace, t0_us=wrap_in_run))
+    assert len(out.started) == 1 and len(out.finished) == 1
+    meta, done = out.finished[0]
+    assert done.status == "complete" and done.run_id == "r20261122-010203"
+    assert meta.counters.clock_wraps == 1
+    t_ns = np.array([t for b in out.run_batches for t in b.t_ns])
+    raw1 = np.array([r for b in out.run_batches for r in b.raw1])
+    pos1 = np.array([p for b in out.run_batches for p in b.pos1_m])
+    assert done.n_samples == t_ns.size and np.all(np.diff(t_ns) > 0)
+    # the samples are exactly the trace's from 0.5 s before the release
+    assert meta.release_t_ns is not None and meta.first_t_ns == int(t_ns[0])
+    assert meta.release_time_s == pytest.approx((meta.release_t_ns - int(t_ns[0])) / 1e9)
+    assert 0.5 <= meta.release_time_s < 0.5 + 1 / 200
+    first = \
+        int(np.searchsorted(trace.t_s, trace.t_s[0] + (int(t_ns[0]) - t_ns_of_first(out)) / 1e9 - 1e-6))
+    assert raw1.tolist() == trace.counts[first:first + t_ns.size, 0].tolist()
+    # zeroed at the hold: the cart reads ~0 just before the release and +0.15 m once settled
+    before = t_ns < meta.release_t_ns
+    assert abs(pos1[before][-1]) < 1e-3
+    assert pos1[-1] == pytest.approx(0.15, abs=2e-3)
+    run_states = [(s.state, s.run_id) for s in out.states if s.run_id is not None]
+    assert run_states == [("released", done.run_id), ("settled", done.run_id)]
+    assert sum(len(b.t_ns) for b in out.live_batches) == trace.t_s.size
+
+
+def test_stream_cut_mid_run_finishes_it_as_aborted() -> None:
+    trace = lab_run(LAB_CASES[0], 100, seed=2, after_s=8.0)
+    data = _stream(trace)
+    assert trace.release_t_s is not None
+    cut = int(np.searchsorted(trace.t_s, trace.release_t_s + 1.0))
+    out = _acquire(data[: data.index(b"$D,%d," % cut)])
+    (meta, done), = out.finished
+    assert done.status == "aborted" and done.reason == "end of stream"
+    assert done.n_samples == pytest.approx(150, abs=3)
