@@ -1,0 +1,34 @@
+"""Helpers for the sim/replay/link tests: read a finite port to its end, decode it."""
+
+from __future__ import annotations
+
+import serial
+
+import daq  # noqa: F401  (registers sim:// and replay://)
+from daq.decode import make_decoder
+from daq.frames import DataFrame, DecodeCounters, Frame
+from daq.serial_handlers import EndOfStream
+
+
+def read_all(url: str, max_reads: int = 1_000_000, chunk: int = 65536) -> bytes:
+    """Every byte a finite port delivers before EndOfStream (bounded in reads)."""
+    port = serial.serial_for_url(url, timeout=0.05)
+    out = bytearray()
+    try:
+        for _ in range(max_reads):
+            try:
+                out += port.read(max(chunk, port.in_waiting))
+            except EndOfStream:
+                return bytes(out)
+        raise AssertionError(f"{url}: no end of stream after {max_reads} reads")
+    finally:
+        port.close()
+
+
+def decode(stream: bytes, dialect: str = "cartlab") -> tuple[list[Frame], DecodeCounters]:
+    decoder = make_decoder(dialect)
+    return decoder.feed(stream), decoder.counters
+
+
+def data_frames(frames: list[Frame]) -> list[DataFrame]:
+    return [f for f in frames if isinstance(f, DataFrame)]
