@@ -1,0 +1,190 @@
+"""Simple identification (the lab's Part 2): fit the physical single-cart model by simulation.
+
+Model, in the zeroed frame, released from rest at t_r with pull U (m):
+
+    x'' + 2ζ wn x' + wn² (x - g U H(t - t_r)) [+ f sign(x')] = 0,   y = o + x + e,
+
+simulated on the sample grid by RK4 or explicit Euler (`ident.simulate`), parameters
+p = (wn, ζ, g, t_r, o[, f]) fitted by minimising the output error Σ (y - ŷ(p))² with
+`scipy.optimize.least_squares` (finite-difference Jacobian on scaled parameters). Start
+values come from the data: t_r from the onset of the motion, g from the final level, the
+damped period from the zero crossings of y - y_final and σ = ζ wn from the logarithmic
+decrement of the successive extrema. The release time stays a continuous parameter: the
+simulation takes one partial step from t_r to the first sample after it.
+
+Euler's bias is the point of the lab: its amplitude grows by √(1 + (wn h)²) per step, so the
+fitted ζ comes out too large; `substeps` shrinks h.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.optimize import least_squares
+
+from ident.compare import fit_percent
+from ident.data import IdData
+from ident.errors import FitFailed, IdentValueError
+from ident.release import check_motion, estimate_release_time, rest_window
+from ident.simulate import Method, euler_coulomb, linear_step_response
+
+FloatArray = NDArray[np.float64]
+PARAMETER_NAMES = ("wn", "zeta", "gain", "release_time_s", "offset", "friction")
+
+
+@dataclass(frozen=True)
+class SimpleFit:
+    """Fitted single-cart model. `friction` in m/s² (Mf/m = μ g), None when not fitted.
+
+    `std_errors` maps parameter names to standard errors from s²(JᵀJ)⁻¹; `covariance` is in
+    the order of `names`.
+    """
+
+    wn: float
+    zeta: float
+    gain: float
+    release_time_s: float
+    offset: float
+    friction: float | None
+    method: Method
+    substeps: int
+    names: tuple[str, ...]
+    covariance: FloatArray
+    std_errors: dict[str, float]
+    fit_percent: tuple[float, ...]
+    residuals: FloatArray
+    input_delay_s: float
+    nfev: int
+    success: bool
+    message: str
+
+    def simulate(self, u: ArrayLike, t: ArrayLike | None = None) -> FloatArray:
+        """Simulated y (N, 1) for a step input `u` on time base `t` (required)."""
+        if t is None:
+            raise IdentValueError("t", "the time base of u", None)
+        t_arr = np.asarray(t, dtype=np.float64)
+        u_arr = np.asarray(u, dtype=np.float64).reshape(-1)
+        jumps = np.flatnonzero(np.diff(u_arr) != 0.0)
+        if jumps.size != 1:
+            raise IdentValueError("u", "a single step (the release)", f"{jumps.size} changes")
+        release = float(t_arr[jumps[0] + 1]) + self.input_delay_s
+        params = np.array([self.wn, self.zeta, self.gain, release, self.offset, self.friction or 0.0])
+        y = _response(params, t_arr, float(u_arr[-1] - u_arr[0]), self.method, self.substeps,
+                      self.friction is not None)
+        return y[:, None]
+
+
+def _response(p: FloatArray, t: FloatArray, amplitude: float, method: Method, substeps: int,
+              with_friction: bool) -> FloatArray:
+    wn, zeta, gain, t_r, offset = p[:5]
+    if with_friction:
+        if method != "euler":
+            raise IdentValueError("method", "'euler' for the dry-friction model", method)
+        return offset + euler_coulomb(wn, zeta, p[5], gain * amplitude, t, t_r, substeps)
+    A = np.array([[0.0, 1.0], [-wn * wn, -2.0 * zeta * wn]])
+    B = np.array([[0.0], [wn * wn]])
+    return offset + linear_step_response(A, B, t, t_r, gain * amplitude, method, substeps)[:, 0]
+
+
+def start_values(t: FloatArray, y: FloatArray, amplitude: float, release0: float) -> FloatArray:
+    """(wn, ζ, g, t_r, o) from the data: period from zero crossings, σ from the log decrement."""
+    offset = float(np.median(y[rest_window(len(y))]))
+    after = t > release0
+    tail = y[after][-max(5, int(after.sum()) // 10):]
+    final = float(np.mean(tail))
+    gain = (final - offset) / amplitude
+    e = y[after] - final
+    ta = t[after]
+    signs = np.signbit(e)
+    crossings = np.flatnonzero(signs[1:] != signs[:-1])
+    if crossings.size < 3:
+        raise FitFailed(f"expected an oscillation (≥ 3 crossings of the final level), got {crossings.size}")
+    t_cross = ta[crossings] - e[crossings] * (ta[crossings + 1] - ta[crossings]) / (e[crossings + 1] - e[crossings])
+    omega_d = np.pi / float(np.median(np.diff(t_cross)))
+    peaks = np.array([np.max(np.abs(e[a:b + 1])) for a, b in zip(crossings[:-1], crossings[1:], strict=True)])
+    times = np.array([ta[a + int(np.argmax(np.abs(e[a:b + 1])))] for a, b in zip(crossings[:-1], crossings[1:], strict=True)])
+    usable = peaks > 0.05 * peaks[0]
+    sigma = 0.05 * omega_d
+    if usable.sum() >= 2:
+        slope = np.polyfit(times[usable], np.log(peaks[usable]), 1)[0]
+        sigma = max(-float(slope), 1e-3 * omega_d)
+    wn = float(np.hypot(omega_d, sigma))
+    return np.array([wn, sigma / wn, gain, release0, offset])
+
+
+def fit_simple(data: IdData, method: Method = "rk4", *, friction: bool = False, substeps: int = 1,
+               output: int = 0) -> SimpleFit:
+    """Fit wn, ζ, gain, release time, offset (and dry friction f, Euler only) of one cart.
+
+    `output` picks the column of `data.y`; `data.u` gives the pull amplitude U.
+    """
+    if method not in ("rk4", "euler"):
+        raise IdentValueError("method", "'rk4' or 'euler'", method)
+    if friction and method != "euler":
+        raise IdentValueError("method", "'euler' when friction=True (the Coulomb model)", method)
+    y = np.asarray(data.y[:, output])
+    check_motion(y)
+    amplitude = data.step_amplitude
+    jumps = np.flatnonzero(np.diff(data.u) != 0.0)
+    if jumps.size != 1:
+        raise IdentValueError("u", "a single step (the release)", f"{jumps.size} changes")
+    release0 = data.release_time_s if data.release_time_s is not None else estimate_release_time(data.t, y)
+    start = start_values(data.t, y, amplitude, release0)
+    lower = np.array([0.0, -0.5, -np.inf, data.t[0], -np.inf])
+    upper = np.array([np.inf, 5.0, np.inf, data.t[-1], np.inf])
+    result = _least_squares(data.t, y, amplitude, method, substeps, False, start, lower, upper)
+    if friction:
+        # the dry-friction fit starts from the linear Euler fit, with f = 0⁺ and with f from
+        # the envelope regression |e_{j+1}| = ρ |e_j| - 2 f / wn²; the lower cost wins
+        linear = np.asarray(result.x)
+        tries = [np.append(linear, 1e-3 * linear[0] ** 2 * abs(linear[2] * amplitude)),
+                 np.append(start, envelope_friction(data.t, y, release0, start[0]))]
+        results = [_least_squares(data.t, y, amplitude, method, substeps, True, p0,
+                                  np.append(lower, 0.0), np.append(upper, np.inf)) for p0 in tries]
+        result = min(results, key=lambda r: float(r.cost))
+    return _result(result, data, y, method, substeps, friction, float(data.t[jumps[0] + 1]))
+
+
+def _least_squares(t: FloatArray, y: FloatArray, amplitude: float, method: Method, substeps: int,
+                   friction: bool, start: FloatArray, lower: FloatArray, upper: FloatArray) -> Any:
+    def residual(p: FloatArray) -> FloatArray:
+        return np.asarray(_response(p, t, amplitude, method, substeps, friction) - y)
+
+    return least_squares(residual, np.clip(start, lower + 1e-12, upper), bounds=(lower, upper),
+                         method="trf", x_scale="jac", diff_step=1e-7, xtol=1e-12, ftol=1e-12,
+                         max_nfev=400)
+
+
+def envelope_friction(t: FloatArray, y: FloatArray, release0: float, wn: float) -> float:
+    """Dry-friction start value f (m/s²) from successive extrema |e_j| of y - y_final:
+    with Coulomb friction |e_{j+1}| = ρ |e_j| - 2 f / wn², a straight line in |e_j|."""
+    after = t > release0
+    e = y[after] - float(np.mean(y[after][-max(5, int(after.sum()) // 10):]))
+    signs = np.signbit(e)
+    crossings = np.flatnonzero(signs[1:] != signs[:-1])
+    peaks = np.array([np.max(np.abs(e[a:b + 1])) for a, b in zip(crossings[:-1], crossings[1:], strict=True)])
+    if peaks.size < 3:
+        return 0.0
+    slope, intercept = np.polyfit(peaks[:-1], peaks[1:], 1)
+    return float(max(-intercept * wn * wn / 2.0, 0.0))
+
+
+def _result(result: object, data: IdData, y: FloatArray, method: Method, substeps: int,
+            friction: bool, step_time: float) -> SimpleFit:
+    p = np.asarray(getattr(result, "x"))
+    jac = np.asarray(getattr(result, "jac"))
+    residuals = np.asarray(getattr(result, "fun"))
+    names = PARAMETER_NAMES[:len(p)]
+    s2 = float(residuals @ residuals) / max(1, residuals.size - p.size)
+    covariance = s2 * np.linalg.pinv(jac.T @ jac)
+    std = {name: float(np.sqrt(max(covariance[i, i], 0.0))) for i, name in enumerate(names)}
+    y_hat = y + residuals
+    return SimpleFit(wn=float(p[0]), zeta=float(p[1]), gain=float(p[2]), release_time_s=float(p[3]),
+                     offset=float(p[4]), friction=float(p[5]) if friction else None, method=method,
+                     substeps=substeps, names=names, covariance=covariance, std_errors=std,
+                     fit_percent=tuple(fit_percent(y, y_hat)), residuals=-residuals[:, None],
+                     input_delay_s=float(p[3]) - step_time, nfev=int(getattr(result, "nfev")),
+                     success=bool(getattr(result, "success")), message=str(getattr(result, "message")))
