@@ -40,7 +40,7 @@ class SimpleFit:
     """Fitted single-cart model. `friction` in m/s² (Mf/m = μ g), None when not fitted.
 
     `std_errors` maps parameter names to standard errors from s²(JᵀJ)⁻¹; `covariance` is in
-    the order of `names`.
+    the order of `names`. `y_hat` (N, 1) is the simulated output on the time base `t`.
     """
 
     wn: float
@@ -57,15 +57,15 @@ class SimpleFit:
     fit_percent: tuple[float, ...]
     residuals: FloatArray
     input_delay_s: float
+    t: FloatArray
+    y_hat: FloatArray
     nfev: int
     success: bool
     message: str
 
     def simulate(self, u: ArrayLike, t: ArrayLike | None = None) -> FloatArray:
-        """Simulated y (N, 1) for a step input `u` on time base `t` (required)."""
-        if t is None:
-            raise IdentValueError("t", "the time base of u", None)
-        t_arr = np.asarray(t, dtype=np.float64)
+        """Simulated y (N, 1) for a step input `u` on time base `t` (default: the fitted data's)."""
+        t_arr = self.t if t is None else np.asarray(t, dtype=np.float64)
         u_arr = np.asarray(u, dtype=np.float64).reshape(-1)
         jumps = np.flatnonzero(np.diff(u_arr) != 0.0)
         if jumps.size != 1:
@@ -186,5 +186,6 @@ def _result(result: object, data: IdData, y: FloatArray, method: Method, substep
                      offset=float(p[4]), friction=float(p[5]) if friction else None, method=method,
                      substeps=substeps, names=names, covariance=covariance, std_errors=std,
                      fit_percent=tuple(fit_percent(y, y_hat)), residuals=-residuals[:, None],
-                     input_delay_s=float(p[3]) - step_time, nfev=int(getattr(result, "nfev")),
+                     input_delay_s=float(p[3]) - step_time, t=np.asarray(data.t),
+                     y_hat=y_hat[:, None], nfev=int(getattr(result, "nfev")),
                      success=bool(getattr(result, "success")), message=str(getattr(result, "message")))
