@@ -269,12 +269,13 @@ class Rig:
     def _corrupt(self, line: bytes, kind: str) -> bytes:
         rng = self._fault_rng
         body = len(line) - 1                      # never touch the final newline
-        at = int(rng.integers(0, body))
+        at = int(rng.integers(1, body))           # inside the frame, after its first byte
         if kind == "bitflip":
+            at = int(rng.integers(0, body))
             flipped = line[at] ^ (1 << int(rng.integers(0, 7)))
             return line[:at] + bytes([flipped]) + line[at + 1:]
         if kind == "truncate":                    # the rest of the line, newline included, is lost
-            return line[:max(1, at)]
+            return line[:at]
         if kind == "nul":
             return line[:at] + b"\x00" + line[at:]
         if kind == "non_ascii":
