@@ -1,4 +1,5 @@
-"""Run ids: `r<UTC date>-<UTC time>[-<n>]`, unique in the runs directory, safe as key chunk and file stem."""
+"""Run ids: `r<UTC date>-<UTC time>-<nnn>`, unique in the runs directory, sorting in start order,
+safe as a key chunk and a file stem."""
 
 from __future__ import annotations
 
@@ -15,7 +16,7 @@ def new_run_id(bench: str, now: datetime, taken: Callable[[str], bool]) -> str:
     """The first free id for a run starting at `now` (`taken(run_id)` says whether it exists)."""
     stem = f"r{now:%Y%m%d-%H%M%S}"
     for n in range(MAX_SUFFIX):
-        candidate = stem if n == 0 else f"{stem}-{n}"
+        candidate = f"{stem}-{n:03d}"
         if not taken(candidate):
             return keys.check_name("run_id", candidate)
     raise DaqError(f"no free run id for {bench} at {stem}: expected fewer than {MAX_SUFFIX} runs per second")

@@ -92,3 +92,37 @@ def test_fit_onset_recovers_a_clean_parabola_onset() -> None:
 def test_settings_reject_a_short_pre_trigger() -> None:
     with pytest.raises(DaqValueError, match="pre_trigger_s: expected >= 0.5 s"):
         DetectorSettings(pre_trigger_s=0.2)
+
+
+def _sim_stream(url: str) -> tuple[list[tuple[float, tuple[float, float]]], list[float], float]:
+    """Samples (device seconds, metres) of an in-process `sim://` rig and its true release times."""
+    from daq.decode import make_decoder
+    from daq.frames import DataFrame
+    from daq.sim.options import parse_sim_url
+    from daq.sim.rig import Rig
+
+    rig = Rig(parse_sim_url(url))
+    data = bytearray()
+    for _ in range(100_000):
+        if rig.finished:
+            break
+        rig.produce_bytes(65536)
+        data += rig.take(65536)
+    assert rig.finished
+    scale = rig.options.counts_per_m
+    frames = [f for f in make_decoder("cartlab").feed(bytes(data)) if isinstance(f, DataFrame)]
+    samples = [(f.t_us * 1e-6, (f.raw[0] / scale, f.raw[1] / scale)) for f in frames]
+    return samples, [e.t_s for e in rig.events if e.kind == "release"], rig.options.rate_hz
+
+
+@pytest.mark.parametrize("rate_hz", [50, 100, 200, 1000])
+def test_sim_rig_lab_cases_each_give_one_release_within_one_sample(rate_hz: int) -> None:
+    samples, truth, rate = _sim_stream(
+        f"sim://?realtime=0&rate_hz={rate_hz}&cases=cart1,cart2,both&seed={rate_hz + 1}&c1=2&c2=2")
+    detector = ReleaseDetector()
+    found = [e for t, pos in samples for e in detector.feed(t, pos) if isinstance(e, Released)]
+    assert len(truth) == 3
+    assert len(found) == 3
+    for release, true_t in zip(found, truth):
+        assert abs(release.t_release_s - true_t) < 1.0 / rate
+    assert [r.channel for r in found] == [0, 1, 0]

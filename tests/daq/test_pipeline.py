@@ -68,7 +68,7 @@ def test_one_run_with_pre_trigger_samples_zeroed_at_the_hold() -> None:
     out = _acquire(_stream(trace, t0_us=wrap_in_run))
     assert len(out.started) == 1 and len(out.finished) == 1
     meta, done = out.finished[0]
-    assert done.status == "complete" and done.run_id == "r20261122-010203"
+    assert done.status == "complete" and done.run_id == "r20261122-010203-000"
     assert meta.counters.clock_wraps == 1
     t_ns = np.array([t for b in out.run_batches for t in b.t_ns])
     raw1 = np.array([r for b in out.run_batches for r in b.raw1])

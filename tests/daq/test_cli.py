@@ -1,0 +1,83 @@
+"""`daq run` on a `sim://` rig end to end (subprocess), and the file commands."""
+
+from __future__ import annotations
+
+import csv
+import json
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from daq.cli import main
+from daq.run_file import load_run
+from tests.daq.daq_process import REPO, daq_command, parse_capture
+
+SIM = "sim://?realtime=0&rate_hz=200&cases=cart1,cart2,both&seed=5&c1=2&c2=2&capture={capture}"
+
+
+@pytest.fixture(scope="module")
+def sim_runs(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
+    root = tmp_path_factory.mktemp("sim_runs")
+    capture = root / "capture.bin"
+    runs = root / "runs"
+    proc = subprocess.run(daq_command("run", "--port", SIM.format(capture=capture), "--runs-dir", str(runs),
+                                      "--no-zenoh", "--until-eof", "--bench", "b1"),
+                          cwd=REPO, capture_output=True, timeout=90)
+    assert proc.returncode == 0, proc.stderr.decode()
+    return runs, capture
+
+
+def test_one_file_per_release_with_exactly_the_emitted_samples(sim_runs: tuple[Path, Path]) -> None:
+    runs, capture = sim_runs
+    files = sorted(runs.glob("*.mcap"))   # run ids sort in start order
+    assert len(files) == 3 and not list(runs.glob("*.part"))
+    emitted = parse_capture(capture.read_bytes())
+    assert np.all(np.diff(emitted["t_us"]) > 0)   # no clock wrap in this capture
+    pulled = []
+    for path in files:
+        run = load_run(path)
+        assert run.complete and run.finished is not None and run.finished.status == "complete"
+        start = int(np.searchsorted(emitted["t_us"] * 1000, run.t_ns[0]))
+        span = slice(start, start + run.t_ns.size)
+        assert run.t_ns.tolist() == (emitted["t_us"][span] * 1000).tolist()
+        assert run.raw[:, 0].tolist() == emitted["enc1"][span].astype(float).tolist()
+        assert run.raw[:, 1].tolist() == emitted["enc2"][span].astype(float).tolist()
+        assert run.release_time_s is not None and 0.5 <= run.release_time_s < 0.5 + 1 / 200
+        assert run.metadata is not None and run.metadata.counts_per_m == 20000.0   # from the $I line
+        pulled.append(run.metadata.pulled_cart)
+    assert pulled == [1, 2, 1]
+
+
+def test_info_json_has_release_time(sim_runs: tuple[Path, Path], capsys: pytest.CaptureFixture[str]) -> None:
+    path = sorted(sim_runs[0].glob("*.mcap"))[0]
+    assert main(["info", str(path), "--json"]) == 0
+    info = json.loads(capsys.readouterr().out)
+    assert info["release_time_s"] == pytest.approx(load_run(path).release_time_s)
+    assert info["metadata"]["bench"] == "b1"
+    assert info["metadata"]["detector_settings"]["pre_trigger_s"] == 0.5
+
+
+def test_export_csv_and_mat(sim_runs: tuple[Path, Path], tmp_path: Path) -> None:
+    path = sorted(sim_runs[0].glob("*.mcap"))[1]
+    run = load_run(path)
+    assert main(["export", str(path), "--format", "csv", "-o", str(tmp_path / "r.csv")]) == 0
+    rows = list(csv.reader((tmp_path / "r.csv").open()))
+    assert rows[0] == ["time_s", "pos1_m", "pos2_m"]
+    assert len(rows) == run.t_ns.size + 1
+    assert float(rows[-1][0]) == pytest.approx((run.t_ns[-1] - run.t_ns[0]) / 1e9)
+    assert main(["export", str(path), "--format", "mat", "-o", str(tmp_path / "r.mat")]) == 0
+    assert (tmp_path / "r.mat").stat().st_size > run.t_ns.size * 8
+
+
+def test_bad_port_says_which_url(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    code = main(["run", "--port", "/dev/does-not-exist-42", "--runs-dir", str(tmp_path), "--no-zenoh"])
+    assert code == 1
+    err = capsys.readouterr().err
+    assert "/dev/does-not-exist-42" in err and "expected a port that opens" in err
+
+
+def test_recover_on_an_empty_directory_says_so(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["recover", str(tmp_path)]) == 0
+    assert "nothing to recover" in capsys.readouterr().out
