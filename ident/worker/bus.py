@@ -166,7 +166,7 @@ class WorkerBus:
 
     def fetch_run(self, bench: str, run_id: str, dest: Path, timeout_s: float = 10.0) -> Path:
         """Fetch a run's MCAP bytes from its daq's `run` queryable into `dest`."""
-        selector = f"{keys.daq_query(bench, 'run')}?run_id={keys.check_name('run_id', run_id)}"
+        selector = f"{keys.daq_query(bench, 'run')}?id={keys.check_name('run_id', run_id)}"
         errors = []
         for reply in self.session.get(selector, timeout=timeout_s):
             if reply.ok is not None:

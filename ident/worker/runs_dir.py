@@ -27,13 +27,20 @@ FIT_SUFFIX = ".fit"
 
 
 def find_run_file(runs_dir: Path | None, bench: str, file_name: str) -> Path | None:
-    """The local run file of `bench` named `file_name` (from `RunFinished.file`), or None."""
+    """The local run file of `bench` named `file_name` (from `RunFinished.file`), or None.
+
+    A file whose own finished record names another bench is not this run; a file without
+    one (damaged, or still being recovered) is taken, and its fit will say what is wrong.
+    """
     if runs_dir is None:
         return None
     name = Path(file_name).name
     for candidate in (runs_dir / name, runs_dir / bench / name):
         if candidate.is_file():
-            return candidate
+            finished = read_finished(candidate)
+            # Benches may share a directory and run ids are per bench: check the owner.
+            if finished is None or finished.bench == bench:
+                return candidate
     return None
 
 

@@ -1,0 +1,176 @@
+"""Everything the lab asks of one run, computed once: pure (IdData in, `RunAnalysis` out).
+
+For a run of lab case
+- `cart1` / `cart2` (the other cart pinned): the simple identification of the pulled cart
+  with RK4 and with Euler (`ident.simple`), PEM of order 2 on that cart, the diagnosis;
+- `both` (two free carts): PEM of order 4 on both outputs, the diagnosis of both carts.
+
+The case comes from the data: a cart "moves" when its largest deviation from rest exceeds
+`MOVING_SIGMAS` noise standard deviations and `MOVING_MIN_M`. Each stage that fails is
+recorded in `errors` (stage -> "expected …, got …" message) and the others still run;
+`RunAnalysis.failed_reason` says whether anything usable is left. No I/O, no plotting.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from ident.data import FloatArray, IdData
+from ident.errors import IdentError, IdentValueError
+from schemas.fit import LabCase, SimpleMethod
+
+if TYPE_CHECKING:
+    from ident.model import Model
+    from schemas.diagnosis import DiagnosisReport
+
+#: A cart moves when its largest deviation exceeds this many noise std and this many metres.
+MOVING_SIGMAS = 30.0
+MOVING_MIN_M = 0.005
+
+
+@dataclass(frozen=True)
+class SimpleResult:
+    """One simple identification: `G(s) = gain·wn² / (s² + 2ζwn s + wn²)` of one cart."""
+
+    method: SimpleMethod
+    output: int
+    wn_rad_s: float
+    zeta: float
+    gain: float
+    fit_percent: float
+    y_hat: FloatArray
+    coulomb_accel_m_s2: float | None = None
+
+    @property
+    def tf_coefficients(self) -> tuple[list[float], list[float]]:
+        wn2 = self.wn_rad_s ** 2
+        return [self.gain * wn2], [1.0, 2.0 * self.zeta * self.wn_rad_s, wn2]
+
+
+@dataclass(frozen=True)
+class RunAnalysis:
+    """The results of one run; `outputs` are the cart numbers of `data.y`'s columns."""
+
+    case: LabCase
+    data: IdData
+    outputs: tuple[int, ...]
+    simple: tuple[SimpleResult, ...] = ()
+    pem: Model | None = None
+    pem_y_hat: FloatArray | None = None
+    diagnosis: DiagnosisReport | None = None
+    timings_s: dict[str, float] = field(default_factory=dict)
+    errors: dict[str, str] = field(default_factory=dict)
+
+    @property
+    def release_time_s(self) -> float | None:
+        if self.pem is not None and self.pem.release_time_s is not None:
+            return float(self.pem.release_time_s)
+        if self.diagnosis is not None:
+            return float(self.diagnosis.release_time_s)
+        return self.data.release_time_s
+
+    @property
+    def failed_reason(self) -> str | None:
+        """Why the run counts as failed: no PEM model and no simple fit."""
+        if self.pem is not None or self.simple:
+            return None
+        return "; ".join(f"{stage}: {msg}" for stage, msg in self.errors.items()) or \
+            "nothing was fitted"
+
+
+def detect_case(data: IdData) -> tuple[LabCase, tuple[int, ...]]:
+    """The lab case and the carts (1-based) that move, from the data alone."""
+    from ident.release import motion_amplitude, noise_std
+
+    amplitude = motion_amplitude(data.y)
+    sigma = noise_std(data.y)
+    moving = tuple(j + 1 for j in range(data.n_outputs)
+                   if amplitude[j] > max(MOVING_SIGMAS * sigma[j], MOVING_MIN_M))
+    if not moving:
+        raise IdentValueError("run", "a cart that moves after the release",
+                              f"largest deviation {float(np.max(amplitude)):.3g} m (no motion)")
+    if len(moving) == 2:
+        return "both", (1, 2)
+    return ("cart1" if moving == (1,) else "cart2"), moving
+
+
+def _timed(stage: str, timings: dict[str, float], errors: dict[str, str],
+           work: Callable[[], Any]) -> Any:
+    started = time.perf_counter()
+    try:
+        return work()
+    except (IdentError, ValueError, ArithmeticError, np.linalg.LinAlgError, ImportError) as exc:
+        errors[stage] = str(exc) or type(exc).__name__
+        return None
+    finally:
+        timings[stage] = timings.get(stage, 0.0) + time.perf_counter() - started
+
+
+def analyse(data: IdData) -> RunAnalysis:
+    """Detect the case and run every fit the lab asks for on it."""
+    case, moving = detect_case(data)
+    columns = [c - 1 for c in moving] if case != "both" else [0, 1]
+    cart_data = data.select_outputs(columns) if data.n_outputs != len(columns) else data
+    timings: dict[str, float] = {}
+    errors: dict[str, str] = {}
+    simple: list[SimpleResult] = []
+    if case != "both":
+        for method in ("rk4", "euler"):
+            result = _timed("simple", timings, errors,
+                            lambda m=method: fit_simple_result(cart_data, m, moving[0]))  # type: ignore[misc]
+            if result is not None:
+                simple.append(result)
+    order = 4 if case == "both" else 2
+    model = _timed("pem", timings, errors, lambda: _pem(cart_data, order))
+    y_hat = None if model is None else model.simulate(cart_data.u)
+    diagnosis = _timed("diagnose", timings, errors, lambda: _diagnose(cart_data))
+    return RunAnalysis(case, cart_data, tuple(moving) if case != "both" else (1, 2),
+                       tuple(simple), model, y_hat, diagnosis, timings, errors)
+
+
+def warm_up() -> None:
+    """Import the fitting stack (scipy, control, matplotlib: seconds) ahead of the first fit."""
+    import importlib
+
+    for name in ("ident.pem", "ident.simple", "ident.diagnose", "ident.report.figures",
+                 "matplotlib.figure", "control"):
+        try:
+            importlib.import_module(name)
+        except ImportError:
+            pass
+
+
+def _pem(data: IdData, order: int) -> Model:
+    from ident.pem import pem
+
+    return pem(data, order)
+
+
+def _diagnose(data: IdData) -> DiagnosisReport:
+    import importlib
+
+    # TODO(integration): a plain import once ident.diagnose.diagnose has landed
+    diagnose = getattr(importlib.import_module("ident.diagnose"), "diagnose")
+    report: DiagnosisReport = diagnose(data)
+    return report
+
+
+def fit_simple_result(data: IdData, method: SimpleMethod, output: int) -> SimpleResult:
+    """The simple identification (`ident.simple.fit_simple`) as a `SimpleResult`."""
+    from ident.simple import fit_simple
+
+    fit = fit_simple(data, method=method)
+    y_hat = np.asarray(fit.simulate(data.u, data.t))
+    return SimpleResult(method=method, output=output, wn_rad_s=float(fit.wn),
+                        zeta=float(fit.zeta), gain=float(fit.gain),
+                        fit_percent=float(fit.fit_percent[0]),
+                        y_hat=y_hat.reshape(len(data.t), -1), coulomb_accel_m_s2=fit.friction)
+
+
+__all__ = ["MOVING_MIN_M", "MOVING_SIGMAS", "RunAnalysis", "SimpleResult", "analyse",
+           "detect_case", "fit_simple_result", "warm_up"]

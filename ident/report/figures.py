@@ -1,0 +1,135 @@
+"""Figures of one run's analysis: measured vs estimated outputs, by the lab's plotting rules.
+
+Rules (DESIGN.md "Figures"): font family and size set once (`ident.plotting`'s style, the
+same the HTML report uses), line width ≥ 2, x and y labels with units on every axis, no
+title (the report's caption describes each figure: caption or title, never both), measured
+and estimated traces in different line styles. Functions return `matplotlib.figure.Figure`
+objects (testable) and `save` writes PNG and SVG. Matplotlib is used headless (Agg).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from ident.data import FloatArray
+from ident.report.analysis import RunAnalysis
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+
+MEASURED_STYLE = {"linestyle": "-", "color": "0.15"}
+ESTIMATE_STYLES = [{"linestyle": "--", "color": "tab:red"},
+                   {"linestyle": ":", "color": "tab:blue"},
+                   {"linestyle": "-.", "color": "tab:green"}]
+MIN_LINE_WIDTH = 2.0
+
+
+def style() -> tuple[str, float]:
+    """Apply the lab's figure style once; return (font family, font size in pt)."""
+    try:
+        from ident import plotting
+    except ImportError:  # TODO(integration): ident.plotting not landed yet
+        import matplotlib
+
+        matplotlib.rcParams.update({"font.family": "DejaVu Sans", "font.size": 11.0,
+                                    "lines.linewidth": 2.0, "svg.fonttype": "none"})
+        return "DejaVu Sans", 11.0
+    plotting.apply_style()
+    return plotting.FONT_FAMILY, float(plotting.FONT_SIZE_PT)
+
+
+def _figure(n_axes: int) -> tuple[Figure, list[Any]]:
+    from matplotlib.figure import Figure as MplFigure
+
+    style()
+    fig = MplFigure(figsize=(7.0, 2.6 * n_axes + 0.6), layout="constrained")
+    axes = [fig.add_subplot(n_axes, 1, i + 1) for i in range(n_axes)]
+    return fig, axes
+
+
+def measured_vs_estimated(t: FloatArray, y: FloatArray,
+                          estimates: list[tuple[list[str], FloatArray]],
+                          carts: tuple[int, ...]) -> Figure:
+    """One axis per cart: the measured position (solid) and each estimate (dashed, dotted…).
+
+    `t` (N,) s, `y` (N, n_carts) m, each estimate a label per cart and (N, n_carts) m,
+    `carts` the cart numbers.
+    """
+    fig, axes = _figure(len(carts))
+    width = max(MIN_LINE_WIDTH, 2.0)
+    for j, (ax, cart) in enumerate(zip(axes, carts)):
+        ax.plot(t, y[:, j], label=f"measured, cart {cart}", linewidth=width, **MEASURED_STYLE)
+        for k, (labels, y_hat) in enumerate(estimates):
+            ax.plot(t, y_hat[:, j], label=labels[j], linewidth=width,
+                    **ESTIMATE_STYLES[k % len(ESTIMATE_STYLES)])
+        ax.set_xlabel("time (s)")
+        ax.set_ylabel(f"cart {cart} position (m)")
+        ax.grid(True, alpha=0.3)
+        ax.legend(loc="best")
+    return fig
+
+
+def simple_figure(analysis: RunAnalysis) -> Figure | None:
+    if not analysis.simple:
+        return None
+    estimates = [([f"{'RK4' if r.method == 'rk4' else 'Euler'} simulation, "
+                   f"fit {r.fit_percent:.1f} %"], r.y_hat) for r in analysis.simple]
+    return measured_vs_estimated(analysis.data.t, analysis.data.y, estimates, analysis.outputs)
+
+
+def pem_figure(analysis: RunAnalysis) -> Figure | None:
+    if analysis.pem is None or analysis.pem_y_hat is None:
+        return None
+    labels = [f"PEM order {analysis.pem.order} simulation, fit {f:.1f} %"
+              for f in analysis.pem.fit_percent]
+    return measured_vs_estimated(analysis.data.t, analysis.data.y, [(labels, analysis.pem_y_hat)],
+                                 analysis.outputs)
+
+
+def save(fig: Figure, directory: Path, stem: str) -> list[str]:
+    """Write `<stem>.png` (150 dpi) and `<stem>.svg`; return the file names."""
+    directory.mkdir(parents=True, exist_ok=True)
+    fig.savefig(directory / f"{stem}.png", dpi=150)
+    fig.savefig(directory / f"{stem}.svg")
+    names = [f"{stem}.png", f"{stem}.svg"]
+    return names
+
+
+def figures_of(analysis: RunAnalysis) -> dict[str, Figure]:
+    """Every figure of a run by file stem: `simple`, `pem` (when fitted)."""
+    out: dict[str, Figure] = {}
+    for stem, fig in (("simple", simple_figure(analysis)), ("pem", pem_figure(analysis))):
+        if fig is not None:
+            out[stem] = fig
+    return out
+
+
+def check_figure_rules(fig: Figure) -> list[str]:
+    """The lab's rules a figure breaks (empty when it follows them), for tests and CI."""
+    problems = []
+    has_title = bool(fig.get_suptitle()) if hasattr(fig, "get_suptitle") else False
+    for i, ax in enumerate(fig.axes):
+        has_title = has_title or bool(ax.get_title())
+        for axis_name, label in (("x", ax.get_xlabel()), ("y", ax.get_ylabel())):
+            if not label or "(" not in label or ")" not in label:
+                problems.append(f"axis {i}: {axis_name} label {label!r} has no unit in parentheses")
+        styles = set()
+        for line in ax.get_lines():
+            if line.get_linewidth() < MIN_LINE_WIDTH:
+                problems.append(f"axis {i}: line {line.get_label()!r} width {line.get_linewidth()}")
+            styles.add(line.get_linestyle())
+        if len(ax.get_lines()) > 1 and len(styles) < len(ax.get_lines()):
+            problems.append(f"axis {i}: {len(ax.get_lines())} traces share line styles {styles}")
+    if has_title:
+        problems.append("figure has a title: the report's caption describes it (never both)")
+    return problems
+
+
+def close(figures: dict[str, Figure]) -> None:
+    for fig in figures.values():
+        fig.clear()
+
+
+__all__ = ["check_figure_rules", "figures_of", "measured_vs_estimated", "pem_figure", "save",
+           "simple_figure", "style"]

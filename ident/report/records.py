@@ -1,0 +1,82 @@
+"""`RunAnalysis` -> `schemas.fit.FitReport` (the record the worker publishes and writes)."""
+
+from __future__ import annotations
+
+from datetime import UTC, datetime
+
+import numpy as np
+
+from schemas.fit import (FitReport, FitTimings, ModeRec, PemFitRec, SimpleFitRec,
+                         TransferFunctionRec)
+from ident.report.analysis import RunAnalysis
+
+
+def tf_text(num: list[float], den: list[float]) -> str:
+    """`G(s)` as one line, e.g. `(126.4) / (s^2 + 1.02 s + 126.4)`."""
+    return f"({poly_text(num)}) / ({poly_text(den)})"
+
+
+def poly_text(coefficients: list[float], digits: int = 4) -> str:
+    """A polynomial in `s`, highest power first, with `digits` significant digits."""
+    order = len(coefficients) - 1
+    terms: list[str] = []
+    for i, c in enumerate(coefficients):
+        power = order - i
+        if c == 0.0:
+            continue
+        magnitude = abs(c)
+        value = "" if power > 0 and np.isclose(magnitude, 1.0, rtol=1e-9) else f"{magnitude:.{digits}g}"
+        var = "" if power == 0 else ("s" if power == 1 else f"s^{power}")
+        body = " ".join(p for p in (value, var) if p)
+        if terms:
+            terms.append(f"{'-' if c < 0 else '+'} {body}")
+        else:
+            terms.append(f"{'-' if c < 0 else ''}{body}")
+    return " ".join(terms) or "0"
+
+
+def _tf_rec(output: int, num: list[float], den: list[float]) -> TransferFunctionRec:
+    num_f = [float(x) for x in num]
+    den_f = [float(x) for x in den]
+    return TransferFunctionRec(output=output, num=num_f, den=den_f, text=tf_text(num_f, den_f))
+
+
+def simple_records(analysis: RunAnalysis) -> list[SimpleFitRec]:
+    records = []
+    for r in analysis.simple:
+        num, den = r.tf_coefficients
+        records.append(SimpleFitRec(method=r.method, output=r.output, tf=_tf_rec(r.output, num, den),
+                                    wn_rad_s=r.wn_rad_s, zeta=r.zeta, gain=r.gain,
+                                    fit_percent=r.fit_percent,
+                                    coulomb_accel_m_s2=r.coulomb_accel_m_s2))
+    return records
+
+
+def pem_record(analysis: RunAnalysis) -> PemFitRec | None:
+    model = analysis.pem
+    if model is None:
+        return None
+    tfs = [_tf_rec(cart, list(num), list(den))
+           for cart, (num, den) in zip(analysis.outputs, model.tf_coefficients())]
+    modes = [ModeRec(wn_rad_s=float(m.wn), zeta=float(m.zeta)) for m in model.modes]
+    return PemFitRec(order=model.order, tfs=tfs, modes=modes,
+                     fit_percent=[float(f) for f in model.fit_percent],
+                     outputs=list(analysis.outputs))
+
+
+def to_fit_report(analysis: RunAnalysis, *, bench: str, run_id: str, worker: str,
+                  figures: list[str], timings: FitTimings, software_version: str) -> FitReport:
+    reason = analysis.failed_reason
+    t = analysis.data.t
+    return FitReport(
+        bench=bench, run_id=run_id, worker=worker, status="failed" if reason else "ok",
+        reason=reason, case=analysis.case, release_time_s=analysis.release_time_s,
+        sample_rate_hz=float(1.0 / analysis.data.sample_time()),
+        duration_s=float(t[-1] - t[0]), simple=simple_records(analysis),
+        pem=pem_record(analysis), diagnosis=analysis.diagnosis, figures=figures,
+        timings=timings, fitted_utc=datetime.now(UTC).isoformat(timespec="seconds"),
+        software_version=software_version,
+        extra={"stage_errors": dict(analysis.errors)} if analysis.errors else {})
+
+
+__all__ = ["pem_record", "poly_text", "simple_records", "tf_text", "to_fit_report"]
