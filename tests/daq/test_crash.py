@@ -33,15 +33,25 @@ def test_kill_9_loses_at_most_half_a_second_and_restart_recovers(tmp_path: Path)
     proc = start_daq("run", "--port", SIM, "--bench", BENCH, "--runs-dir", str(runs), "--listen", endpoint,
                      log_path=tmp_path / "daq1.log")
     live_t: queue.SimpleQueue[int] = queue.SimpleQueue()
+    latest = [0]
+
+    def on_sample(sample: zenoh.Sample) -> None:
+        t_last = SampleBatch.from_json_bytes(sample.payload.to_bytes()).t_ns[-1]
+        latest[0] = max(latest[0], t_last)
+        live_t.put(t_last)
+
     session = _connect(endpoint)
     try:
-        sub = session.declare_subscriber(keys.samples(BENCH), lambda s: live_t.put(
-            SampleBatch.from_json_bytes(s.payload.to_bytes()).t_ns[-1]))
+        sub = session.declare_subscriber(keys.samples(BENCH), on_sample)
         parts = lambda: list(runs.glob("*.mcap.part"))  # noqa: E731
         wait_for(lambda: bool(parts()), 30, "a run file to be opened")
         part = parts()[0]
         start_size = part.stat().st_size
         wait_for(lambda: part.stat().st_size > start_size + 20_000, 30, "the run file to grow")
+        # growth is seen right after a flush: let 0.15 s more of samples go out so the kill
+        # lands between flushes, not just after one
+        grown_at = latest[0]
+        wait_for(lambda: latest[0] >= grown_at + 150_000_000, 10, "0.15 s more of live samples")
         proc.send_signal(signal.SIGKILL)
         proc.wait(timeout=10)
         wait_for(lambda: not list(session.liveliness().get(keys.ALL_DAQ_ALIVE, timeout=1)), 10,
