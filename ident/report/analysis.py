@@ -155,7 +155,9 @@ def _diagnose(data: IdData) -> DiagnosisReport:
     import importlib
 
     # TODO(integration): a plain import once ident.diagnose.diagnose has landed
-    diagnose = getattr(importlib.import_module("ident.diagnose"), "diagnose")
+    diagnose = getattr(importlib.import_module("ident.diagnose"), "diagnose", None)
+    if diagnose is None:
+        raise ImportError("ident.diagnose.diagnose is not available")
     report: DiagnosisReport = diagnose(data)
     return report
 
