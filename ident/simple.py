@@ -28,7 +28,7 @@ from scipy.optimize import least_squares
 from ident.compare import fit_percent
 from ident.data import IdData
 from ident.errors import FitFailed, IdentValueError
-from ident.release import check_motion, estimate_release_time, rest_window
+from ident.release import check_motion, estimate_release_time, noise_std, rest_window
 from ident.simulate import Method, euler_coulomb, linear_step_response
 
 FloatArray = NDArray[np.float64]
@@ -98,8 +98,7 @@ def start_values(t: FloatArray, y: FloatArray, amplitude: float, release0: float
     gain = (final - offset) / amplitude
     e = y[after] - final
     ta = t[after]
-    signs = np.signbit(e)
-    crossings = np.flatnonzero(signs[1:] != signs[:-1])
+    crossings = _significant_crossings(e, float(noise_std(y)[0]))
     if crossings.size < 3:
         raise FitFailed(f"expected an oscillation (≥ 3 crossings of the final level), got {crossings.size}")
     t_cross = ta[crossings] - e[crossings] * (ta[crossings + 1] - ta[crossings]) / (e[crossings + 1] - e[crossings])
@@ -113,6 +112,19 @@ def start_values(t: FloatArray, y: FloatArray, amplitude: float, release0: float
         sigma = max(-float(slope), 1e-3 * omega_d)
     wn = float(np.hypot(omega_d, sigma))
     return np.array([wn, sigma / wn, gain, release0, offset])
+
+
+def _significant_crossings(e: FloatArray, noise: float) -> NDArray[np.int64]:
+    """Indices k where e changes sign between k and k+1, kept while the swing between
+    crossings exceeds 10 noise std (noise around a stuck cart makes spurious crossings)."""
+    signs = np.signbit(e)
+    crossings = np.flatnonzero(signs[1:] != signs[:-1])
+    kept = [int(crossings[0])] if crossings.size else []
+    for a, b in zip(crossings[:-1], crossings[1:], strict=True):
+        if np.max(np.abs(e[a:b + 1])) < 10.0 * noise:
+            break
+        kept.append(int(b))
+    return np.array(kept, dtype=np.int64)
 
 
 def fit_simple(data: IdData, method: Method = "rk4", *, friction: bool = False, substeps: int = 1,
@@ -133,29 +145,28 @@ def fit_simple(data: IdData, method: Method = "rk4", *, friction: bool = False, 
         raise IdentValueError("u", "a single step (the release)", f"{jumps.size} changes")
     release0 = data.release_time_s if data.release_time_s is not None else estimate_release_time(data.t, y)
     start = start_values(data.t, y, amplitude, release0)
-    lower = np.array([0.0, -0.5, -np.inf, data.t[0], -np.inf])
-    upper = np.array([np.inf, 5.0, np.inf, data.t[-1], np.inf])
-    result = _least_squares(data.t, y, amplitude, method, substeps, False, start, lower, upper)
+    result = _least_squares(data.t, y, amplitude, method, substeps, False, start)
     if friction:
         # the dry-friction fit starts from the linear Euler fit, with f = 0⁺ and with f from
         # the envelope regression |e_{j+1}| = ρ |e_j| - 2 f / wn²; the lower cost wins
         linear = np.asarray(result.x)
         tries = [np.append(linear, 1e-3 * linear[0] ** 2 * abs(linear[2] * amplitude)),
-                 np.append(start, envelope_friction(data.t, y, release0, start[0]))]
-        results = [_least_squares(data.t, y, amplitude, method, substeps, True, p0,
-                                  np.append(lower, 0.0), np.append(upper, np.inf)) for p0 in tries]
+                 np.append(linear, envelope_friction(data.t, y, release0, linear[0]))]
+        results = [_least_squares(data.t, y, amplitude, method, substeps, True, p0) for p0 in tries]
         result = min(results, key=lambda r: float(r.cost))
     return _result(result, data, y, method, substeps, friction, float(data.t[jumps[0] + 1]))
 
 
 def _least_squares(t: FloatArray, y: FloatArray, amplitude: float, method: Method, substeps: int,
-                   friction: bool, start: FloatArray, lower: FloatArray, upper: FloatArray) -> Any:
+                   friction: bool, start: FloatArray) -> Any:
+    """Unbounded trust-region least squares (bounds stalled the friction fit in local minima)."""
     def residual(p: FloatArray) -> FloatArray:
         return np.asarray(_response(p, t, amplitude, method, substeps, friction) - y)
 
-    return least_squares(residual, np.clip(start, lower + 1e-12, upper), bounds=(lower, upper),
-                         method="trf", x_scale="jac", diff_step=1e-7, xtol=1e-12, ftol=1e-12,
-                         max_nfev=400)
+    # stick events make the friction model's output jump with its parameters: difference
+    # over a wider step (10⁻³ relative) so the Jacobian sees the trend, not the jumps
+    return least_squares(residual, start, method="trf", x_scale="jac", diff_step=1e-3 if friction else 1e-7,
+                         xtol=1e-12, ftol=1e-12, max_nfev=400)
 
 
 def envelope_friction(t: FloatArray, y: FloatArray, release0: float, wn: float) -> float:
@@ -163,8 +174,7 @@ def envelope_friction(t: FloatArray, y: FloatArray, release0: float, wn: float) 
     with Coulomb friction |e_{j+1}| = ρ |e_j| - 2 f / wn², a straight line in |e_j|."""
     after = t > release0
     e = y[after] - float(np.mean(y[after][-max(5, int(after.sum()) // 10):]))
-    signs = np.signbit(e)
-    crossings = np.flatnonzero(signs[1:] != signs[:-1])
+    crossings = _significant_crossings(e, float(noise_std(y)[0]))
     peaks = np.array([np.max(np.abs(e[a:b + 1])) for a, b in zip(crossings[:-1], crossings[1:], strict=True)])
     if peaks.size < 3:
         return 0.0
@@ -183,7 +193,7 @@ def _result(result: object, data: IdData, y: FloatArray, method: Method, substep
     std = {name: float(np.sqrt(max(covariance[i, i], 0.0))) for i, name in enumerate(names)}
     y_hat = y + residuals
     return SimpleFit(wn=float(p[0]), zeta=float(p[1]), gain=float(p[2]), release_time_s=float(p[3]),
-                     offset=float(p[4]), friction=float(p[5]) if friction else None, method=method,
+                     offset=float(p[4]), friction=abs(float(p[5])) if friction else None, method=method,
                      substeps=substeps, names=names, covariance=covariance, std_errors=std,
                      fit_percent=tuple(fit_percent(y, y_hat)), residuals=-residuals[:, None],
                      input_delay_s=float(p[3]) - step_time, t=np.asarray(data.t),

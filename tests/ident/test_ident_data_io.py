@@ -1,0 +1,166 @@
+"""`IdData` validation, uniform sampling, step input and the loaders (text exports, MCAP)."""
+
+from __future__ import annotations
+
+import io
+from pathlib import Path
+
+import numpy as np
+import pytest
+from ident_synth import cart1_run, cart2_run
+
+from ident.data import IdData, check_arrays, make_uniform, step_input
+from ident.errors import DataFileError, IdentDimensionError, IdentValueError
+from ident.io import load, read_table
+from ident.release import estimate_release_time
+
+T = np.arange(0.0, 2.0, 0.02)
+Y = np.sin(T)
+
+
+@pytest.mark.parametrize(("t", "u", "y", "match"), [
+    (T, None, np.where(T > 1, np.nan, Y), r"y: expected finite values, got \[nan\] at sample 51"),
+    (T, np.full(T.size, np.inf), Y, "u: expected finite values"),
+    (T[:5], None, Y[:5], "number of samples: expected at least 20, got 5"),
+    (T, None, np.vstack([Y, Y]), r"y: expected time-major shape \(100,\) or \(100, n_outputs\), got shape \(2, 100\)"),
+    (T, np.zeros(99), Y, r"u: expected one input of shape \(100,\)"),
+    (T.reshape(10, 10), None, Y, "t: expected a 1-D array"),
+    (np.concatenate([T[:50], T[49:99]]), None, Y, "duplicate time at index 50"),
+    (T[::-1].copy(), None, Y, "decreasing time at index 1"),
+])
+def test_bad_arrays_get_errors_naming_the_problem(t: np.ndarray, u: np.ndarray | None,
+                                                  y: np.ndarray, match: str) -> None:
+    with pytest.raises(IdentValueError, match=match):
+        IdData(t, u, y)
+
+
+def test_shapes_are_normalised_and_frozen() -> None:
+    data = IdData(T, np.zeros((T.size, 1)), Y)
+    assert data.u.shape == (100,) and data.y.shape == (100, 1) and data.n_outputs == 1
+    with pytest.raises(ValueError):
+        data.y[0, 0] = 1.0
+    assert isinstance(IdentDimensionError("a", "b", "c"), ValueError)
+    t, u, y = check_arrays(T, None, np.column_stack([Y, Y]))
+    assert y.shape == (100, 2) and not np.any(u)
+
+
+def test_step_input_keeps_the_release_between_samples() -> None:
+    u = step_input(T, 0.513, 0.15)
+    assert u[25] == 0.0 and u[26] == 0.15  # 0.50 < 0.513 ≤ 0.52
+    data = IdData(T, u, Y, release_time_s=0.513)
+    assert data.release_time_s == 0.513 and data.step_time() == pytest.approx(0.52)
+
+
+def test_rounded_time_stamps_become_the_grid_and_gaps_are_interpolated() -> None:
+    ts = 0.0088541
+    t = np.round(np.arange(677) * ts, 3)  # an ECP export: 3 printed decimals
+    data = IdData(t, None, np.sin(3 * t))
+    assert data.is_uniform()
+    grid = make_uniform(data)
+    assert np.allclose(np.diff(grid.t), ts, rtol=1e-4) and "least-squares grid" in grid.notes[-1]
+    keep = np.ones(T.size, bool)
+    keep[40:45] = False  # five lost samples
+    gappy = IdData(T[keep], None, np.sin(T[keep]))
+    assert not gappy.is_uniform()
+    fixed = make_uniform(gappy)
+    assert fixed.n_samples == T.size and "linear interpolation" in fixed.notes[-1]
+    assert np.max(np.abs(fixed.y[:, 0] - np.sin(fixed.t))) < 2e-3
+
+
+def test_release_time_estimate_is_close_enough_to_start_a_fit() -> None:
+    for run in (cart1_run(50.0), cart2_run(200.0)):
+        assert abs(estimate_release_time(run.t, run.y) - run.release_time_s) < 0.01
+
+
+def test_our_csv_needs_no_options(tmp_path: Path) -> None:
+    run = cart2_run(50.0)
+    path = tmp_path / "run.csv"
+    rows = "\n".join(f"{a:.6f},{b:.7f},{c:.7f}" for a, b, c in zip(run.t, run.y[:, 0], run.y[:, 1], strict=True))
+    path.write_text("time_s,pos1_m,pos2_m\n" + rows + "\n")
+    data = load(path)
+    assert data.n_outputs == 2 and data.y[:, 1] == pytest.approx(run.y[:, 1], abs=1e-6)
+    assert data.release_time_s is None and "estimated" in data.notes[0]
+    assert abs(data.step_time() - run.release_time_s) < 0.03  # type: ignore[operator]
+
+
+def test_logger_pro_csv_with_quotes_and_centimetres(tmp_path: Path) -> None:
+    path = tmp_path / "lp.csv"
+    body = "\n".join(f"{t:.3f},{100 * y:.4f}" for t, y in zip(T, 0.1 * (T > 0.5) * np.sin(9 * T), strict=True))
+    path.write_text('"Latest: Time (s)","Latest: Position (cm)"\n' + body + "\n")
+    data = load(path)
+    assert data.y[:, 0] == pytest.approx(0.1 * (T > 0.5) * np.sin(9 * T), abs=1e-6)
+
+
+ECP = """ Sample   Time     Commanded Pos   Encoder 1 Pos   Encoder 2 Pos   Control Effort
+
+[    0    0.000               0               0               0          0.0000;
+{rows}
+]
+"""
+
+
+def test_ecp_tsv_with_brackets_column_names_and_scale(tmp_path: Path) -> None:
+    run = cart2_run(113.0, duration=4.0)
+    counts = np.round(run.y / 1e-5)
+    rows = "\n".join(f"   {i}    {t:.3f}   0   {int(a)}   {int(b)}   0.0000;"
+                     for i, (t, a, b) in enumerate(zip(run.t[1:], counts[1:, 0], counts[1:, 1], strict=True), 1))
+    path = tmp_path / "DOF2.csv"
+    path.write_text(ECP.format(rows=rows))
+    table = read_table(path.read_text())
+    assert table.names[:4] == ["Sample", "Time", "Commanded Pos", "Encoder 1 Pos"]
+    with pytest.raises(IdentValueError, match="scale of column 'Encoder 2 Pos'"):
+        load(path, pos_cols=["Encoder 2"])
+    data = load(path, time_col="Time", pos_cols=["Encoder 2", "Encoder 1"], scale=1e-5)
+    assert data.y[1:, 0] == pytest.approx(counts[1:, 1] * 1e-5) and data.y[0, 0] == 0.0
+    with pytest.raises(IdentValueError, match="exactly one column matching 'Encoder'"):
+        load(path, pos_cols=["Encoder"], scale=1e-5)
+
+
+def test_unreadable_files_are_data_file_errors(tmp_path: Path) -> None:
+    with pytest.raises(DataFileError, match="existing file"):
+        load(tmp_path / "nope.csv")
+    empty = tmp_path / "empty.csv"
+    empty.write_text("time_s,pos1_m\n\n")
+    with pytest.raises(DataFileError, match="numeric rows"):
+        load(empty)
+
+
+def _write_mcap(path: Path, t_ns: list[int], pos1: list[float], release_s: float | None) -> None:
+    from mcap.writer import Writer
+
+    from schemas import topics
+    from schemas.daq import RunMetadata, SampleBatch
+
+    stream = io.BytesIO()
+    writer = Writer(stream, chunk_size=4096)
+    writer.start(profile=topics.MCAP_PROFILE, library="test")
+    schema = writer.register_schema(SampleBatch.schema_name(), "jsonschema", SampleBatch.json_schema_bytes())
+    channel = writer.register_channel(topics.SAMPLES, "json", schema)
+    for seq, start in enumerate(range(0, len(t_ns), 50)):
+        batch = SampleBatch(bench="b", run_id="r1", batch_seq=seq, t_ns=t_ns[start:start + 50],
+                            pos1_m=pos1[start:start + 50], raw1=pos1[start:start + 50], raw_unit="m")
+        writer.add_message(channel, t_ns[start], batch.to_json_bytes(), t_ns[start])
+    meta = RunMetadata(bench="b", run_id="r1", dialect="csv", port="sim://", counts_per_m=1.0, signs=[1],
+                       zero_offsets_raw=[0.0], n_channels=1, detector_settings={}, detector_method="x",
+                       release_time_s=release_s, release_t_ns=None, first_t_ns=t_ns[0], pre_trigger_s=1.0,
+                       pulled_cart=1, software_version="0", started_utc="2026-01-01T00:00:00Z")
+    writer.add_metadata(topics.METADATA_RUN, {topics.METADATA_JSON_KEY: meta.to_json_bytes().decode()})
+    writer.finish()
+    path.write_bytes(stream.getvalue())
+
+
+def test_mcap_run_gives_release_time_and_pulled_cart_from_metadata(tmp_path: Path) -> None:
+    run = cart1_run(200.0)
+    first = 5_000_000_000
+    t_ns = [first + int(round(x * 1e9)) for x in run.t]
+    path = tmp_path / "r1.mcap"
+    _write_mcap(path, t_ns, [float(v) for v in run.y[:, 0]], run.release_time_s)
+    data = load(path)
+    assert data.release_time_s == run.release_time_s and data.pulled_cart == 1
+    assert data.t[0] == 0.0 and data.t[-1] == pytest.approx(run.t[-1])
+    assert data.y[:, 0] == pytest.approx(run.y[:, 0])
+    assert data.step_amplitude == 0.15
+    truncated = tmp_path / "cut.mcap"
+    truncated.write_bytes(path.read_bytes()[: len(path.read_bytes()) // 2])
+    partial = load(truncated, release_time_s=run.release_time_s)
+    assert 0 < partial.n_samples < data.n_samples
