@@ -14,10 +14,8 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
-import uvicorn
-
-from daq.web.app import create_app
 from daq.web.live import DEFAULT_DISPLAY_HZ
+from daq.web.server import BenchPageServer
 from daq.web.service import WebSettings
 from schemas.bus import DEFAULT_LISTEN, BusConfig
 
@@ -54,8 +52,7 @@ def settings_from_args(args: argparse.Namespace) -> WebSettings:
 
 def serve(settings: WebSettings, host: str, port: int) -> None:
     """Run the page server until interrupted (SIGINT/SIGTERM)."""
-    uvicorn.run(create_app(settings), host=host, port=port, log_level="warning",
-                timeout_graceful_shutdown=2)
+    BenchPageServer(settings, host, port).run()
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -148,6 +148,7 @@ def build_app(service: WebService) -> Starlette:
     ]
     handlers: dict[Any, Any] = {SchemaError: bad_name, RunFileError: missing_file}
     app = Starlette(routes=routes, lifespan=lifespan, exception_handlers=handlers)
+    app.state.service = service
     return app
 
 

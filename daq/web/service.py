@@ -38,6 +38,8 @@ log = logging.getLogger(__name__)
 
 #: Most inbox items parsed per flush (about 25 s of 1 kHz batches of 20 for one bench).
 MAX_ITEMS_PER_TICK = 5000
+#: Most recent runs per bench whose fit folder is looked at on each status tick.
+MAX_RUNS_SCANNED = 50
 
 
 @dataclass(frozen=True)
@@ -62,9 +64,12 @@ class WebService:
         self.bad_messages = 0
         self.flushes = 0
         self._tasks: list[asyncio.Task[None]] = []
+        self._loop: asyncio.AbstractEventLoop | None = None
+        self._bad_reports: set[tuple[str, str]] = set()
 
     # -- lifecycle ---------------------------------------------------------------------
     async def start(self) -> None:
+        self._loop = asyncio.get_running_loop()
         await anyio.to_thread.run_sync(self.link.open)
         self._tasks = [asyncio.create_task(self._pump()),
                        asyncio.create_task(self._poll_status())]
@@ -80,23 +85,41 @@ class WebService:
         self.broadcaster.close_all()
         await anyio.to_thread.run_sync(self.link.close)
 
+    def end_streams_threadsafe(self) -> None:
+        """End every page's event stream (from any thread): the server can then stop at once.
+
+        Event streams never finish by themselves, and the server waits for open requests
+        before it shuts down.
+        """
+        loop = self._loop
+        if loop is not None and not loop.is_closed():
+            loop.call_soon_threadsafe(self.broadcaster.close_all)
+
     # -- the inbox ---------------------------------------------------------------------
     def _fit_files(self, run_id: str) -> list[str]:
         runs_dir = self.settings.runs_dir
         return [] if runs_dir is None else list_fit_files(runs_dir, run_id)
 
-    def _load_local_fit(self, bench: str, run_id: str) -> None:
+    def _read_local_fit(self, bench: str, run_id: str) -> FitReport | None:
+        """`<runs-dir>/<run_id>.fit/report.json` when present and about this run, else None."""
         runs_dir = self.settings.runs_dir
-        if runs_dir is None or run_id in self.hub.bench(bench).fits:
-            return
+        if runs_dir is None or (bench, run_id) in self._bad_reports:
+            return None
         path = fit_dir(runs_dir, run_id) / REPORT_NAME
-        if path.is_file():
-            try:
-                report = FitReport.from_json_bytes(path.read_bytes())
-            except (OSError, ValueError) as exc:
-                log.warning("unreadable fit report %s: %s", path.name, exc)
-                return
-            if report.bench == bench and report.run_id == run_id:
+        if not path.is_file():
+            return None
+        try:
+            report = FitReport.from_json_bytes(path.read_bytes())
+        except (OSError, ValueError) as exc:
+            log.warning("unreadable fit report %s: %s", path.name, exc)
+            self._bad_reports.add((bench, run_id))
+            return None
+        return report if (report.bench, report.run_id) == (bench, run_id) else None
+
+    def _load_local_fit(self, bench: str, run_id: str) -> None:
+        if run_id not in self.hub.bench(bench).fits:
+            report = self._read_local_fit(bench, run_id)
+            if report is not None:
                 self.hub.on_fit(report)
 
     def handle(self, item: InboxItem) -> None:
@@ -165,9 +188,27 @@ class WebService:
                 self._load_local_fit(rec.bench, rec.run_id)
         await self.refresh_status(bench)
 
+    def scan_local_fits(self, limit: int = MAX_RUNS_SCANNED) -> int:
+        """Load fit results written in the runs dir for runs still without one; how many.
+
+        A fit report reaches the page over Zenoh only if the worker's session is linked to
+        the page's (directly or through a router); on one machine the files are enough.
+        """
+        loaded = 0
+        for name, view in list(self.hub.benches.items()):
+            waiting = [run_id for run_id in view.finished
+                       if run_id not in view.fits or not view.fits[run_id].final]
+            for run_id in waiting[-limit:]:
+                report = self._read_local_fit(name, run_id)
+                if report is not None and report.final:
+                    self.hub.on_fit(report)
+                    loaded += 1
+        return loaded
+
     async def _poll_status(self) -> None:
         while True:
             await asyncio.sleep(self.settings.status_every_s)
+            self.scan_local_fits()
             for bench in [name for name, view in self.hub.benches.items() if view.alive]:
                 await self.refresh_status(bench)
 

@@ -10,6 +10,7 @@ from __future__ import annotations
 import http.client
 import json
 import math
+import os
 import socket
 import threading
 import time
@@ -17,11 +18,10 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
-import uvicorn
 import zenoh
 import zenoh.ext
 
-from daq.web.app import create_app
+from daq.web.server import BenchPageServer
 from daq.web.service import WebSettings
 from schemas import keys
 from schemas.bus import BusConfig
@@ -59,12 +59,9 @@ class PageServer:
         self.sock = socket.socket()
         self.sock.bind(("127.0.0.1", 0))
         self.port = int(self.sock.getsockname()[1])
-        self.app = create_app(settings)
-        config = uvicorn.Config(self.app, log_level="warning", lifespan="on",
-                                timeout_graceful_shutdown=1)
-        self.server = uvicorn.Server(config)
-        self.thread = threading.Thread(target=self.server.run, kwargs={"sockets": [self.sock]},
-                                       daemon=True)
+        self.server = BenchPageServer(settings)
+        self.service = self.server.service
+        self.thread = threading.Thread(target=self.server.serve_on, args=(self.sock,), daemon=True)
 
     @property
     def url(self) -> str:
@@ -77,8 +74,9 @@ class PageServer:
         return self
 
     def __exit__(self, *exc: object) -> None:
-        self.server.should_exit = True
+        self.server.stop()
         self.thread.join(10)
+        assert not self.thread.is_alive(), "the page server did not stop"
         self.sock.close()
 
     def request(self, method: str, path: str, timeout_s: float = 10) -> tuple[int, bytes]:
@@ -176,12 +174,13 @@ class FakeDaqState:
 class FakeDaq:
     """A real Zenoh peer standing in for `daq run`: queryables, liveliness, publishers."""
 
-    def __init__(self, bench: str, listen: str) -> None:
+    def __init__(self, bench: str, listen: str, connect: bool = False) -> None:
+        """Listen on `listen`, or connect to it when `connect`."""
         self.bench = bench
-        self.listen = listen
         self.st = FakeDaqState()
         self.lock = threading.Lock()
-        self.session = zenoh.open(zenoh.Config.from_json5(BusConfig.listener(listen).zenoh_json5()))
+        bus = BusConfig.connector(listen) if connect else BusConfig.listener(listen)
+        self.session = zenoh.open(zenoh.Config.from_json5(bus.zenoh_json5()))
         s = self.session
         self.handles: list[Any] = [
             s.declare_queryable(keys.daq_query(bench, "status"), self._on_status),
@@ -290,3 +289,89 @@ def page_settings(endpoint: str, runs_dir: Any = None, **kw: Any) -> WebSettings
     kw.setdefault("query_timeout_s", 1.0)
     kw.setdefault("status_every_s", 0.3)
     return WebSettings(bus=BusConfig.connector(endpoint), runs_dir=runs_dir, **kw)
+
+
+# -- headless Chromium --------------------------------------------------------------------
+CHROMIUM_FLAGS = ("--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+                  "--disable-background-networking", "--disable-component-update", "--disable-sync",
+                  "--disable-dev-shm-usage", "--window-size=1280,1000")
+
+
+def chromium_paths() -> tuple[str | None, str | None]:
+    """Debian's chromium and chromedriver, or None for what is missing."""
+    import shutil
+
+    browser = shutil.which("chromium") or ("/usr/bin/chromium" if os.path.exists("/usr/bin/chromium") else None)
+    driver = shutil.which("chromedriver") or (
+        "/usr/bin/chromedriver" if os.path.exists("/usr/bin/chromedriver") else None)
+    return browser, driver
+
+
+def chromium_driver(user_data_dir: str) -> Any:
+    """A Selenium driver on Debian's headless Chromium (Selenium Manager downloads nothing)."""
+    from selenium import webdriver
+    from selenium.webdriver.chrome.service import Service
+
+    browser, driver = chromium_paths()
+    assert browser and driver, "chromium and chromedriver must be installed"
+    options = webdriver.ChromeOptions()
+    options.binary_location = browser
+    for flag in (*CHROMIUM_FLAGS, f"--user-data-dir={user_data_dir}"):
+        options.add_argument(flag)
+    return webdriver.Chrome(service=Service(executable_path=driver), options=options)
+
+
+# -- the real daq on a simulated rig --------------------------------------------------------
+class DaqProcess:
+    """`daq run --port sim://...` in a subprocess, listening on `endpoint`."""
+
+    def __init__(self, sim_url: str, bench: str, runs_dir: Any, endpoint: str) -> None:
+        import subprocess
+        import sys
+        from pathlib import Path
+
+        script = Path(sys.executable).with_name("daq")
+        cmd = [str(script)] if script.exists() else [sys.executable, "-m", "daq.cli"]
+        self.log_path = Path(runs_dir).parent / f"daq-{bench}.log"
+        self.log = open(self.log_path, "wb")  # noqa: SIM115 - closed in stop()
+        self.proc = subprocess.Popen([*cmd, "run", "--port", sim_url, "--bench", bench,
+                                      "--runs-dir", str(runs_dir), "--listen", endpoint],
+                                     stdout=self.log, stderr=subprocess.STDOUT)
+
+    def stop(self) -> str:
+        import signal
+        import subprocess
+
+        if self.proc.poll() is None:
+            self.proc.send_signal(signal.SIGINT)
+            try:
+                self.proc.wait(10)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+                self.proc.wait(5)
+        self.log.close()
+        return self.log_path.read_text(errors="replace")
+
+
+def diagnosis_record(cause: str, gain_points: float, base_fit: float) -> Any:
+    """A `DiagnosisReport` as `ident diagnose` would publish it (values set by the test)."""
+    from schemas.diagnosis import Candidate, DiagnosisReport, Evidence, ModelFit
+
+    base = ModelFit(model="linear", fit_percent=base_fit, parameters={"wn_rad_s": 5.5, "zeta": 0.04})
+    ext = ModelFit(model=f"linear+{cause}", fit_percent=base_fit + gain_points,
+                   parameters={"wn_rad_s": 5.5, "zeta": 0.03})
+    cand = Candidate(effect=cause, parameters={}, fit_percent=base_fit + gain_points,  # type: ignore[arg-type]
+                     gain_points=gain_points, extra_parameters=1, lr_train=50.0, lr_validation=40.0,
+                     threshold_train=6.6, threshold_validation=6.6, significant=True)
+    evidence = Evidence(residual_rms_m=1e-4, noise_std_m=5e-5, whiteness_fraction_outside=0.3,
+                        residual_is_white=False, residual_peak_hz=0.9,
+                        residual_peak_to_baseline_ratio=4.0, envelope_shape="constant_step",
+                        envelope_peaks=8, envelope_step_m=0.004, envelope_ratio=0.9,
+                        frequency_drift_per_m2=0.0, rest_offset_m=0.001, stuck_for_s=0.4,
+                        lattice_coherence=0.1)
+    return DiagnosisReport(carts=1, sample_rate_hz=1000.0, release_time_s=0.5, window_start_s=0.5,
+                           window_end_s=4.0, step_m=[0.15], step_estimated=False, baseline=base,
+                           candidates=[cand], cause=cause, extended=ext,  # type: ignore[arg-type]
+                           gain_points=gain_points, corrected_linear={}, evidence=evidence,
+                           validation="second half", explanation=f"the peaks decay by a constant step: {cause}",
+                           elapsed_s=0.1)

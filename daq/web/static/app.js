@@ -6,7 +6,7 @@
 const cartlab = window.cartlab = {
   bench: null, connected: false, state: null, status: null,
   eventsReceived: 0, sampleEvents: 0, samplesRaw: 0, pointsReceived: 0,
-  framesDrawn: 0, pointsDrawn: 0, lastT: null, lastAction: null, runs: {},
+  framesDrawn: 0, pointsDrawn: 0, lastT: null, lastAction: null, runs: {}, stateHistory: [],
   startedMs: performance.now(),
 };
 
@@ -117,6 +117,7 @@ function draw() {
 // ---- state, status, problems -------------------------------------------------------
 function showState(msg) {
   cartlab.state = msg ? msg.state : null;
+  if (msg && cartlab.stateHistory[cartlab.stateHistory.length - 1] !== msg.state) cartlab.stateHistory.push(msg.state);
   const el = $("state");
   el.className = "state state-" + (msg ? msg.state : "unknown");
   $("state-text").textContent = msg ? msg.state : "—";

@@ -1,0 +1,248 @@
+"""The bench page in a real browser: Debian's headless Chromium driven by Selenium, against
+the page server and a real `daq run` on a simulated 1 kHz two-cart rig (`sim://`).
+
+Skipped, with the reason, when `chromium` or `chromedriver` is not installed (`make browser`
+installs them). The fit report of the run is published by the test itself on the run's fit
+key: this tests the page, not the fitter.
+"""
+
+from __future__ import annotations
+
+import json
+import tempfile
+import urllib.request
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import pytest
+import zenoh
+import zenoh.ext
+
+from daq.web.service import WebSettings
+from schemas import keys
+from schemas.bus import BusConfig
+from schemas.daq import DaqStatus, RunFinished, RunList
+from schemas.fit import FitReport, ModeRec, PemFitRec, SimpleFitRec, TransferFunctionRec
+from tests.daq.web_support import (DaqProcess, FakeDaq, PageServer, chromium_driver, chromium_paths,
+                                   diagnosis_record, wait_for)
+
+BROWSER, DRIVER = chromium_paths()
+pytestmark = [
+    pytest.mark.skipif(BROWSER is None or DRIVER is None,
+                       reason="headless Chromium not installed (Debian packages chromium and "
+                       "chromium-driver; `make browser` installs them): browser tests skipped"),
+    pytest.mark.timeout(90),
+]
+
+BENCH = "benchA"
+# One cart-1 case at 1 kHz, real time: release ~3.5 s after start, settled ~4 s later, then
+# the rig rests (tail_s) so the stream keeps flowing for the rest of the module.
+SIM_URL = ("sim://?rate_hz=1000&cases=cart1&c1=3&c2=3&rest_s=1&pull_s=1&hold_s=1.5"
+           "&tail_s=120&realtime=1&seed=7")
+
+
+@pytest.fixture(scope="module")
+def workdir() -> Iterator[Path]:
+    with tempfile.TemporaryDirectory(prefix="cartlab-web-") as tmp:
+        yield Path(tmp)
+
+
+@pytest.fixture(scope="module")
+def endpoints() -> dict[str, str]:
+    from tests.conftest import pick_free_port
+
+    return {"daq": f"tcp/127.0.0.1:{pick_free_port()}", "page": f"tcp/127.0.0.1:{pick_free_port()}"}
+
+
+@pytest.fixture(scope="module")
+def runs_dir(workdir: Path) -> Path:
+    path = workdir / "runs"
+    path.mkdir()
+    return path
+
+
+@pytest.fixture(scope="module")
+def daq(runs_dir: Path, endpoints: dict[str, str]) -> Iterator[DaqProcess]:
+    proc = DaqProcess(SIM_URL, BENCH, runs_dir, endpoints["daq"])
+    yield proc
+    log = proc.stop()
+    assert "Traceback" not in log, log[-3000:]
+
+
+@pytest.fixture(scope="module")
+def page(daq: DaqProcess, runs_dir: Path, endpoints: dict[str, str]) -> Iterator[PageServer]:
+    settings = WebSettings(bus=BusConfig(listen=[endpoints["page"]], connect=[endpoints["daq"]]),
+                           runs_dir=runs_dir, status_every_s=0.5, query_timeout_s=2.0)
+    with PageServer(settings) as server:
+        yield server
+
+
+@pytest.fixture(scope="module")
+def session(endpoints: dict[str, str]) -> Iterator[zenoh.Session]:
+    """The test's own Zenoh peer (a worker's place): connected to the daq and to the page.
+
+    Peers with gossip scouting off do not relay for each other, so a fit publisher must
+    reach the page server directly (or through a router)."""
+    bus = BusConfig(listen=[], connect=[endpoints["daq"], endpoints["page"]])
+    s = zenoh.open(zenoh.Config.from_json5(bus.zenoh_json5()))
+    yield s
+    s.close()
+
+
+@pytest.fixture(scope="module")
+def browser(page: PageServer, workdir: Path) -> Iterator[Any]:
+    driver = chromium_driver(str(workdir / "chromium-profile"))
+    try:
+        driver.set_page_load_timeout(20)
+        driver.get(page.url + "/")
+        yield driver
+    finally:
+        driver.quit()
+
+
+def js(browser: Any, expr: str) -> Any:
+    return browser.execute_script(f"return {expr};")
+
+
+def query(session: zenoh.Session, key: str) -> bytes:
+    for reply in session.get(key, timeout=5.0):
+        if reply.ok is not None:
+            return bytes(reply.ok.payload.to_bytes())
+    raise AssertionError(f"no reply on {key}")
+
+
+def run_ids(browser: Any) -> list[str]:
+    return list(js(browser, "[...document.querySelectorAll('#runs-body tr[data-run]')].map(r => r.dataset.run)"))
+
+
+def row_cells(browser: Any, run_id: str) -> list[str]:
+    """The text of each cell of a run's row, read in one go (the table is re-rendered)."""
+    return list(browser.execute_script(
+        "const r = document.querySelector(`#runs-body tr[data-run=\"${arguments[0]}\"]`);"
+        "return r ? [...r.cells].map(c => c.innerText.trim()) : [];", run_id))
+
+
+def row_links(browser: Any, run_id: str) -> dict[str, str]:
+    return dict(browser.execute_script(
+        "const r = document.querySelector(`#runs-body tr[data-run=\"${arguments[0]}\"]`);"
+        "return r ? [...r.querySelectorAll('td.files a')].map(a => [a.textContent, a.href]) : [];", run_id))
+
+
+def blue_pixels(browser: Any) -> int:
+    """Pixels of the canvas drawn in cart 1's colour (#1f5fbf)."""
+    return int(browser.execute_script("""
+        const c = document.getElementById('plot'), d = c.getContext('2d').getImageData(0, 0, c.width, c.height).data;
+        let n = 0;
+        for (let i = 0; i < d.length; i += 4)
+          if (Math.abs(d[i] - 31) < 40 && Math.abs(d[i + 1] - 95) < 40 && Math.abs(d[i + 2] - 191) < 40) n++;
+        return n;"""))
+
+
+def test_live_trace_moves_release_settles_and_the_run_appears_with_its_fit(
+        browser: Any, page: PageServer, session: zenoh.Session, runs_dir: Path) -> None:
+    wait_for(lambda: js(browser, "window.cartlab.bench") == BENCH, 20, "the page to pick the bench")
+    # the DOM's state badge, recorded as it changes
+    browser.execute_script("""
+        window.badgeTexts = [document.getElementById('state-text').textContent];
+        new MutationObserver(() => window.badgeTexts.push(document.getElementById('state-text').textContent))
+          .observe(document.getElementById('state-text'), {childList: true, characterData: true, subtree: true});""")
+
+    # the live trace moves: device time and points drawn keep growing, pixels are painted
+    t0, drawn0 = wait_for(lambda: js(browser, "window.cartlab.lastT !== null && "
+                                     "[window.cartlab.lastT, window.cartlab.pointsDrawn]"), 20, "samples")
+    wait_for(lambda: js(browser, "window.cartlab.lastT") > t0 + 0.5, 10, "the trace to move 0.5 s")
+    assert js(browser, "window.cartlab.pointsDrawn") > drawn0
+
+    # a release changes the state to released, then settled
+    wait_for(lambda: "settled" in js(browser, "window.cartlab.stateHistory"), 30, "the run to settle")
+    history = js(browser, "window.cartlab.stateHistory")
+    assert history.index("released") < history.index("settled")
+    badges = js(browser, "window.badgeTexts")
+    assert "released" in badges and badges.index("released") < badges.index("settled")
+    assert blue_pixels(browser) > 500          # the ringing of cart 1 is painted on the canvas
+
+    # the run appears in the list, with the daq's own release time
+    run_id = wait_for(lambda: run_ids(browser), 10, "a run row")[0]
+    runs = RunList.from_json_bytes(query(session, keys.daq_query(BENCH, "runs")))
+    finished: RunFinished = next(r for r in runs.runs if r.run_id == run_id)
+    cells = row_cells(browser, run_id)
+    assert cells[0] == run_id and cells[1] == "complete"
+    assert cells[2] == f"{finished.release_time_s:.3f}" and cells[3] == f"{finished.duration_s:.2f}"
+    assert "waiting for a fit" in cells[4]
+
+    # the fit (published here as a worker would) shows with its figures and report
+    fit_dir = runs_dir / f"{run_id}.fit"
+    fit_dir.mkdir()
+    (fit_dir / "pem_cart1.png").write_bytes(b"\x89PNG\r\n\x1a\n")
+    tf = TransferFunctionRec(output=1, num=[30.25], den=[1.0, 0.44, 30.25])
+    report = FitReport(
+        bench=BENCH, run_id=run_id, worker="test", status="ok", case="cart1",
+        release_time_s=finished.release_time_s,
+        simple=[SimpleFitRec(method="rk4", output=1, tf=tf, wn_rad_s=5.49, zeta=0.041, gain=1.0,
+                             fit_percent=96.1)],
+        pem=PemFitRec(order=2, tfs=[tf], modes=[ModeRec(wn_rad_s=5.5, zeta=0.04)],
+                      fit_percent=[97.3], outputs=[1]),
+        diagnosis=diagnosis_record("coulomb_friction", 0.8, 97.3), figures=["pem_cart1.png"])
+    (fit_dir / "report.json").write_bytes(report.to_json_bytes())
+    publisher = zenoh.ext.declare_advanced_publisher(
+        session, keys.run_fit(BENCH, run_id), cache=zenoh.ext.CacheConfig(max_samples=1),
+        publisher_detection=True, sample_miss_detection=zenoh.ext.MissDetectionConfig(heartbeat=1.0))
+    try:
+        publisher.put(report.to_json_bytes())
+        cells = wait_for(lambda: (lambda c: c if len(c) == 10 and c[4].startswith("5.500") else None)(
+            row_cells(browser, run_id)), 10, "the fit in the row")
+    finally:
+        publisher.undeclare()
+    assert cells[4].splitlines() == ["5.500", "PEM order 2"]
+    assert cells[5:9] == ["0.0400", "97.3", "coulomb_friction", "+0.80 pts"]
+    links = row_links(browser, run_id)
+    assert set(links) == {"MCAP", "pem_cart1.png", "report"}
+    with urllib.request.urlopen(links["MCAP"], timeout=10) as resp:
+        assert resp.read(8) == b"\x89MCAP0\r\n"
+    with urllib.request.urlopen(links["report"], timeout=10) as resp:
+        assert json.loads(resp.read())["pem"]["modes"][0]["wn_rad_s"] == 5.5
+
+
+def test_zero_button_zeroes(browser: Any, session: zenoh.Session) -> None:
+    wait_for(lambda: js(browser, "window.cartlab.status !== null && window.cartlab.status.connected"),
+             20, "the daq status")
+    before = DaqStatus.from_json_bytes(query(session, keys.daq_query(BENCH, "status")))
+    browser.find_element("id", "zero-btn").click()
+    action = wait_for(lambda: js(browser, "window.cartlab.lastAction"), 10, "the zero reply")
+    assert action["action"] == "zero" and action["ok"] is True, action
+    offsets = action["reply"]["zero_offsets_raw"]
+    # the daq now subtracts the new offsets: the carts read ~0 where they rest
+    after = DaqStatus.from_json_bytes(query(session, keys.daq_query(BENCH, "status")))
+    assert after.zero_offsets_raw == offsets
+    assert after.last_pos_m is not None and before.last_pos_m is not None
+    assert abs(after.last_pos_m[0]) < 2e-3 < abs(before.last_pos_m[0])
+    assert "zeroed" in browser.find_element("id", "action-result").text
+    shown = ", ".join(f"{v:.0f}" for v in offsets)
+    wait_for(lambda: browser.find_element("id", "st-zero").text == shown, 10, "the new zero on the page")
+
+
+def test_bench_selector_failed_fit_and_daq_gone(browser: Any, page: PageServer,
+                                               endpoints: dict[str, str]) -> None:
+    other = FakeDaq("benchB", endpoints["page"], connect=True)   # a second daq, via the page's peer
+    try:
+        wait_for(lambda: browser.find_element("id", "bench-picker").is_displayed(), 15,
+                 "the bench selector to appear")
+        options = [o.get_attribute("value") for o in browser.find_elements("css selector", "#bench-select option")]
+        assert options == [BENCH, "benchB"]
+        browser.find_element("css selector", '#bench-select option[value="benchB"]').click()
+        wait_for(lambda: js(browser, "window.cartlab.bench") == "benchB", 10, "the page to follow benchB")
+        other.publish_finished(RunFinished(bench="benchB", run_id="rB1", status="complete", file="rB1.mcap",
+                                           n_samples=300, release_time_s=0.5, duration_s=0.3))
+        other.publish_fit(FitReport(bench="benchB", run_id="rB1", worker="w", status="failed",
+                                    reason="run too short: expected at least 2 s, got 0.3 s"))
+        cells = wait_for(lambda: (lambda c: c if len(c) > 4 and c[4].startswith("fit failed") else None)(
+            row_cells(browser, "rB1")), 10, "the failed fit")
+        assert cells[4] == "fit failed: run too short: expected at least 2 s, got 0.3 s"
+        assert run_ids(browser) == ["rB1"]                                  # benchA's runs not shown
+        other.leave()
+        problem = wait_for(lambda: browser.find_element("id", "problems").text, 10, "the daq-gone problem")
+        assert "daq for bench benchB is not running" in problem
+        assert browser.find_element("id", "zero-btn").get_attribute("disabled") is not None
+    finally:
+        other.close()
