@@ -12,7 +12,7 @@ from datetime import UTC, datetime
 
 import ident
 from ident.errors import IdentError
-from ident.io import load_mcap
+from ident.io import load
 from ident.report import figures as figs
 from ident.report.analysis import analyse, warm_up
 from ident.report.records import to_fit_report
@@ -27,7 +27,7 @@ warm_up()
 def fit_run(job: FitJob) -> FitReport:
     started = time.perf_counter()
     try:
-        data = load_mcap(job.run_file)
+        data = load(job.run_file)
         loaded = time.perf_counter()
         analysis = analyse(data)
     except (IdentError, ValueError, OSError) as exc:
