@@ -223,7 +223,7 @@ def report_blocks(results: list[CaseResult], generated: str) -> list[Block]:
 
 def summary_rows(results: list[CaseResult]) -> list[tuple[str, ...]]:
     """One row per case for a terminal table: case, TFs, wn, ζ, fit %, cause, gain."""
-    rows = []
+    rows: list[tuple[str, ...]] = []
     for r in results:
         rep = r.report
         pem = rep.pem
