@@ -134,8 +134,6 @@ class ReleaseDetector:
         self._history: deque[tuple[float, tuple[float, ...]]] = deque()
         self._anchor: tuple[float, ...] | None = None
         self._anchor_t = 0.0
-        self._sums: list[float] = []
-        self._count = 0
         self._hold: tuple[float, ...] = ()
         self._trigger_t: float | None = None
         self._trigger_channel = 0
@@ -183,26 +181,30 @@ class ReleaseDetector:
     def _still(self, t_s: float, sample: tuple[float, ...], band: float, duration_s: float) -> bool:
         """True once every channel stayed within ±band of the anchor for `duration_s`."""
         anchor = self._anchor
-        if anchor is None or len(anchor) != len(sample) or any(
-                abs(x - a) > band for x, a in zip(sample, anchor)):
+        if anchor is None or len(anchor) != len(sample):
             self._restart_anchor(t_s, sample)
             return False
-        self._count += 1
-        self._sums = [s + x for s, x in zip(self._sums, sample)]
+        for x, a in zip(sample, anchor):
+            if x - a > band or a - x > band:
+                self._restart_anchor(t_s, sample)
+                return False
         return t_s - self._anchor_t >= duration_s
 
     def _restart_anchor(self, t_s: float, sample: tuple[float, ...]) -> None:
         self._anchor = sample
         self._anchor_t = t_s
-        self._sums = list(sample)
-        self._count = 1
 
     def _feed_idle(self, t_s: float, sample: tuple[float, ...]) -> list[Event]:
         if not self._still(t_s, sample, self.settings.still_band_m, self.settings.still_s):
             return []
-        self._hold = tuple(s / self._count for s in self._sums)
+        self._hold = self._mean_since(self._anchor_t)
         self.state = "armed"
         return [Armed(t_s, self._hold)]
+
+    def _mean_since(self, t0_s: float) -> tuple[float, ...]:
+        """Mean position of the samples of the history from `t0_s` on (the still window)."""
+        window = [h[1] for h in self._history if h[0] >= t0_s]
+        return tuple(sum(column) / len(window) for column in zip(*window))
 
     def _feed_armed(self, t_s: float, sample: tuple[float, ...]) -> list[Event]:
         if self._trigger_t is None:

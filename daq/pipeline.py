@@ -93,6 +93,8 @@ class _Run:
     calibration: Calibration
     counters_at_start: DaqCounters
     batch: _Batch = field(default_factory=_Batch)
+    gains: tuple[float, ...] = ()
+    offsets_m: tuple[float, ...] = ()
     batch_seq: int = 0
     n_samples: int = 0
     last_t_ns: int = 0
@@ -233,7 +235,9 @@ class Acquisition:
             self._events(self.detector.reset(), t_ns)
 
     def _run_add(self, run: _Run, t_ns: int, raw: tuple[float, ...]) -> None:
-        run.batch.add(t_ns, raw, run.calibration.metres(raw))
+        g, o = run.gains, run.offsets_m
+        pos = (raw[0] * g[0] - o[0], raw[1] * g[1] - o[1]) if len(raw) == 2 else (raw[0] * g[0] - o[0],)
+        run.batch.add(t_ns, raw, pos)
         run.n_samples += 1
         run.last_t_ns = t_ns
 
@@ -295,7 +299,8 @@ class Acquisition:
             pre_trigger_s=self.config.detector.pre_trigger_s, pulled_cart=event.channel + 1,
             lab_case=self.config.lab_case, counters=self.counters(), software_version=daq.__version__,
             started_utc=now.isoformat(timespec="milliseconds"))
-        self.run = _Run(meta, cal, self.counters())
+        gains, offsets_m = cal.linear_terms()
+        self.run = _Run(meta, cal, self.counters(), gains=gains, offsets_m=offsets_m)
         self.outputs.run_started(meta)
         for t, raw in pre:
             self._run_add(self.run, t, raw)

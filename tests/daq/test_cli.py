@@ -81,3 +81,27 @@ def test_bad_port_says_which_url(tmp_path: Path, capsys: pytest.CaptureFixture[s
 def test_recover_on_an_empty_directory_says_so(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["recover", str(tmp_path)]) == 0
     assert "nothing to recover" in capsys.readouterr().out
+
+
+def test_a_port_that_goes_away_mid_run_leaves_a_marked_gap(tmp_path: Path) -> None:
+    capture = tmp_path / "capture.bin"
+    url = ("sim://?realtime=0&cases=cart1&seed=3&c1=2&c2=2&disconnect_every_s=6&disconnect_s=0.5"
+           f"&capture={capture}")
+    proc = subprocess.run(daq_command("run", "--port", url, "--runs-dir", str(tmp_path / "runs"), "--no-zenoh",
+                                      "--until-eof"), cwd=REPO, capture_output=True, timeout=60)
+    assert proc.returncode == 0, proc.stderr.decode()
+    assert b"disconnected; reopening" in proc.stderr
+    (path,) = (tmp_path / "runs").glob("*.mcap")
+    run = load_run(path)
+    assert run.metadata is not None and run.finished is not None
+    counters = run.metadata.counters
+    assert counters.reconnects == 1 and len(counters.gap_intervals) == 1
+    gap = counters.gap_intervals[0]
+    assert gap.reason == "disconnect" and gap.lost_frames == counters.lost_frames > 0
+    # the run kept what it had on both sides of the gap, and the gap is where samples are missing
+    steps = np.diff(run.t_ns)
+    assert int(steps.max()) == gap.end_t_ns - gap.start_t_ns
+    assert int(run.t_ns[0]) < gap.start_t_ns < gap.end_t_ns < int(run.t_ns[-1])
+    emitted = parse_capture(capture.read_bytes())
+    start = int(np.searchsorted(emitted["t_us"] * 1000, run.t_ns[0]))
+    assert run.raw[:, 0].tolist() == emitted["enc1"][start:start + run.t_ns.size].astype(float).tolist()
