@@ -123,8 +123,13 @@ def unit_scale(name: str) -> float | None:
 
 def load_text(path: str | Path, time_col: str | None = None, pos_cols: list[str] | None = None,
               scale: float | None = None, release_time_s: float | None = None,
-              step_m: float = DEFAULT_STEP_M, pulled_cart: int | None = None) -> IdData:
-    """Load a delimited export. `scale` (m per unit) overrides a unit found in the names."""
+              step_m: float = DEFAULT_STEP_M, pulled_cart: int | None = None,
+              input_col: str | None = None) -> IdData:
+    """Load a delimited export. `scale` (m per unit) overrides a unit found in the names.
+
+    With `input_col` (e.g. the ECP's 'Control Effort', a motor input) `u` is that column as
+    recorded; otherwise `u` is the release step.
+    """
     file = Path(path)
     try:
         text = file.read_text(encoding="utf-8", errors="replace")
@@ -138,6 +143,10 @@ def load_text(path: str | Path, time_col: str | None = None, pos_cols: list[str]
     y = np.column_stack([table.values[:, i] * _position_scale(table.names[i], scale)
                          for i in y_indices])
     t, _, y = check_arrays(t, None, y)
+    if input_col is not None:
+        u = table.values[:, _find_column(table.names, input_col)]
+        return IdData(t - t[0], u, y, release_time_s, pulled_cart, file.name,
+                      (f"input: column {table.names[_find_column(table.names, input_col)]!r} as recorded",))
     return from_release(t - t[0], y, release_time_s, step_m, pulled_cart, file.name)
 
 
@@ -202,11 +211,11 @@ def load_mcap(path: str | Path, step_m: float = DEFAULT_STEP_M,
 
 def load(path: str | Path, time_col: str | None = None, pos_cols: list[str] | None = None,
          scale: float | None = None, release_time_s: float | None = None,
-         step_m: float = DEFAULT_STEP_M) -> IdData:
+         step_m: float = DEFAULT_STEP_M, input_col: str | None = None) -> IdData:
     """Load a run from an MCAP file (`.mcap`) or a delimited text export (anything else)."""
     file = Path(path)
     if not file.exists():
         raise DataFileError(f"expected an existing file, got {str(file)!r}")
     if file.suffix == ".mcap":
         return load_mcap(file, step_m, release_time_s)
-    return load_text(file, time_col, pos_cols, scale, release_time_s, step_m)
+    return load_text(file, time_col, pos_cols, scale, release_time_s, step_m, input_col=input_col)

@@ -86,7 +86,11 @@ def estimate_release_time(t: FloatArray, y: FloatArray) -> float:
         t1 = _first_crossing(t_arr, deviation, level)
         t2 = _first_crossing(t_arr, deviation, 4.0 * level)
         estimates.append(t1 - (t2 - t1))
-    return float(np.clip(min(estimates), t_arr[0], t_arr[-1]))
+    estimate = min(estimates)
+    if estimate <= t_arr[1]:
+        raise IdentValueError("y", "rest before the release (the release inside the record)",
+                              f"motion from the first samples (onset estimated at {estimate:.4g} s)")
+    return float(min(estimate, t_arr[-1]))
 
 
 def _first_crossing(t: FloatArray, deviation: FloatArray, level: float) -> float:
