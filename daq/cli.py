@@ -174,7 +174,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     log.setLevel(logging.DEBUG if args.verbose else logging.INFO)
     try:
         code: int = args.func(args)
-    except (DaqError, SchemaError, ValidationError) as exc:
+    except ValidationError as exc:
+        first = exc.errors()[0]
+        where = ".".join(str(p) for p in first["loc"])
+        print(f"daq {args.command}: {exc.title} {where}: {first['msg']}", file=sys.stderr)
+        return 1
+    except (DaqError, SchemaError) as exc:
         print(f"daq {args.command}: {exc}", file=sys.stderr)
         return 1
     except OSError as exc:

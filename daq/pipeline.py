@@ -16,6 +16,7 @@ run keeps what it has and continues when the port comes back.
 
 from __future__ import annotations
 
+import math
 from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -35,6 +36,7 @@ from schemas.daq import (DaqCounters, DetectorState, DetectorStateMsg, GapInterv
 
 DEFAULT_COUNTS_PER_M: dict[str, float] = {"cartlab": 20000.0, "csv": 1.0, "ecp": 56000.0}
 BATCH_NS = 20_000_000
+PINNED_SPAN_M = 0.002
 MAX_BATCH = 500
 
 
@@ -95,6 +97,8 @@ class _Run:
     batch: _Batch = field(default_factory=_Batch)
     gains: tuple[float, ...] = ()
     offsets_m: tuple[float, ...] = ()
+    low_m: list[float] = field(default_factory=lambda: [math.inf, math.inf])
+    high_m: list[float] = field(default_factory=lambda: [-math.inf, -math.inf])
     batch_seq: int = 0
     n_samples: int = 0
     last_t_ns: int = 0
@@ -238,6 +242,12 @@ class Acquisition:
         g, o = run.gains, run.offsets_m
         pos = (raw[0] * g[0] - o[0], raw[1] * g[1] - o[1]) if len(raw) == 2 else (raw[0] * g[0] - o[0],)
         run.batch.add(t_ns, raw, pos)
+        low, high = run.low_m, run.high_m
+        for c, x in enumerate(pos):
+            if x < low[c]:
+                low[c] = x
+            if x > high[c]:
+                high[c] = x
         run.n_samples += 1
         run.last_t_ns = t_ns
 
@@ -311,7 +321,8 @@ class Acquisition:
         self._flush_run(run)
         counters = _delta(self.counters(), run.counters_at_start)
         meta = run.metadata.model_copy(update={
-            "counters": counters, "ended_utc": self._wall_clock().isoformat(timespec="milliseconds")})
+            "counters": counters, "ended_utc": self._wall_clock().isoformat(timespec="milliseconds"),
+            "lab_case": self.config.lab_case or _lab_case(run)})
         finished = RunFinished(
             bench=meta.bench, run_id=meta.run_id, status="complete" if status == "complete" else "aborted",
             file=f"{meta.run_id}.mcap", n_samples=run.n_samples, release_time_s=meta.release_time_s,
@@ -335,6 +346,20 @@ class Acquisition:
                                    run.calibration.n_channels)
             run.batch_seq += 1
             self.outputs.run_samples(batch)
+
+
+def _lab_case(run: _Run) -> str | None:
+    """The lab case from what moved: `cart1`/`cart2` (the other cart pinned) or `both`.
+
+    A cart counts as pinned when its position spanned less than `PINNED_SPAN_M` in the run.
+    """
+    pulled = run.metadata.pulled_cart
+    if run.calibration.n_channels != 2 or pulled not in (1, 2) or run.n_samples == 0:
+        return None
+    other = 2 - pulled   # index of the other channel
+    if run.high_m[other] - run.low_m[other] < PINNED_SPAN_M:
+        return f"cart{pulled}"
+    return "both" if pulled == 1 else "both_cart2_pulled"
 
 
 def _delta(now: DaqCounters, start: DaqCounters) -> DaqCounters:
