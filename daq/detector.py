@@ -170,6 +170,9 @@ class ReleaseDetector:
 
     def reset(self) -> list[Event]:
         """Forget the hold (e.g. after a gap in the data); a run in progress is left alone."""
+        if self.state == "released":
+            return []
+        self._trigger_t = None
         if self.state in ("armed", "settled"):
             self.state = "idle"
             self._anchor = None

@@ -5,7 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from daq.detector import Armed, DetectorSettings, Rejected, Released, ReleaseDetector, Settled, fit_onset
+from daq.detector import (Armed, DetectorSettings, Disarmed, Rejected, Released, ReleaseDetector, Settled,
+                          fit_onset)
 from daq.errors import DaqValueError
 from tests.daq.synth_runs import LAB_CASES, Trace, idle_handling, lab_run
 
@@ -126,3 +127,18 @@ def test_sim_rig_lab_cases_each_give_one_release_within_one_sample(rate_hz: int)
     for release, true_t in zip(found, truth):
         assert abs(release.t_release_s - true_t) < 1.0 / rate
     assert [r.channel for r in found] == [0, 1, 0]
+
+
+def test_reset_forgets_a_pending_candidate_and_arm_now_arms_at_once() -> None:
+    detector = ReleaseDetector()
+    t = 0.0
+    for _ in range(40):   # 0.4 s still at 100 Hz: armed
+        detector.feed(t, (0.0,))
+        t += 0.01
+    assert detector.state == "armed"
+    detector.feed(t, (0.01,))            # a candidate starts ...
+    assert [type(e) for e in detector.reset()] == [Disarmed]   # ... and a gap forgets it
+    assert detector.state == "idle"
+    assert detector.arm_now(t, (0.02,)) == [Armed(t, (0.02,))]
+    events = [e for k in range(1, 30) for e in detector.feed(t + k * 0.01, (0.02,))]
+    assert events == []                  # the stale candidate is gone: nothing fires on a still cart
