@@ -1,0 +1,374 @@
+"""Access: who may join the bus and who may publish what (issue 6, part 5).
+
+A real Zenoh router (`tools/zenoh_router.py`, router mode in this process) on an ephemeral
+loopback port runs the shipped `tools/zenoh/router-secure.json5` with a credentials file
+written here; clients use the shipped `tools/zenoh/*-client.json5` with the endpoint and
+password replaced. Denials are checked with an ordering argument, never a sleep: a client's
+forbidden put is followed by an allowed put on the same session (one link, reliable, in
+order), so once a subscriber holds the allowed sample, the forbidden one would already be
+there had the router forwarded it.
+"""
+
+from __future__ import annotations
+
+import ipaddress
+import json
+import queue
+import sys
+import time
+from collections.abc import Callable, Iterator
+from pathlib import Path
+from typing import Any
+
+import pytest
+import zenoh
+import zenoh.ext
+
+from daq.bus import DaqBus
+from ident.worker.bus import BusEvent, WorkerBus
+from schemas import keys
+from schemas.bus import BusConfig
+from schemas.daq import DaqCounters, DaqStatus, RunFinished, RunList
+from schemas.fit import FitReport
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tools"))
+import zenoh_router  # noqa: E402
+from zenoh_router import (  # noqa: E402
+    DAQ_CLIENT,
+    IDENT_CLIENT,
+    SECURE_ROUTER,
+    VIEWER_CLIENT,
+    client_config,
+    open_router,
+    router_config,
+)
+
+PASSWORDS = {"daq-bench1": "pw-daq1", "daq-bench2": "pw-daq2", "ident": "pw-ident", "viewer": "pw-view"}
+CLIENT_FILES = {"daq-bench1": DAQ_CLIENT, "ident": IDENT_CLIENT, "viewer": VIEWER_CLIENT}
+WAIT_S = 10.0
+REFUSE_MS = 700
+
+
+class Router:
+    """The secure router of the lab and the clients opened against it (closed at the end)."""
+
+    def __init__(self, endpoint: str, credentials: Path) -> None:
+        self.endpoint = endpoint
+        self.session = open_router(router_config(SECURE_ROUTER, listen=[endpoint], credentials=credentials))
+        self._closers: list[Callable[[], Any]] = []
+
+    def client(self, user: str, password: str | None = None, config_file: Path | None = None,
+               fail_after_ms: int = 5000) -> zenoh.Session:
+        path = config_file or CLIENT_FILES.get(user, VIEWER_CLIENT)
+        config = client_config(path, connect=[self.endpoint], user=user,
+                               password=PASSWORDS[user] if password is None else password,
+                               fail_after_ms=fail_after_ms)
+        session = zenoh.open(config)
+        self._closers.append(session.close)
+        return session
+
+    def keep(self, handle: Any) -> Any:
+        self._closers.append(handle.undeclare)
+        return handle
+
+    def close(self) -> None:
+        for close in reversed(self._closers):
+            close()
+        self.session.close()
+
+
+@pytest.fixture(scope="module")
+def router(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Router]:
+    from tests.conftest import pick_free_port
+
+    credentials = tmp_path_factory.mktemp("zenoh") / "credentials.txt"
+    credentials.write_text("".join(f"{user}:{pw}\n" for user, pw in PASSWORDS.items()))
+    hub = Router(f"tcp/127.0.0.1:{pick_free_port()}", credentials)
+    try:
+        yield hub
+    finally:
+        hub.close()
+
+
+class Inbox:
+    """A subscriber's samples, as (key, payload) pairs, waited on with a deadline."""
+
+    def __init__(self) -> None:
+        self.queue: queue.Queue[tuple[str, str]] = queue.Queue()
+        self.seen: list[tuple[str, str]] = []
+
+    def __call__(self, sample: zenoh.Sample) -> None:
+        self.queue.put((str(sample.key_expr), sample.payload.to_string()))
+
+    def wait_for(self, key: str, payload: str, timeout_s: float = WAIT_S) -> list[tuple[str, str]]:
+        deadline = time.monotonic() + timeout_s
+        while (key, payload) not in self.seen:
+            left = deadline - time.monotonic()
+            if left <= 0:
+                raise TimeoutError(f"expected {(key, payload)} within {timeout_s} s, got {self.seen}")
+            try:
+                self.seen.append(self.queue.get(timeout=left))
+            except queue.Empty:
+                continue
+        return self.seen
+
+
+def _put_until_received(sender: zenoh.Session, inbox: Inbox, key: str, payload: str,
+                        before: Callable[[], None] = lambda: None) -> list[tuple[str, str]]:
+    """Repeat `before(); put(key, payload)` until `inbox` has it (declarations propagate
+    asynchronously: the first puts may go out before the subscriber is known)."""
+    deadline = time.monotonic() + WAIT_S
+    for attempt in range(200):
+        before()
+        sender.put(key, f"{payload}#{attempt}")
+        try:
+            return inbox.wait_for(key, f"{payload}#{attempt}", timeout_s=0.1)
+        except TimeoutError:
+            if time.monotonic() > deadline:
+                break
+    raise TimeoutError(f"{key}: nothing received within {WAIT_S} s")
+
+
+# --- the default configuration --------------------------------------------------------------
+
+
+def _is_loopback(endpoint: str) -> bool:
+    host = endpoint.split("/", 1)[1].rsplit(":", 1)[0].strip("[]")
+    return host == "localhost" or ipaddress.ip_address(host).is_loopback
+
+
+def test_default_bus_config_listens_on_loopback_only_and_never_scouts() -> None:
+    conf = BusConfig().zenoh_dict()
+    assert conf["listen"]["endpoints"] and all(_is_loopback(e) for e in conf["listen"]["endpoints"])
+    assert conf["connect"]["endpoints"] == []
+    assert conf["scouting"]["multicast"]["enabled"] is False
+    assert conf["scouting"]["gossip"]["enabled"] is False
+    # The same once Zenoh has parsed it (Zenoh's own default is tcp/[::]:0 plus multicast).
+    parsed = zenoh.Config.from_json5(BusConfig().zenoh_json5())
+    assert json.loads(parsed.get_json("scouting/multicast/enabled")) is False
+    assert all(_is_loopback(e) for e in json.loads(parsed.get_json("listen/endpoints")))
+
+
+def test_default_daq_and_worker_command_lines_stay_on_loopback() -> None:
+    from daq.cli import _bus_config, build_parser
+    from ident.cli import build_parser as ident_parser
+    from ident.commands.worker import bus_config as worker_bus_config
+
+    daq_bus = _bus_config(build_parser().parse_args(["run", "--port", "sim://"]))
+    assert daq_bus is not None and daq_bus.config_file is None
+    assert daq_bus.listen and all(_is_loopback(e) for e in daq_bus.listen)
+    worker_bus = worker_bus_config(ident_parser().parse_args(["worker", "--name", "w1"]))
+    assert worker_bus.listen == [] and all(_is_loopback(e) for e in worker_bus.connect)
+
+
+def test_a_session_opened_with_the_default_config_has_only_loopback_links(free_port: int) -> None:
+    endpoint = f"tcp/127.0.0.1:{free_port}"
+    with zenoh.open(zenoh.Config.from_json5(BusConfig.listener(endpoint).zenoh_json5())) as listener, \
+            zenoh.open(zenoh.Config.from_json5(BusConfig.connector(endpoint).zenoh_json5())) as peer:
+        deadline = time.monotonic() + WAIT_S
+        while not list(peer.info.peers_zid()) and time.monotonic() < deadline:
+            time.sleep(0.02)
+        links = list(listener.info.links())
+        assert links, "expected the connecting peer to be linked"
+        for link in links:
+            for locator in (str(link.src), str(link.dst)):
+                assert _is_loopback(locator), locator
+
+
+def test_shipped_configs_parse_and_keep_scouting_off() -> None:
+    for path in (SECURE_ROUTER, DAQ_CLIENT, IDENT_CLIENT, VIEWER_CLIENT):
+        config = zenoh.Config.from_file(str(path))
+        assert json.loads(config.get_json("scouting/multicast/enabled")) is False, path
+        assert all(_is_loopback(e) for e in json.loads(config.get_json("listen/endpoints"))), path
+    secure = zenoh.Config.from_file(str(SECURE_ROUTER))
+    acl = json.loads(secure.get_json("access_control"))
+    assert acl["enabled"] is True and acl["default_permission"] == "deny"
+
+
+# --- authentication ---------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(("user", "password"), [(None, None), ("ident", "wrong"), ("stranger", "pw")],
+                         ids=["no-credentials", "wrong-password", "unknown-user"])
+def test_a_client_without_valid_credentials_is_refused(router: Router, user: str | None,
+                                                       password: str | None) -> None:
+    if user is None:
+        config = zenoh.Config.from_json5(json.dumps({
+            "mode": "client", "connect": {"endpoints": [router.endpoint], "timeout_ms": REFUSE_MS,
+                                          "exit_on_failure": True},
+            "scouting": {"multicast": {"enabled": False}, "gossip": {"enabled": False}}}))
+    else:
+        config = client_config(VIEWER_CLIENT, connect=[router.endpoint], user=user, password=password,
+                               fail_after_ms=REFUSE_MS)
+    with pytest.raises(zenoh.ZError, match="Unable to connect"):
+        zenoh.open(config)
+
+
+def test_a_refused_peer_that_keeps_retrying_reaches_no_one(router: Router) -> None:
+    """A client's open raises at once when refused (above); a peer's open returns and the
+    peer retries in the background, but it stays alone: no router, no traffic."""
+    config = client_config(DAQ_CLIENT, connect=[router.endpoint], user="daq-bench1", password="wrong")
+    assert json.loads(config.get_json("mode")) == "peer"
+    viewer = router.client("viewer")
+    inbox = Inbox()
+    router.keep(viewer.declare_subscriber("cartlab/**", inbox))
+    daq = router.client("daq-bench1")
+    with zenoh.open(config) as intruder:
+        intruder.put(keys.samples("bench1"), "intruder")
+        # A legitimate sample sent after the intruder's is received; the intruder's never was.
+        seen = _put_until_received(daq, inbox, keys.samples("bench1"), "legit",
+                                   before=lambda: intruder.put(keys.samples("bench1"), "intruder"))
+        assert list(intruder.info.routers_zid()) == []
+        assert list(intruder.info.peers_zid()) == []
+    assert all(payload != "intruder" for _, payload in seen)
+
+
+# --- authorization ------------------------------------------------------------------------------
+
+
+def test_ident_cannot_publish_run_records_but_can_publish_fits(router: Router) -> None:
+    viewer = router.client("viewer")
+    inbox = Inbox()
+    router.keep(viewer.declare_subscriber("cartlab/**", inbox))
+    ident = router.client("ident")
+    forged = keys.run_finished("bench1", "r1")
+    fit = keys.run_fit("bench1", "r1")
+    seen = _put_until_received(ident, inbox, fit, "fit",
+                               before=lambda: (ident.put(forged, "forged"),
+                                               ident.put(keys.samples("bench1"), "forged"),
+                                               ident.put(keys.state("bench1"), "forged")))
+    assert [k for k, p in seen if p == "forged"] == []
+    assert any(k == fit for k, _ in seen)
+
+
+def test_daq_publishes_only_under_its_own_bench(router: Router) -> None:
+    viewer = router.client("viewer")
+    inbox = Inbox()
+    router.keep(viewer.declare_subscriber("cartlab/**", inbox))
+    daq = router.client("daq-bench1")
+    own = keys.run_finished("bench1", "r2")
+    seen = _put_until_received(daq, inbox, own, "own",
+                               before=lambda: (daq.put(keys.run_finished("bench2", "r2"), "forged"),
+                                               daq.put(keys.samples("bench2"), "forged"),
+                                               daq.put("cartlab/ident/w1", "forged"),
+                                               daq.put("elsewhere/x", "forged")))
+    assert [k for k, p in seen if p == "forged"] == []
+    assert any(k == own for k, _ in seen)
+
+
+def test_a_viewer_publishes_nothing(router: Router) -> None:
+    listener = router.client("ident")
+    inbox = Inbox()
+    router.keep(listener.declare_subscriber("cartlab/**", inbox))
+    viewer = router.client("viewer")
+    daq = router.client("daq-bench1")
+    for key in (keys.samples("bench1"), keys.run_finished("bench1", "r3"), keys.run_fit("bench1", "r3")):
+        viewer.put(key, "forged")
+    seen = _put_until_received(daq, inbox, keys.state("bench1"), "legit")
+    # Ordering holds per sender only: give the viewer's puts a second chance to show up, by
+    # round-tripping a query through the router from the viewer's own session.
+    list(viewer.get(keys.daq_query("bench1", "status"), timeout=0.5))
+    while not inbox.queue.empty():
+        seen.append(inbox.queue.get_nowait())
+    assert [k for k, p in seen if p == "forged"] == []
+
+
+def test_no_one_but_the_bench_daq_can_serve_its_queries_or_claim_its_liveliness(router: Router) -> None:
+    ident = router.client("ident")
+    other_daq = router.client("daq-bench2", config_file=DAQ_CLIENT)
+    viewer = router.client("viewer")
+    status = keys.daq_query("bench1", "status")
+
+    def forged_reply(query: zenoh.Query) -> None:
+        query.reply(query.key_expr, "forged")
+
+    router.keep(ident.declare_queryable(status, forged_reply))
+    router.keep(other_daq.declare_queryable(status, forged_reply))
+    router.keep(ident.liveliness().declare_token(keys.daq_alive("bench1")))
+    router.keep(other_daq.liveliness().declare_token(keys.daq_alive("bench1")))
+    # The legitimate bench2 daq, on the same session, is seen: declarations do get through.
+    router.keep(other_daq.liveliness().declare_token(keys.daq_alive("bench2")))
+    deadline = time.monotonic() + WAIT_S
+    alive: set[str] = set()
+    while keys.daq_alive("bench2") not in alive and time.monotonic() < deadline:
+        alive = {str(r.ok.key_expr) for r in viewer.liveliness().get(keys.ALL_DAQ_ALIVE, timeout=1.0)
+                 if r.ok is not None}
+    assert keys.daq_alive("bench2") in alive
+    assert keys.daq_alive("bench1") not in alive
+    replies = list(viewer.get(status, timeout=1.0))
+    assert [r.ok.payload.to_string() for r in replies if r.ok is not None] == []
+
+
+def test_the_allowed_flows_of_a_bench_work_through_the_secure_router(router: Router, tmp_path: Path) -> None:
+    """daq (real `DaqBus`): samples, status, finished for a late joiner; ident: fit reports."""
+    daq_session = router.client("daq-bench1")
+    bus = DaqBus("bench1", BusConfig(), session=daq_session)
+    try:
+        finished = RunFinished(bench="bench1", run_id="r10", status="complete", file="r10.mcap",
+                               n_samples=10, release_time_s=0.5, duration_s=2.0)
+        bus.publish_finished(finished)
+        status = DaqStatus(bench="bench1", state="idle", run_id=None, port="sim://", dialect="cartlab",
+                           connected=True, counts_per_m=1e4, zero_offsets_raw=[0.0, 0.0], last_t_ns=None,
+                           last_pos_m=None, n_runs=1, counters=DaqCounters(), software_version="test")
+        bus.set_snapshot(status, RunList(bench="bench1", runs=[finished]))
+        # A late joiner (after the put) still receives the finished record.
+        viewer = router.client("viewer")
+        late = Inbox()
+        router.keep(zenoh.ext.declare_advanced_subscriber(
+            viewer, keys.ALL_FINISHED, late,
+            history=zenoh.ext.HistoryConfig(detect_late_publishers=True, max_samples=8),
+            recovery=zenoh.ext.RecoveryConfig(heartbeat=True)))
+        late.wait_for(keys.run_finished("bench1", "r10"), finished.model_dump_json())
+        replies = [r.ok for r in viewer.get(keys.daq_query("bench1", "status"), timeout=WAIT_S)
+                   if r.ok is not None]
+        assert [DaqStatus.from_json_bytes(r.payload.to_bytes()) for r in replies] == [status]
+        catch_up = [r.ok for r in viewer.get(keys.ALL_FINISHED, timeout=WAIT_S) if r.ok is not None]
+        assert [RunFinished.from_json_bytes(r.payload.to_bytes()) for r in catch_up] == [finished]
+        live = Inbox()
+        router.keep(viewer.declare_subscriber(keys.samples("bench1"), live))
+        deadline = time.monotonic() + WAIT_S
+        while not live.seen and time.monotonic() < deadline:
+            bus.publish_samples(b"{}")
+            try:
+                live.seen.append(live.queue.get(timeout=0.1))
+            except queue.Empty:
+                pass
+        assert live.seen and live.seen[0][0] == keys.samples("bench1")
+        # ident (real `WorkerBus`): its cached fit publisher, received by a late subscriber,
+        # and its liveliness token.
+        ident_file = tmp_path / "ident.json5"
+        ident_file.write_text(IDENT_CLIENT.read_text().replace("tcp/127.0.0.1:7447", router.endpoint)
+                              .replace("change-me-ident", PASSWORDS["ident"]))
+        events: queue.Queue[BusEvent] = queue.Queue()
+        with WorkerBus(BusConfig(config_file=str(ident_file)), "w1", events) as worker:
+            report = FitReport(bench="bench1", run_id="r10", worker="w1", status="failed", reason="test")
+            worker.publish_fit(report)
+            fits = Inbox()
+            router.keep(zenoh.ext.declare_advanced_subscriber(
+                viewer, keys.ALL_FITS, fits,
+                history=zenoh.ext.HistoryConfig(detect_late_publishers=True, max_samples=8)))
+            fits.wait_for(keys.run_fit("bench1", "r10"), report.model_dump_json())
+            assert worker.list_runs("bench1", timeout_s=WAIT_S) == RunList(bench="bench1", runs=[finished])
+            deadline = time.monotonic() + WAIT_S
+            workers: set[str] = set()
+            while keys.ident_alive("w1") not in workers and time.monotonic() < deadline:
+                workers = {str(r.ok.key_expr) for r in viewer.liveliness().get(keys.ALL_IDENT_ALIVE, timeout=1.0)
+                           if r.ok is not None}
+            assert keys.ident_alive("w1") in workers
+            # The worker's advanced subscriber catches up with the finished record too.
+            kinds: list[str] = []
+            deadline = time.monotonic() + WAIT_S
+            while "finished" not in kinds and time.monotonic() < deadline:
+                try:
+                    kinds.append(events.get(timeout=0.1).kind)
+                except queue.Empty:
+                    pass
+            assert "finished" in kinds
+    finally:
+        bus.close()
+
+
+def test_router_main_rejects_missing_files(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    assert zenoh_router.main(["--config", str(tmp_path / "absent.json5")]) == 2
+    assert "expected an existing JSON5 file" in capsys.readouterr().err
+    assert zenoh_router.main(["--config", str(SECURE_ROUTER), "--credentials", str(tmp_path / "none")]) == 2
