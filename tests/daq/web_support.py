@@ -21,7 +21,7 @@ from typing import Any
 import zenoh
 import zenoh.ext
 
-from daq.web.server import BenchPageServer
+from daq.web.server import ThreadedPageServer
 from daq.web.service import WebSettings
 from schemas import keys
 from schemas.bus import BusConfig
@@ -52,32 +52,8 @@ def wait_for(condition: Callable[[], Any], timeout_s: float, what: str, every_s:
 
 
 # -- the page server --------------------------------------------------------------------
-class PageServer:
-    """`create_app(settings)` served by uvicorn on an ephemeral loopback port, in a thread."""
-
-    def __init__(self, settings: WebSettings) -> None:
-        self.sock = socket.socket()
-        self.sock.bind(("127.0.0.1", 0))
-        self.port = int(self.sock.getsockname()[1])
-        self.server = BenchPageServer(settings)
-        self.service = self.server.service
-        self.thread = threading.Thread(target=self.server.serve_on, args=(self.sock,), daemon=True)
-
-    @property
-    def url(self) -> str:
-        return f"http://127.0.0.1:{self.port}"
-
-    def __enter__(self) -> PageServer:
-        self.thread.start()
-        wait_for(lambda: self.server.started or not self.thread.is_alive(), 15, "uvicorn to start")
-        assert self.server.started, "the page server did not start"
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.server.stop()
-        self.thread.join(10)
-        assert not self.thread.is_alive(), "the page server did not stop"
-        self.sock.close()
+class PageServer(ThreadedPageServer):
+    """The page server in a thread (ephemeral loopback port), with small HTTP helpers."""
 
     def request(self, method: str, path: str, timeout_s: float = 10) -> tuple[int, bytes]:
         conn = http.client.HTTPConnection("127.0.0.1", self.port, timeout=timeout_s)

@@ -6,7 +6,7 @@
 const cartlab = window.cartlab = {
   bench: null, connected: false, state: null, status: null,
   eventsReceived: 0, sampleEvents: 0, samplesRaw: 0, pointsReceived: 0,
-  framesDrawn: 0, pointsDrawn: 0, lastT: null, lastAction: null, runs: {}, stateHistory: [],
+  framesDrawn: 0, pointsDrawn: 0, drawMs: 0, handlerMs: 0, lastT: null, lastAction: null, runs: {}, stateHistory: [],
   startedMs: performance.now(),
 };
 
@@ -51,6 +51,7 @@ function draw() {
   requestAnimationFrame(draw);
   if (!trace.dirty) return;
   trace.dirty = false;
+  const started = performance.now();
   const canvas = $("plot"), dpr = window.devicePixelRatio || 1;
   const w = canvas.clientWidth, h = canvas.clientHeight;
   if (canvas.width !== Math.round(w * dpr)) { canvas.width = Math.round(w * dpr); canvas.height = Math.round(h * dpr); }
@@ -112,6 +113,7 @@ function draw() {
   ctx.restore();
   cartlab.framesDrawn += 1;
   cartlab.pointsDrawn += drawn;
+  cartlab.drawMs += performance.now() - started;
 }
 
 // ---- state, status, problems -------------------------------------------------------
@@ -130,7 +132,8 @@ function showStatus(view) {
   if (!view) return;
   const s = view.status;
   cartlab.status = s;
-  $("st-port").textContent = s ? `${s.port} (${s.dialect}) ${s.connected ? "connected" : "NOT CONNECTED"}` : "—";
+  $("st-port").textContent = s ? `${s.connected ? "connected" : "NOT CONNECTED"} · ${s.dialect} · ${s.port}` : "—";
+  $("st-port").title = s ? s.port : "";
   const pos = s && s.last_pos_m ? s.last_pos_m : [];
   $("st-pos1").textContent = pos.length > 0 ? fmt(pos[0], 4) + " m" : "—";
   $("st-pos2").textContent = pos.length > 1 ? fmt(pos[1], 4) + " m" : "—";
@@ -234,7 +237,11 @@ function connect(bench) {
   clearTrace(); cartlab.runs = {}; renderRuns();
   const url = "/api/events" + (bench ? "?bench=" + encodeURIComponent(bench) : "");
   source = new EventSource(url);
-  const on = (name, fn) => source.addEventListener(name, (ev) => { cartlab.eventsReceived++; fn(JSON.parse(ev.data)); });
+  const on = (name, fn) => source.addEventListener(name, (ev) => {
+    const started = performance.now();
+    cartlab.eventsReceived++; fn(JSON.parse(ev.data));
+    cartlab.handlerMs += performance.now() - started;
+  });
   source.onopen = () => { cartlab.connected = true; $("link").className = "link up"; $("link").textContent = "live"; };
   source.onerror = () => { cartlab.connected = false; $("link").className = "link down"; $("link").textContent = "reconnecting…"; };
   on("snapshot", (d) => {
