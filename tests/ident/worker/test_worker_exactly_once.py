@@ -115,3 +115,38 @@ def test_unloadable_run_gets_a_failed_report_and_the_worker_goes_on(router, tmp_
     assert failed.status == "failed" and "gone" in (failed.reason or "")
     assert "no reply" in (failed.reason or "")
     assert finals[good][0].status == "ok"
+
+
+def test_real_pipeline_reports_corrupted_and_truncated_runs_and_goes_on(router, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
+    import subprocess
+    import sys
+
+    from worker_harness import REPO
+
+    endpoint, session = router
+    recorded = tmp_path / "recorded"
+    subprocess.run([sys.executable, "-m", "daq.cli", "run", "--port",
+                    "sim://?cases=cart1&rate_hz=100&seed=9&realtime=0", "--bench", "bench1",
+                    "--runs-dir", str(recorded), "--no-zenoh", "--until-eof"],
+                   cwd=REPO, check=True, capture_output=True, timeout=60)
+    good_bytes = next(recorded.glob("*.mcap")).read_bytes()
+    runs_dir = tmp_path / "runs"
+    runs_dir.mkdir()
+    daq = FakeDaq(session, "bench1", runs_dir)
+    collector = FitCollector(session)
+    worker = start_worker("wa", _client(endpoint), runs_dir, tmp_path)
+    try:
+        bad = daq.announce("garbage", content=b"\x89MCAP0\r\n" + bytes(range(256)) * 4)
+        cut = daq.announce("truncated", content=good_bytes[:300])
+        good = daq.announce("good", content=good_bytes)
+        finals = collector.wait_finals([bad, cut, good], timeout_s=60)
+        assert worker.poll() is None
+    finally:
+        assert stop(worker) == 0
+    for run in (bad, cut):
+        report = finals[run][0]
+        assert report.status == "failed" and report.reason, report
+        assert "DataFileError" in report.reason and f"{run.run_id}.mcap" in report.reason
+        assert (runs_dir / f"{run.run_id}.fit" / "report.json").is_file()
+    ok = finals[good][0]
+    assert ok.status == "ok" and ok.case == "cart1" and ok.pem is not None and ok.pem.order == 2
