@@ -6,7 +6,8 @@
    pinned to one core. Prints lines/s (decoder lines / wall time, start-up included) and
    lines per CPU-second (the same over this process's CPU time: steadier on a shared machine).
 2. CPU share: the same capture is written at real time (1,000 lines/s) into a pseudo-terminal
-   by this process; `daq run` reads the pty as a serial port in a child process; the child's
+   by this process; `daq run` reads the pty as a serial port in a child process and publishes
+   to a subscriber in another process; the child's
    CPU time (utime + stime from /proc) over a window, divided by the wall time, is its share
    of one core.
 
@@ -111,6 +112,8 @@ def throughput(capture: Path, workdir: Path) -> None:
 
 
 def cpu_share(capture: Path, workdir: Path, seconds: float) -> None:
+    from schemas import keys
+
     master, slave = os.openpty()
     pty_path = os.ttyname(slave)
     lines = capture.read_bytes().splitlines(keepends=True)
@@ -131,8 +134,10 @@ def cpu_share(capture: Path, workdir: Path, seconds: float) -> None:
             stop.wait(0.005)
 
     feeder = threading.Thread(target=feed, daemon=True)
+    subscriber: subprocess.Popen[str] | None = None
     try:
         time.sleep(1.5)   # benchmark script, not a test: let the child import and open the pty
+        subscriber = start_subscriber(endpoint, keys.samples("bench"))
         feeder.start()
         time.sleep(1.0)
         cpu0, t0 = _proc_cpu_s(child.pid), time.monotonic()
@@ -143,12 +148,14 @@ def cpu_share(capture: Path, workdir: Path, seconds: float) -> None:
               f"({cpu1 - cpu0:.2f} s CPU over {t1 - t0:.1f} s)")
     finally:
         stop.set()
+        received = stop_subscriber(subscriber) if subscriber is not None else 0
         child.terminate()
         _, err = child.communicate(timeout=30)
         os.close(master)
         os.close(slave)
     runs = [line for line in err.splitlines() if " run " in line]
-    print(f"            daq log: {len(runs)} run lines, e.g. {runs[:1]}")
+    print(f"            {received} sample batches received by a subscriber in another process; "
+          f"daq log: {len(runs)} run lines, e.g. {runs[:1]}")
 
 
 def _proc_cpu_s(pid: int) -> float:
