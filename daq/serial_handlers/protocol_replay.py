@@ -179,9 +179,9 @@ class Serial(SerialBase):
             if deadline is not None and now >= deadline:
                 return
             due = bisect.bisect_right(self._ends, self._pos)
-            wake = self._origin + self._times[min(due, len(self._times) - 1)] / self._speed
+            delay = self._times[min(due, len(self._times) - 1)] / self._speed - (now - self._origin)
             limit = 0.05 if deadline is None else deadline - now
-            self.sleep(max(0.0, min(wake - now, limit)))
+            self.sleep(min(max(delay, 1e-4), limit))
 
     def write(self, data: bytes | bytearray | memoryview) -> int:
         """Commands to a replayed device are accepted and ignored."""

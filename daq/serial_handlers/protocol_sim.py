@@ -131,11 +131,10 @@ class Serial(SerialBase):
             now = self.clock()
             if deadline is not None and now >= deadline:
                 return
-            wake = self._origin + rig.next_sample_s
-            if not rig.plugged:
-                wake = self._origin + rig.plug_back_s
+            due_s = rig.next_sample_s if rig.plugged else rig.plug_back_s
+            delay = due_s - (now - self._origin)       # same arithmetic as _now(): no lost wake-up
             limit = 0.05 if deadline is None else deadline - now
-            self.sleep(max(0.0, min(wake - now, limit)))
+            self.sleep(min(max(delay, 1e-4), limit))
 
     def write(self, data: bytes | bytearray | memoryview) -> int:
         rig = self._live_rig()

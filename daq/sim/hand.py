@@ -6,8 +6,9 @@ pinned at its rest, or for `both` held there by the other hand) -> `hold` (`hold
 scaled by `1 + U(-hold_jitter, hold_jitter)`; the student zeroes here) -> `release`
 (the hand lets go: the cart leaves with the hand's velocity, tremor included; for
 `both` both carts are let go at the same instant; a pin stays) -> `ring` (until every
-free cart moves slower than `settle_mps` for `settle_hold_s`, or `ring_max_s`) -> pins
-removed, next case. An `idle` case is hands off for `idle_s`.
+free cart moves slower than `settle_mps` for `settle_hold_s`, or `ring_max_s`) -> next
+case (a pin stays on until the next grab). An `idle` case removes pins and is hands off
+for `idle_s`.
 
 Hand tremor: a sum of three sines (7-11 Hz, random phases) with RMS `tremor_m`, faded in
 over 0.3 s after the grab. A pin has no tremor.
@@ -104,9 +105,8 @@ class Hand:
             self._next_phase(self.phase_end, t, x1, x2)
 
     def ring_over(self, t: float) -> None:
-        """The rig says the ringing case has settled (or timed out): drop pins, next case."""
+        """The rig says the ringing case has settled (or timed out): next case, pins stay on."""
         self.events.append(ScriptEvent("settled", self.cases[self.index], t, self.index))
-        self.path1 = self.path2 = None
         self._start_case(t)
 
     def _event(self, kind: str, t: float) -> None:
@@ -119,6 +119,8 @@ class Hand:
             return
         self._event("case_start", t)
         case = self.cases[self.index]
+        if case == "idle":
+            self.path1 = self.path2 = None
         self.phase = "idle" if case == "idle" else "rest"
         self.phase_end = t + (self.timing.idle_s if case == "idle" else self.timing.rest_s)
 

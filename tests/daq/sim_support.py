@@ -32,3 +32,20 @@ def decode(stream: bytes, dialect: str = "cartlab") -> tuple[list[Frame], Decode
 
 def data_frames(frames: list[Frame]) -> list[DataFrame]:
     return [f for f in frames if isinstance(f, DataFrame)]
+
+
+def run_rig(url: str, max_bytes: int = 50_000_000):  # type: ignore[no-untyped-def]
+    """Drive the sim core directly (no port): (t_s (N,), counts (N, carts), rig) of a finite script."""
+    import numpy as np
+
+    from daq.sim import Rig, parse_sim_url
+
+    rig = Rig(parse_sim_url(url))
+    out = bytearray()
+    while not rig.finished and len(out) < max_bytes:
+        rig.produce_bytes(1 << 16)
+        out += rig.take(1 << 20)
+    frames = data_frames(decode(bytes(out))[0])
+    t_s = np.array([f.t_us for f in frames]) / 1e6
+    counts = np.array([f.raw for f in frames])
+    return t_s, counts, rig

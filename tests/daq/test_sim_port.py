@@ -104,3 +104,81 @@ def test_csv_and_ecp_dialects_decode_to_the_same_counts() -> None:
     assert [f.raw for f in ecp] == [f.raw for f in cartlab]
     assert [tuple(round(p * 20000) for p in f.raw) for f in csv] == [f.raw for f in cartlab]
     assert [f.t_us for f in csv] == [f.t_us for f in cartlab] == [f.t_us for f in ecp]
+
+
+def run_port(url: str) -> tuple[bytes, object]:
+    """Bytes of a finite sim port and its rig (for the ground truth of faults)."""
+    port = serial.serial_for_url(url)
+    out = bytearray()
+    rig = port.rig
+    try:
+        for _ in range(100_000):
+            try:
+                out += port.read(65536)
+            except EndOfStream:
+                return bytes(out), rig
+    finally:
+        port.close()
+    raise AssertionError("no end of stream")
+
+
+@pytest.mark.parametrize("garbage", [0.0, 0.05])
+def test_faults_cost_exactly_the_faulted_lines_and_are_counted(garbage: float) -> None:
+    url = FAST + "&seed=11&rate_hz=200"
+    clean = data_frames(decode(read_all(url))[0])
+    stream, rig = run_port(url + f"&corrupt=0.05&drop=0.03&garbage={garbage}")
+    frames, counters = decode(stream)
+    faults = rig.stats.faults  # type: ignore[attr-defined]
+    kinds = [kind for _, kind in faults]
+    assert {"drop", "bitflip", "truncate", "nul", "non_ascii", "overlong"} <= set(kinds)
+    lost = {index for index, _ in faults}
+    assert data_frames(frames) == [f for i, f in enumerate(clean) if i not in lost]
+    assert counters.rejected >= len(faults) - kinds.count("drop")
+    assert counters.overlong == kinds.count("overlong")
+    if garbage == 0.0:
+        assert counters.non_ascii >= kinds.count("nul") + kinds.count("non_ascii")
+        assert counters.torn >= kinds.count("truncate")
+    else:
+        assert rig.stats.garbage_bursts > 10  # type: ignore[attr-defined]
+        assert counters.malformed > 0
+
+
+def test_disconnect_raises_then_the_same_rig_comes_back() -> None:
+    url = "sim://?realtime=0&cases=none&duration_s=3&rate_hz=100&disconnect_every_s=1&disconnect_s=0.5&reopen_failures=2"
+    port = serial.serial_for_url(url)
+    got = bytearray()
+    with pytest.raises(serial.SerialException, match="unplugged"):
+        for _ in range(1000):
+            got += port.read(4096)
+    with pytest.raises(serial.SerialException):
+        port.read(1)                                   # the old connection stays dead
+    port.close()
+    for _ in range(2):
+        with pytest.raises(serial.SerialException, match="could not open"):
+            serial.serial_for_url(url)
+    port = serial.serial_for_url(url)
+    got += port.read(2000)
+    port.close()
+    seqs = [f.seq for f in data_frames(decode(bytes(got))[0])]
+    assert seqs[:100] == list(range(100)) and seqs[100:103] == [150, 151, 152]   # 1.0-1.5 s lost
+
+
+@pytest.mark.timeout(30)
+def test_realtime_paces_by_the_injected_clock(monkeypatch: pytest.MonkeyPatch) -> None:
+    from daq.serial_handlers import protocol_sim
+
+    now = [100.0]
+    monkeypatch.setattr(protocol_sim.Serial, "clock", staticmethod(lambda: now[0]))
+    monkeypatch.setattr(protocol_sim.Serial, "sleep", staticmethod(lambda s: now.__setitem__(0, now[0] + s)))
+    port = serial.serial_for_url("sim://?rate_hz=100&cases=none", timeout=0.5)
+    try:
+        data = port.read(1_000_000)                    # times out after 0.5 s of the fake clock
+        assert now[0] == pytest.approx(100.5)
+        assert port.in_waiting == 0
+        now[0] += 0.105
+        later = port.read(port.in_waiting)
+    finally:
+        port.close()
+    first = data_frames(decode(data)[0])
+    assert [f.t_us for f in first] == [10_000 * i for i in range(51)]
+    assert len(data_frames(decode(data + later)[0])) == 61
