@@ -1,0 +1,101 @@
+"""`replay://`: byte-exact reproduction of a capture, pacing by time stamps, end of stream."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+import serial
+
+from daq.decode import encode_csv, encode_csv_header
+from daq.serial_handlers import EndOfStream, protocol_replay
+from daq.sim import SimOptionError
+from tests.daq.sim_support import data_frames, decode, read_all
+
+U32 = 2**32
+
+
+def test_capture_replays_byte_for_byte_and_ends(tmp_path: Path) -> None:
+    capture = tmp_path / "rig capture.bin"
+    emitted = read_all(f"sim://?realtime=0&rest_s=0.5&pull_s=0.5&hold_s=0.5&ring_max_s=2&corrupt=0.02"
+                       f"&garbage=0.02&capture={capture}")
+    url = "replay://" + str(capture).replace(" ", "%20") + "?speed=max"
+    port = serial.serial_for_url(url)
+    try:
+        replayed = port.read(1000) + port.read(10**9)
+        with pytest.raises(EndOfStream):
+            port.read(1)
+    finally:
+        port.close()
+    assert replayed == emitted == capture.read_bytes()
+
+
+class FakeClock:
+    def __init__(self) -> None:
+        self.now = 50.0
+
+    def clock(self) -> float:
+        return self.now
+
+    def sleep(self, seconds: float) -> None:
+        self.now += seconds
+
+
+@pytest.mark.timeout(30)
+@pytest.mark.parametrize("clock0", [0, U32 - 500_000])
+def test_speed_1_paces_lines_by_their_device_time_across_a_wrap(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch, clock0: int) -> None:
+    fake = FakeClock()
+    monkeypatch.setattr(protocol_replay.Serial, "clock", staticmethod(fake.clock))
+    monkeypatch.setattr(protocol_replay.Serial, "sleep", staticmethod(fake.sleep))
+    capture = tmp_path / "c.bin"
+    capture.write_bytes(read_all(f"sim://?realtime=0&cases=none&duration_s=2&rate_hz=100&clock0_us={clock0}"))
+    port = serial.serial_for_url(f"replay://{capture}?speed=1", timeout=0.255)
+    try:
+        first = port.read(10**6)
+        assert fake.now == pytest.approx(50.255)
+        fake.now += 10.0
+        rest = port.read(10**6)
+    finally:
+        port.close()
+    frames = data_frames(decode(first)[0])
+    assert len(frames) == 26                       # lines due at 0, 10, ... 250 ms
+    assert len(data_frames(decode(first + rest)[0])) == 201
+    assert first + rest == capture.read_bytes()
+
+
+def test_text_export_replays_at_a_speed_factor(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    fake = FakeClock()
+    monkeypatch.setattr(protocol_replay.Serial, "clock", staticmethod(fake.clock))
+    monkeypatch.setattr(protocol_replay.Serial, "sleep", staticmethod(fake.sleep))
+    export = tmp_path / "run.csv"
+    export.write_bytes(encode_csv_header(2) + b"".join(encode_csv(i * 0.01, [0.001 * i, 0.0]) for i in range(100)))
+    port = serial.serial_for_url(f"replay://{export}?speed=10", timeout=0.0505)
+    try:
+        first = port.read(10**6)                   # 0.05 s at 10x covers 0.5 s of the file
+    finally:
+        port.close()
+    frames = data_frames(decode(first, "csv")[0])
+    assert first.startswith(b"time_s,pos1,pos2\n") and len(frames) == 51
+
+
+@pytest.mark.parametrize("url, option", [
+    ("replay:///x.bin?speed=0", "'speed'"),
+    ("replay:///x.bin?speed=fast", "'speed'"),
+    ("replay:///x.bin?loop=1", "replay option name"),
+    ("replay:///x.bin?dialect=nmea", "'dialect'"),
+])
+def test_bad_replay_options_are_named(url: str, option: str) -> None:
+    with pytest.raises(SimOptionError, match=option):
+        serial.serial_for_url(url)
+
+
+def test_missing_file_is_a_serial_exception(tmp_path: Path) -> None:
+    with pytest.raises(serial.SerialException, match="could not open port"):
+        serial.serial_for_url(f"replay://{tmp_path / 'absent.bin'}")
+
+
+def test_guess_dialect() -> None:
+    assert protocol_replay.guess_dialect(b"\x00junk\n$D,1,2,3*58\n") == "cartlab"
+    assert protocol_replay.guess_dialect(b"1:2:3:0.5:10\n") == "ecp"
+    assert protocol_replay.guess_dialect(b"time_s,pos1\n0.0,1.0\n") == "csv"
