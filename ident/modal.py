@@ -39,17 +39,17 @@ def n_coefficients(n_modes: int) -> int:
 def step_basis(t: FloatArray, release_time_s: float, sigma: FloatArray,
                omega: FloatArray) -> FloatArray:
     """Responses to a unit step at `release_time_s`, shape (N, 1 + 2m): [1, p_1, q_1, …]·H(τ)."""
-    tau = t - release_time_s
-    after = tau >= 0.0
-    tau_pos = np.where(after, tau, 0.0)
-    columns = [after.astype(np.float64)]
-    for s, w in zip(sigma, omega, strict=True):
-        decay = np.exp(-s * tau_pos)
-        cos_wt = np.cos(w * tau_pos)
-        sin_wt = np.sin(w * tau_pos)
-        columns.append(np.where(after, (1.0 - decay * (cos_wt + (s / w) * sin_wt)) / (s * s + w * w), 0.0))
-        columns.append(np.where(after, decay * sin_wt / w, 0.0))
-    return np.column_stack(columns)
+    first = int(np.searchsorted(t, release_time_s, side="left"))
+    tau = t[first:] - release_time_s
+    out = np.zeros((t.shape[0], 1 + 2 * len(sigma)))
+    out[first:, 0] = 1.0
+    for i, (s, w) in enumerate(zip(sigma, omega, strict=True)):
+        decay = np.exp(-s * tau)
+        cos_wt = np.cos(w * tau)
+        sin_wt = np.sin(w * tau)
+        out[first:, 1 + 2 * i] = (1.0 - decay * (cos_wt + (s / w) * sin_wt)) / (s * s + w * w)
+        out[first:, 2 + 2 * i] = decay * sin_wt / w
+    return out
 
 
 def section_matrices(sigma: float, omega: float) -> tuple[FloatArray, FloatArray]:

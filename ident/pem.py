@@ -39,7 +39,8 @@ def pem(data: IdData, order: int | None = None, *, relative_degree: int | Sequen
 
     `relative_degree` (per output or one for all) and `dc_gain` (per output, None = free)
     are the physical structure imposed as constraints: relative degree 2 is what every
-    input structure of the lab implies. `fit_release=False` keeps the step where `u` has it.
+    input structure of the lab implies. `fit_release=False` keeps the release fixed at
+    `data.release_time_s` (e.g. from the run's metadata), or where `u` steps when that is None.
     Raises `IdentValueError` for unusable data and `FitFailed` when no fit converges.
     """
     if order is None:
@@ -76,7 +77,8 @@ def _problem(data: IdData, relative_degree: tuple[int, ...], dc_gain: tuple[floa
                 else estimate_release_time(data.t, data.y)) if step else float(data.t[0])
     source = data if (step or data.is_uniform()) else make_uniform(data, "linear")
     weights = 1.0 / _noise_level(source, release0)
-    fixed = None if (fit_release and step) else float(data.t[jumps[0] + 1])
+    known = data.release_time_s if data.release_time_s is not None else float(data.t[jumps[0] + 1])
+    fixed = None if (fit_release and step) else known
     problem = varpro.Problem(
         t=source.t, y=np.asarray(source.y), weights=weights, amplitude=data.step_amplitude,
         step=step, u=np.asarray(source.u), ts=source.sample_time(), relative_degree=relative_degree,
@@ -101,13 +103,14 @@ def _start_modes(data: IdData, release0: float, n_modes: int) -> list[tuple[Floa
     starts = []
     if peaks.size:
         q = subspace.decimation_for(float(np.max(peaks)), ts)
-        try:
-            poles = subspace.free_response_poles(uniform.y, ts, 2 * n_modes + 1, q)
-            found = subspace.oscillatory_modes(poles, n_modes)
+        try:  # + 1: the constant level; + 3: room for noise poles
+            candidates = subspace.free_response_poles(uniform.y, ts, (2 * n_modes + 1, 2 * n_modes + 3), q)
+        except (ValueError, np.linalg.LinAlgError):
+            candidates = []
+        for poles in candidates:
+            found = subspace.oscillatory_modes(poles, n_modes, 0.8 * np.pi / (q * ts))
             if found is not None:
                 starts.append((np.abs(found[0]), found[1]))
-        except (ValueError, np.linalg.LinAlgError):
-            pass
     if peaks.size == n_modes:
         starts += [(zeta * peaks, peaks) for zeta in (0.02, 0.1)]
     if not starts:
@@ -116,9 +119,20 @@ def _start_modes(data: IdData, release0: float, n_modes: int) -> list[tuple[Floa
     return starts
 
 
+def _start_cost(problem: varpro.Problem, release0: float, sigma: FloatArray, omega: FloatArray) -> float:
+    try:
+        _, _, residuals = varpro.solve_linear(problem, release0, sigma, omega)
+    except (ValueError, np.linalg.LinAlgError):
+        return float("inf")
+    return float(np.sum((residuals * problem.weights) ** 2))
+
+
 def _best_fit(problem: varpro.Problem, data: IdData, release0: float, n_modes: int) -> varpro.Solution:
+    """Refine from the start values in the order of their projected cost; stop at a good fit."""
     best: varpro.Solution | None = None
-    for sigma, omega in _start_modes(data, release0, n_modes):
+    starts = _start_modes(data, release0, n_modes)
+    starts.sort(key=lambda start: _start_cost(problem, release0, *start))
+    for sigma, omega in starts:
         try:
             solution = varpro.fit(problem, release0, sigma, omega)
         except (ValueError, np.linalg.LinAlgError):

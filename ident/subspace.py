@@ -48,30 +48,37 @@ def decimation_for(omega_max: float, ts: float) -> int:
     return max(1, int(TARGET_ANGLE_RAD / max(omega_max * ts, 1e-12)))
 
 
-def free_response_poles(y: FloatArray, ts: float, order: int, step: int = 1,
-                        block_rows: int | None = None) -> NDArray[np.complex128]:
-    """Continuous poles (1/s) of a free response `y` (N, n_out) of state dimension `order`.
+def free_response_poles(y: FloatArray, ts: float, orders: tuple[int, ...], step: int = 1,
+                        block_rows: int | None = None) -> list[NDArray[np.complex128]]:
+    """Continuous poles (1/s) of a free response `y` (N, n_out), one array per state
+    dimension in `orders` (one Hankel matrix and decomposition serves them all).
 
-    `step` is the decimation q between block rows; `block_rows` L defaults to ~N/(3q).
+    `step` is the decimation q between block rows; `block_rows` L defaults to ~N/(3q) ≤ 40.
     """
     y2 = y.reshape(len(y), -1)
     n, n_out = y2.shape
-    rows = block_rows or max(order + 1, min(40, n // (3 * step)))
+    rows = block_rows or max(max(orders) + 1, min(40, n // (3 * step)))
     n_cols = n - rows * step
-    if n_cols < order + 1:
+    if n_cols < max(orders) + 1:
         raise ValueError(f"expected more samples for a Hankel matrix, got {n}")
     hankel = np.vstack([y2[i * step:i * step + n_cols].T for i in range(rows + 1)])
     # left singular vectors of H = eigenvectors of H Hᵀ (small and square: a wide SVD is slow)
     _, vectors = np.linalg.eigh(hankel @ hankel.T)
-    gamma = vectors[:, ::-1][:, :order]
-    phi = np.linalg.lstsq(gamma[:-n_out], gamma[n_out:], rcond=None)[0]
-    z = np.linalg.eigvals(phi).astype(np.complex128)
-    return np.asarray(np.log(z) / (step * ts), dtype=np.complex128)
+    vectors = vectors[:, ::-1]
+    out = []
+    for order in orders:
+        gamma = vectors[:, :order]
+        phi = np.linalg.lstsq(gamma[:-n_out], gamma[n_out:], rcond=None)[0]
+        z = np.linalg.eigvals(phi).astype(np.complex128)
+        out.append(np.asarray(np.log(z) / (step * ts), dtype=np.complex128))
+    return out
 
 
-def oscillatory_modes(poles: NDArray[np.complex128], n_modes: int) -> tuple[FloatArray, FloatArray] | None:
-    """(σ, ω) of the `n_modes` oscillatory upper-half-plane poles, ascending ω; None if too few."""
-    upper = [p for p in poles if p.imag > 1e-6]
+def oscillatory_modes(poles: NDArray[np.complex128], n_modes: int,
+                      max_omega: float = np.inf) -> tuple[FloatArray, FloatArray] | None:
+    """(σ, ω) of the `n_modes` least damped oscillatory poles (ζ < 0.5, ω < max_omega, which
+    drops the noise poles an over-sized order picks up), ascending ω; None if too few."""
+    upper = [p for p in poles if 1e-6 < p.imag < max_omega and -p.real < 0.5 * abs(p)]
     if len(upper) < n_modes:
         return None
     upper.sort(key=lambda p: -abs(p.real) / abs(p))  # least damped first

@@ -95,14 +95,28 @@ def solve_linear(problem: Problem, t_r: float, sigma: FloatArray,
         design = phi @ null
         if problem.fit_offset:
             design = np.column_stack([np.ones(n), design])
-        scale = np.linalg.norm(design, axis=0)
-        scale[scale == 0.0] = 1.0
-        coef = np.linalg.lstsq(design / scale, target, rcond=None)[0] / scale
+        coef = _least_squares_small(design, target)
         residuals[:, j] = target - design @ coef
         beta = coef[1:] if problem.fit_offset else coef
         offset[j] = coef[0] if problem.fit_offset else 0.0
         theta[j] = particular + null @ beta
     return theta, offset, residuals
+
+
+def _least_squares_small(design: FloatArray, target: FloatArray) -> FloatArray:
+    """argmin ‖design c - target‖ for a tall, thin design (N × k, k ≤ ~8): normal equations
+    on unit-norm columns (condition number squared stays far below 1/eps here), falling back
+    to an SVD solve when they are singular."""
+    scale = np.linalg.norm(design, axis=0)
+    scale[scale == 0.0] = 1.0
+    scaled = design / scale
+    gram = scaled.T @ scaled
+    try:
+        if np.linalg.cond(gram) > 1e12:
+            raise np.linalg.LinAlgError("ill-conditioned")
+        return np.asarray(np.linalg.solve(gram, scaled.T @ target) / scale)
+    except np.linalg.LinAlgError:
+        return np.asarray(np.linalg.lstsq(scaled, target, rcond=None)[0] / scale)
 
 
 def _weighted_residual(p: FloatArray, problem: Problem) -> FloatArray:
