@@ -34,6 +34,7 @@ import sys
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import partial
 
 import numpy as np
 from numpy.typing import NDArray
@@ -141,7 +142,7 @@ def accuracy_table(repeats: int) -> None:
         for known in (False, True):
             for method in methods:
                 data = make_data(case, t, y, known)
-                est, wall = timed(lambda d=data, m=method, k=known: run_method(m, d, len(wn_true), k), repeats)
+                est, wall = timed(partial(run_method, method, data, len(wn_true), known), repeats)
                 walls.append(wall)
                 wn_err = 100 * np.max(np.abs(est.wn / wn_true - 1))
                 zeta_err = 100 * np.max(np.abs(est.zeta / zeta_true - 1))
