@@ -92,3 +92,12 @@ def test_single_bit_flip_loses_at_most_its_line_and_never_invents_one(
     assert len(flipped) >= len(original) - 1
     remaining = iter(original)
     assert all(frame in remaining for frame in flipped)   # an ordered sub-sequence
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.binary(max_size=700))
+def test_xor_checksum_equals_the_bytewise_xor(body: bytes) -> None:
+    expected = 0
+    for byte in body:
+        expected ^= byte
+    assert xor_checksum(body) == expected
