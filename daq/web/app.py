@@ -5,7 +5,7 @@
 | `GET /` | the page (`static/index.html`; JS and CSS under `/static/`, no CDN) |
 | `GET /api/events?bench=B` | server-sent events: `snapshot`, then `samples`, `state`, `status`, `run`, `benches` |
 | `GET /api/snapshot?bench=B` | the same snapshot as JSON |
-| `POST /api/bench/B/zero`, `POST /api/bench/B/arm` | call the daq's queryable; `{ok, message, reply}` |
+| `POST /api/bench/B/zero`, `POST /api/bench/B/arm` | call the daq's queryable; `{ok, message, reply}` (header `X-Cartlab-Action: 1`) |
 | `GET /api/stats` | counters of the display path (samples in, events sent, pages) |
 | `GET /files/R/mcap?bench=B` | the run's MCAP file (from the runs dir, else the daq's `run` queryable) |
 | `GET /files/R/fit/F` | a file of the run's fit folder (report, figures) |
@@ -35,6 +35,9 @@ from schemas import keys, topics
 from schemas.errors import SchemaError
 
 STATIC_DIR = Path(__file__).with_name("static")
+#: Header the page sets on Zero/Arm: a cross-site form or `fetch` cannot send it without a
+#: CORS preflight, which this server never grants, so other sites cannot press the buttons.
+ACTION_HEADER = "X-Cartlab-Action"
 #: Seconds between SSE comments that keep idle connections (and proxies) open.
 KEEPALIVE_S = 15.0
 
@@ -90,6 +93,9 @@ def build_app(service: WebService) -> Starlette:
                                  headers={"Cache-Control": "no-cache", "X-Accel-Buffering": "no"})
 
     async def action(request: Request) -> Response:
+        if request.headers.get(ACTION_HEADER) != "1":
+            return PlainTextResponse(f"expected the {ACTION_HEADER}: 1 header the page sends, got none "
+                                     "(cross-site requests are refused)", status_code=403)
         bench = keys.check_name("bench", request.path_params["bench"])
         name = request.path_params["action"]
         if name not in ("zero", "arm"):

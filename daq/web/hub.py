@@ -20,6 +20,10 @@ from schemas.daq import DaqStatus, DetectorStateMsg, RunFinished, RunList, Sampl
 from schemas.fit import FitReport
 
 
+NO_DAQ = ("no daq found on Zenoh: start one (`daq run --port ... --bench NAME`) and check that "
+          "this server connects to it (--connect ENDPOINT, default tcp/127.0.0.1:7447)")
+
+
 @dataclass(frozen=True)
 class Event:
     """One server-sent event: `name`, the bench it concerns (None: every page), JSON data."""
@@ -164,8 +168,9 @@ class Hub:
     def snapshot(self, bench: str | None) -> dict[str, Any]:
         """Everything a page showing `bench` needs when it (re)connects."""
         if bench is None:
+            nobody = {"bench": None, "alive": False, "status": None, "problems": [NO_DAQ]}
             return {"bench": None, "benches": self.bench_list(), "state": None,
-                    "status": None, "runs": []}
+                    "status": nobody, "runs": []}
         view = self.benches.get(bench) or BenchView(name=bench)  # a name asked for is not stored
         return {
             "bench": bench,

@@ -66,6 +66,7 @@ class WebService:
         self._tasks: list[asyncio.Task[None]] = []
         self._loop: asyncio.AbstractEventLoop | None = None
         self._bad_reports: set[tuple[str, str]] = set()
+        self._pending: set[asyncio.Task[None]] = set()
 
     # -- lifecycle ---------------------------------------------------------------------
     async def start(self) -> None:
@@ -130,7 +131,9 @@ class WebService:
                 self.hub.on_alive(bench, item.up)
                 if item.up:
                     self.link.follow(bench)
-                    asyncio.get_running_loop().create_task(self.refresh(bench))
+                    task = asyncio.get_running_loop().create_task(self.refresh(bench))
+                    self._pending.add(task)              # keep a reference until it is done
+                    task.add_done_callback(self._pending.discard)
             elif item.kind == "samples":
                 self.hub.on_samples(SampleBatch.from_json_bytes(item.payload))
             elif item.kind == "state":

@@ -180,3 +180,34 @@ def test_the_page_and_its_assets_come_from_the_package(page: PageServer) -> None
         status, body = page.request("GET", asset)
         assert status == 200 and len(body) > 500
     assert b"http" not in html.replace(b"http-equiv", b"")  # no CDN: nothing fetched elsewhere
+
+
+def test_cross_site_posts_cannot_press_the_buttons(page: PageServer, daq: FakeDaq, events: SseReader) -> None:
+    status, body = page.request("POST", "/api/bench/bench1/zero", headers={})
+    assert status == 403 and b"X-Cartlab-Action" in body
+    assert daq.st.zero_calls == 0
+
+
+def test_a_fit_written_in_the_runs_dir_reaches_the_page_without_zenoh(
+        page: PageServer, daq: FakeDaq, events: SseReader, runs_dir: Path) -> None:
+    daq.publish_finished(RunFinished(bench="bench1", run_id="r3", status="complete", file="r3.mcap",
+                                     n_samples=5000, release_time_s=0.4, duration_s=5.0))
+    events.until(lambda e: e.name == "run" and e.data["run_id"] == "r3", 10, "run r3")
+    (runs_dir / "r3.fit").mkdir()
+    report = FitReport(bench="bench1", run_id="r3", worker="w", status="failed",
+                       reason="no release found: expected a step of at least 0.01 m, got 0.002 m")
+    (runs_dir / "r3.fit" / "report.json").write_bytes(report.to_json_bytes())
+    row = events.until(lambda e: e.name == "run" and e.data["run_id"] == "r3"
+                       and e.data["fit"] is not None, 10, "r3's fit from its folder").data
+    assert row["fit"]["status"] == "failed" and row["fit"]["reason"] == report.reason
+    assert row["fit_files"] == ["report.json"]
+
+
+def test_an_mcap_not_on_this_machine_is_fetched_from_the_daq(
+        page: PageServer, daq: FakeDaq, events: SseReader) -> None:
+    daq.publish_finished(RunFinished(bench="bench1", run_id="far1", status="complete", file="far1.mcap",
+                                     n_samples=10, release_time_s=0.1, duration_s=0.2))
+    status, body = page.request("GET", "/files/far1/mcap?bench=bench1")
+    assert status == 200 and body == b"\x89MCAP0\r\nfar1"
+    status, body = page.request("GET", "/files/nope/mcap?bench=bench1")
+    assert status == 404 and b"expected a known run id" in body

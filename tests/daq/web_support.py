@@ -55,10 +55,13 @@ def wait_for(condition: Callable[[], Any], timeout_s: float, what: str, every_s:
 class PageServer(ThreadedPageServer):
     """The page server in a thread (ephemeral loopback port), with small HTTP helpers."""
 
-    def request(self, method: str, path: str, timeout_s: float = 10) -> tuple[int, bytes]:
+    def request(self, method: str, path: str, timeout_s: float = 10,
+                headers: dict[str, str] | None = None) -> tuple[int, bytes]:
+        if headers is None:
+            headers = {"X-Cartlab-Action": "1"} if method == "POST" else {}
         conn = http.client.HTTPConnection("127.0.0.1", self.port, timeout=timeout_s)
         try:
-            conn.request(method, path)
+            conn.request(method, path, headers=headers)
             resp = conn.getresponse()
             return resp.status, resp.read()
         finally:
@@ -163,6 +166,7 @@ class FakeDaq:
             s.declare_queryable(keys.daq_query(bench, "zero"), self._on_zero),
             s.declare_queryable(keys.daq_query(bench, "arm"), self._on_arm),
             s.declare_queryable(keys.daq_query(bench, "runs"), self._on_runs),
+            s.declare_queryable(keys.daq_query(bench, "run"), self._on_run),
         ]
         self.samples_pub = s.declare_publisher(keys.samples(bench))
         self.state_pub = s.declare_publisher(keys.state(bench))
@@ -204,6 +208,16 @@ class FakeDaq:
         with self.lock:
             runs = RunList(bench=self.bench, runs=list(self.st.runs))
         query.reply(query.key_expr, runs.to_json_bytes())
+
+    def _on_run(self, query: zenoh.Query) -> None:
+        """MCAP bytes of a run (`?id=<run_id>`), as the daq's `run` queryable answers."""
+        run_id = query.parameters.get("id")
+        with self.lock:
+            known = any(r.run_id == run_id for r in self.st.runs)
+        if known:
+            query.reply(query.key_expr, b"\x89MCAP0\r\n" + str(run_id).encode())
+        else:
+            query.reply_err(f"run: expected a known run id, got {run_id!r}".encode())
 
     # publishing
     def publish_state(self, state: DetectorState, run_id: str | None = None) -> None:

@@ -219,7 +219,7 @@ async function act(action) {
   const out = $("action-result");
   out.className = "action-result"; out.textContent = action + "…";
   try {
-    const r = await fetch(`/api/bench/${encodeURIComponent(cartlab.bench)}/${action}`, { method: "POST" });
+    const r = await fetch(`/api/bench/${encodeURIComponent(cartlab.bench)}/${action}`, { method: "POST", headers: { "X-Cartlab-Action": "1" } });
     const body = await r.json();
     cartlab.lastAction = { action, ok: body.ok, message: body.message, reply: body.reply || null };
     out.className = "action-result " + (body.ok ? "ok" : "err"); out.textContent = body.message;
