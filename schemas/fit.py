@@ -23,8 +23,9 @@ from __future__ import annotations
 
 from typing import Any, Literal
 
-from pydantic import Field, model_validator
+from pydantic import Field, ValidationInfo, field_validator, model_validator
 
+from schemas import keys
 from schemas.base import Record
 from schemas.diagnosis import DiagnosisReport
 
@@ -112,6 +113,12 @@ class FitReport(Record):
     fitted_utc: str | None = None
     software_version: str = ""
     extra: dict[str, Any] = Field(default_factory=dict)
+
+    @field_validator("bench", "run_id", "worker")
+    @classmethod
+    def _safe_name(cls, value: str, info: ValidationInfo) -> str:
+        # these become Zenoh key chunks and directory names (`<bench>/<run_id>.fit/`)
+        return keys.check_name(str(info.field_name), value)
 
     @property
     def final(self) -> bool:

@@ -102,7 +102,11 @@ class Worker:
     def handle(self, event: BusEvent) -> None:
         try:
             if event.kind == "finished":
-                self.sched.run_announced(RunFinished.from_json_bytes(event.payload))
+                finished = RunFinished.from_json_bytes(event.payload)
+                # names become keys and paths: refuse `..`, `/` and the like
+                keys.check_name("bench", finished.bench)
+                keys.check_name("run_id", finished.run_id)
+                self.sched.run_announced(finished)
             elif event.kind == "fit":
                 self.sched.fit_seen(FitReport.from_json_bytes(event.payload))
             elif event.kind == "worker":
@@ -122,9 +126,14 @@ class Worker:
 
     # -- catch-up -----------------------------------------------------------------------
     def catch_up_bench(self, bench: str) -> None:
-        runs = self.bus.list_runs(bench)
+        try:
+            runs = self.bus.list_runs(bench)
+        except SchemaError as exc:
+            log.warning("ignored the run list of %s: %s", bench, exc)
+            return
         for finished in runs.runs if runs is not None else []:
-            self.sched.run_announced(finished)
+            self.handle(BusEvent("finished", keys.run_finished(bench, "runs"),
+                                 finished.to_json_bytes()))
 
     def start(self) -> None:
         """Learn who is alive, scan the runs directory, ask each daq, gather history."""
@@ -196,7 +205,10 @@ class Worker:
         if report.timings.total_s == 0.0:
             timings = report.timings.model_copy(update={"total_s": self.clock() - started})
             report = report.model_copy(update={"timings": timings})
-        return report
+        try:  # what subscribers will parse: a NaN, written as null, would not come back
+            return FitReport.from_json_bytes(report.to_json_bytes())
+        except SchemaError as exc:
+            return failed_report(finished, name, f"the fit report does not round-trip: {exc}")
 
     def serve(self, stop: threading.Event) -> None:
         self.start()
