@@ -94,14 +94,30 @@ def _noise_level(data: IdData, release0: float) -> FloatArray:
     return np.where(rest > 0.0, rest, fallback)
 
 
-def _start_modes(data: IdData, release0: float, n_modes: int) -> list[tuple[FloatArray, FloatArray]]:
-    """Start values (σ, ω): subspace estimate first, then FFT peaks with ζ = 0.02 and 0.1."""
+def _moesp_modes(data: IdData, n_modes: int) -> list[tuple[FloatArray, FloatArray]]:
+    """Start values from PO-MOESP on the whole record (any input), converted by d2c."""
+    from ident.d2c import d2c_zoh
+
+    uniform = make_uniform(data, "auto")
+    try:
+        a_d, b_d, _, _ = subspace.moesp(uniform.u, uniform.y, 2 * n_modes)
+        a_c, _ = d2c_zoh(a_d, b_d, uniform.sample_time())
+    except (ValueError, np.linalg.LinAlgError):
+        return []
+    found = subspace.oscillatory_modes(np.linalg.eigvals(a_c).astype(np.complex128), n_modes)
+    return [] if found is None else [(np.abs(found[0]), found[1])]
+
+
+def _start_modes(data: IdData, release0: float, n_modes: int,
+                 step: bool = True) -> list[tuple[FloatArray, FloatArray]]:
+    """Start values (σ, ω): subspace estimate first (free response after a step, MOESP for
+    other inputs), then FFT peaks with ζ = 0.02 and 0.1."""
+    starts = [] if step else _moesp_modes(data, n_modes)
     after = data.t > release0 + 0.02
     uniform = make_uniform(IdData(data.t[after], data.u[after], data.y[after]), "auto")
     ts = uniform.sample_time()
     peaks = subspace.spectral_peaks(uniform.y, ts, n_modes)
-    starts = []
-    if peaks.size:
+    if peaks.size and step:
         q = subspace.decimation_for(float(np.max(peaks)), ts)
         try:  # + 1: the constant level; + 3: room for noise poles
             candidates = subspace.free_response_poles(uniform.y, ts, (2 * n_modes + 1, 2 * n_modes + 3), q)
@@ -130,7 +146,7 @@ def _start_cost(problem: varpro.Problem, release0: float, sigma: FloatArray, ome
 def _best_fit(problem: varpro.Problem, data: IdData, release0: float, n_modes: int) -> varpro.Solution:
     """Refine from the start values in the order of their projected cost; stop at a good fit."""
     best: varpro.Solution | None = None
-    starts = _start_modes(data, release0, n_modes)
+    starts = _start_modes(data, release0, n_modes, problem.step)
     starts.sort(key=lambda start: _start_cost(problem, release0, *start))
     for sigma, omega in starts:
         try:

@@ -85,3 +85,72 @@ def oscillatory_modes(poles: NDArray[np.complex128], n_modes: int,
     chosen = sorted(upper[:n_modes], key=lambda p: p.imag)
     return (np.array([-p.real for p in chosen], dtype=np.float64),
             np.array([p.imag for p in chosen], dtype=np.float64))
+
+
+def moesp(u: FloatArray, y: FloatArray, order: int,
+          horizon: int | None = None) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    """Discrete (A, B, C, D) of `order` from input `u` (N,) and outputs `y` (N, n_out), PO-MOESP.
+
+    Block Hankel matrices of past inputs/outputs W_p and future inputs U_f, outputs Y_f
+    (`horizon` s block rows each). The LQ factorisation of [U_f; W_p; Y_f] removes the
+    future inputs; the SVD of the part of Y_f explained by the past (L32) gives the extended
+    observability matrix Γ_s (first `order` left singular vectors), hence C = Γ_s[0] and
+    A = Γ_↑⁺ Γ_↓. B and D then solve a linear least-squares problem in the simulated output
+    (x0 = 0, the data starting at rest). For inputs of any shape; for the lab's step after a
+    long rest prefer `free_response_poles`.
+    """
+    u2 = np.asarray(u, dtype=np.float64).reshape(len(u), -1)
+    y2 = np.asarray(y, dtype=np.float64).reshape(len(y), -1)
+    n, n_out = y2.shape
+    n_in = u2.shape[1]
+    s = horizon or max(order + 1, min(20, n // 10))
+    cols = n - 2 * s + 1
+    if cols < 2 * s * (n_in + n_out):
+        raise ValueError(f"expected more samples for horizon {s}, got {n}")
+
+    def block(x: FloatArray, start: int) -> FloatArray:
+        return np.vstack([x[start + i:start + i + cols].T for i in range(s)])
+
+    stacked = np.vstack([block(u2, s), block(u2, 0), block(y2, 0), block(y2, s)])
+    r = np.asarray(np.linalg.qr(stacked.T, mode="r")).T  # L of the LQ factorisation
+    a, b = s * n_in, s * n_in + s * (n_in + n_out)
+    l32 = r[b:, a:b]
+    left, _, _ = np.linalg.svd(l32, full_matrices=False)
+    gamma = left[:, :order]
+    c_mat = gamma[:n_out]
+    a_mat = np.linalg.lstsq(gamma[:-n_out], gamma[n_out:], rcond=None)[0]
+    b_mat, d_mat = _input_matrices(a_mat, c_mat, u2, y2)
+    return a_mat, b_mat, c_mat, d_mat
+
+
+def _input_matrices(a_mat: FloatArray, c_mat: FloatArray, u: FloatArray,
+                    y: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """B, D minimising ‖y - ŷ‖ with ŷ[k] = Σ_j C A^(k-1-j) B u[j] + D u[k] (linear in B, D),
+    plus an output offset."""
+    n, n_out = y.shape
+    order = a_mat.shape[0]
+    n_in = u.shape[1]
+    columns = []
+    for i in range(order):
+        for m in range(n_in):
+            state = np.zeros(order)
+            response = np.zeros((n, n_out))
+            e_i = np.zeros(order)
+            e_i[i] = 1.0
+            for k in range(n):
+                response[k] = c_mat @ state
+                state = a_mat @ state + e_i * u[k, m]
+            columns.append(response.ravel())
+    for m in range(n_in):
+        for j in range(n_out):
+            direct = np.zeros((n, n_out))
+            direct[:, j] = u[:, m]
+            columns.append(direct.ravel())
+    for j in range(n_out):
+        level = np.zeros((n, n_out))
+        level[:, j] = 1.0
+        columns.append(level.ravel())
+    theta = np.linalg.lstsq(np.column_stack(columns), y.ravel(), rcond=None)[0]
+    b_mat = theta[:order * n_in].reshape(order, n_in)
+    d_mat = theta[order * n_in:order * n_in + n_in * n_out].reshape(n_in, n_out).T
+    return np.asarray(b_mat, dtype=np.float64), np.asarray(d_mat, dtype=np.float64)
