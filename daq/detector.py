@@ -18,7 +18,11 @@ most is fitted.
 
 A release is told from slow hand motion by the fitted initial acceleration `a = 2 c_2`
 (a spring released from 0.15 m starts at several m/s², a hand pulling over ≳ 1 s below
-1 m/s²) and by the cart still being away from its hold at the end of the fit window.
+1 m/s²) and by the cart still being away from its hold at the end of the fit window; from
+a fast pull (a yank) by its direction: a released cart moves toward its rest (where the
+carts settled after the last run, or were first still after start-up), a pulled one leaves it.
+Consequence: a daq started while a cart is held away from rest takes that hold for the
+rest and misses the first release; every run after the first settle is judged correctly.
 
 Positions may be zeroed or not: only motion relative to the hold matters. Pure: no clocks,
 no I/O; time comes with the samples (float seconds, continuous).
@@ -53,13 +57,14 @@ class DetectorSettings:
     fit_min_lookback_samples: int = 5
     fit_powers: tuple[int, ...] = (2, 3)
     min_accel_m_s2: float = 2.5
+    rest_margin_m: float = 0.02
     settle_band_m: float = 0.002
     settle_s: float = 1.0
     max_run_s: float = 60.0
     pre_trigger_s: float = 0.5
 
     def __post_init__(self) -> None:
-        for name in ("still_band_m", "still_s", "fire_m", "fit_post_s", "fit_lookback_s",
+        for name in ("still_band_m", "still_s", "fire_m", "fit_post_s", "fit_lookback_s", "rest_margin_m",
                      "min_accel_m_s2", "settle_band_m", "settle_s", "max_run_s"):
             if not getattr(self, name) > 0:
                 raise DaqValueError(f"detector {name}", "> 0", getattr(self, name))
@@ -134,6 +139,7 @@ class ReleaseDetector:
         self._history: deque[tuple[float, tuple[float, ...]]] = deque()
         self._anchor: tuple[float, ...] | None = None
         self._anchor_t = 0.0
+        self._rest: tuple[float, ...] | None = None
         self._hold: tuple[float, ...] = ()
         self._trigger_t: float | None = None
         self._trigger_channel = 0
@@ -201,6 +207,8 @@ class ReleaseDetector:
         if not self._still(t_s, sample, self.settings.still_band_m, self.settings.still_s):
             return []
         self._hold = self._mean_since(self._anchor_t)
+        if self._rest is None:
+            self._rest = self._hold
         self.state = "armed"
         return [Armed(t_s, self._hold)]
 
@@ -235,15 +243,35 @@ class ReleaseDetector:
         fit = self._fit_onset(channel, trigger_t)
         direction = 1.0 if sample[channel] > hold[channel] else -1.0
         accel = fit.accel_m_s2 * direction if fit is not None else 0.0
-        if fit is None or not still_away or accel < self.settings.min_accel_m_s2:
+        reason = ("fit failed" if fit is None else "came back" if not still_away
+                  else "slow motion" if accel < self.settings.min_accel_m_s2
+                  else self._away_from_rest(channel, direction))
+        if reason:
             self.state = "idle"
             self._restart_anchor(t_s, sample)
-            reason = "fit failed" if fit is None else ("came back" if not still_away else "slow motion")
             return Rejected(t_s, accel, reason)
+        assert fit is not None
         self.state = "released"
         self._release_t = fit.t0_s
         self._anchor = None
         return Released(fit.t0_s, trigger_t, t_s, channel, abs(fit.accel_m_s2), hold)
+
+    def _away_from_rest(self, channel: int, direction: float) -> str:
+        """Why a fast departure cannot be a release, judged against the rest position, or ''.
+
+        A released cart moves toward its rest; a cart that leaves its rest, or moves away
+        from it, is pulled by a hand, however fast. The rest is where the carts settled after
+        the last run (at start-up: where they were first still).
+        """
+        rest = self._rest
+        if rest is None or len(rest) != len(self._hold):
+            return ""
+        offset = rest[channel] - self._hold[channel]
+        if abs(offset) <= self.settings.rest_margin_m:
+            return "pulled from rest"
+        if offset * direction < 0:
+            return "pulled away from rest"
+        return ""
 
     def _feed_released(self, t_s: float, sample: tuple[float, ...]) -> list[Event]:
         if t_s - self._release_t >= self.settings.max_run_s:
@@ -251,6 +279,7 @@ class ReleaseDetector:
             return [Settled(t_s, "max_run")]
         if self._still(t_s, sample, self.settings.settle_band_m, self.settings.settle_s):
             self.state = "settled"
+            self._rest = self._mean_since(self._anchor_t)
             return [Settled(t_s, "still")]
         return []
 

@@ -71,10 +71,12 @@ def test_a_single_glitch_is_rejected_as_coming_back() -> None:
 def test_max_run_length_settles_a_run_that_never_stops() -> None:
     settings = DetectorSettings(max_run_s=2.0)
     detector = ReleaseDetector(settings)
-    t = np.arange(0, 8, 0.005)
-    release = 1.0
+    t = np.arange(0, 10, 0.005)
+    release = 3.0
     tau = np.maximum(t - release, 0)
-    x = 0.15 * (1 - np.cos(7.0 * tau))  # undamped: never settles by itself
+    pull = np.clip(t - 1.0, 0, 1)   # rest at 0.15 m, pulled to 0 over 1 s, held, released at 3 s
+    x = np.where(t < release, 0.15 * (1 - (10 * pull**3 - 15 * pull**4 + 6 * pull**5)),
+                 0.15 * (1 - np.cos(7.0 * tau)))  # undamped: never settles by itself
     events = [e for ti, xi in zip(t, x) for e in detector.feed(float(ti), (float(xi),))]
     settled = [e for e in events if isinstance(e, Settled)]
     assert settled and settled[0].reason == "max_run"
@@ -142,3 +144,16 @@ def test_reset_forgets_a_pending_candidate_and_arm_now_arms_at_once() -> None:
     assert detector.arm_now(t, (0.02,)) == [Armed(t, (0.02,))]
     events = [e for k in range(1, 30) for e in detector.feed(t + k * 0.01, (0.02,))]
     assert events == []                  # the stale candidate is gone: nothing fires on a still cart
+
+
+def test_fast_pulls_from_rest_are_not_taken_for_releases() -> None:
+    # 0.15 m pulls in 0.3 s reach ~10 m/s²: only the direction (leaving the rest) tells them apart
+    samples, truth, rate = _sim_stream(
+        "sim://?realtime=0&rate_hz=100&cases=cart1,cart2,both&seed=2&c1=2&c2=2&pull_s=0.3")
+    detector = ReleaseDetector()
+    events = [e for t, pos in samples for e in detector.feed(t, pos)]
+    found = [e for e in events if isinstance(e, Released)]
+    assert len(found) == 3
+    assert all(abs(r.t_release_s - t) < 1.0 / rate for r, t in zip(found, truth))
+    yanks = [e for e in events if isinstance(e, Rejected) and e.reason == "pulled from rest"]
+    assert len(yanks) == 3 and min(e.accel_m_s2 for e in yanks) > DetectorSettings().min_accel_m_s2
