@@ -7,8 +7,10 @@
         if got.event is LinkEvent.EOF: break
         frames = decoder.feed(got.data)
 
-`read` asks for `max(1, in_waiting)` bytes (capped at `max_read`) with a short timeout,
-never `readline` (which is slow in pyserial). A `SerialException` or `OSError` closes the
+`read` takes what is waiting (`read(in_waiting)`, capped at `max_read`); when nothing is
+waiting it calls `read(max_read)`, which returns after `timeout_s` with whatever arrived
+(pyserial semantics), so a slow stream costs one call per `timeout_s`, not one per byte.
+It never uses `readline` (slow in pyserial). A `SerialException` or `OSError` closes the
 port and reports `DISCONNECTED`; later calls wait `backoff_s` (doubling up to
 `backoff_max_s`, through the injected `sleep`) and try to reopen: `DOWN` while that fails,
 `RECONNECTED` (with `gap_s`, the outage by the injected clock) when it works. `EndOfStream`
@@ -60,7 +62,7 @@ Opener = Callable[..., Any]
 class SerialLink:
     """One serial URL, read in chunks, reopened with bounded back-off (see module docstring)."""
 
-    def __init__(self, url: str, *, baudrate: int = 115200, timeout_s: float = 0.05,
+    def __init__(self, url: str, *, baudrate: int = 115200, timeout_s: float = 0.02,
                  max_read: int = 65536, backoff_s: float = 0.1, backoff_max_s: float = 2.0,
                  give_up_after_s: float | None = None,
                  clock: Callable[[], float] = time.monotonic,
@@ -103,7 +105,8 @@ class SerialLink:
         if self._port is None:
             return self._reopen()
         try:
-            data = self._port.read(min(self.max_read, max(1, self._port.in_waiting)))
+            waiting = self._port.in_waiting
+            data = self._port.read(min(self.max_read, waiting) if waiting else self.max_read)
         except EndOfStream:
             self._close_port()
             self._eof = True

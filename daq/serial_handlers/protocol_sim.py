@@ -36,6 +36,7 @@ class Serial(SerialBase):
 
     def __init__(self, *args: object, **kwargs: object) -> None:
         self.rig: Rig | None = None
+        self._lock = threading.Lock()       # read and write may come from different threads
         self._origin = 0.0
         self._connection = 0
         super().__init__(*args, **kwargs)
@@ -93,10 +94,11 @@ class Serial(SerialBase):
         return self.clock() - self._origin
 
     def _produce(self, rig: Rig, want: int) -> None:
-        if rig.options.realtime:
-            rig.produce_until(self._now())
-        else:
-            rig.produce_bytes(want)
+        with self._lock:
+            if rig.options.realtime:
+                rig.produce_until(self._now())
+            else:
+                rig.produce_bytes(want)
         self._live_rig()
 
     @property
@@ -113,7 +115,8 @@ class Serial(SerialBase):
             self._wait_for(rig, size)
         else:
             self._produce(rig, size)
-        data = rig.take(size)
+        with self._lock:
+            data = rig.take(size)
         if not data and rig.finished:
             raise EndOfStream(f"{self._port}: end of the simulated stream")
         if rig.capture is not None and data:
@@ -132,6 +135,10 @@ class Serial(SerialBase):
             if deadline is not None and now >= deadline:
                 return
             due_s = rig.next_sample_s if rig.plugged else rig.plug_back_s
+            if rig.plugged:                             # sleep until about enough lines are due
+                lines_needed = (size - len(rig.pending)) // max(1, rig.last_line_bytes)
+                due_s += max(0, lines_needed - 1) / rig.rate_hz
+                due_s = min(due_s, max(rig.next_disconnect_s, rig.next_sample_s))
             delay = due_s - (now - self._origin)       # same arithmetic as _now(): no lost wake-up
             limit = 0.05 if deadline is None else deadline - now
             self.sleep(min(max(delay, 1e-4), limit))
@@ -139,11 +146,14 @@ class Serial(SerialBase):
     def write(self, data: bytes | bytearray | memoryview) -> int:
         rig = self._live_rig()
         payload = bytes(data)
-        rig.receive(payload)
+        with self._lock:
+            rig.receive(payload)
         return len(payload)
 
     def reset_input_buffer(self) -> None:
-        self._live_rig().pending.clear()
+        rig = self._live_rig()
+        with self._lock:
+            rig.pending.clear()
 
     def reset_output_buffer(self) -> None:
         self._live_rig()

@@ -101,6 +101,7 @@ class Rig:
         self._ring_start_s: float | None = None
         self._settled_since: float | None = None
         self._command_buf = b""
+        self.last_line_bytes = 30
         self.capture: BinaryIO | None = open(o.capture, "wb") if o.capture else None  # noqa: SIM115
         self._boot()
 
@@ -263,6 +264,7 @@ class Rig:
             self.stats.corrupted += 1
             self.stats.faults.append((index, kind))
         self.pending += line
+        self.last_line_bytes = len(line)
         self.stats.lines_sent += 1
         self.stats.bytes_sent += len(line)
 
