@@ -76,7 +76,7 @@ class DaqBus:
         self.requests: queue.SimpleQueue[BusRequest] = queue.SimpleQueue()
         self._own_session = session is None
         self.session = session if session is not None else open_session(bus)
-        self._snapshot = _Snapshot(b"{}", RunList(bench=bench, runs=[]).to_json_bytes(), ())
+        self._snapshot = _Snapshot(b"", RunList(bench=bench, runs=[]).to_json_bytes(), ())
         self._finished_pubs: OrderedDict[str, ext.AdvancedPublisher] = OrderedDict()
         try:
             self._declare()
@@ -146,7 +146,12 @@ class DaqBus:
 
     # --- callbacks (Zenoh threads: never block) -------------------------------------------------
     def _on_status(self, query: zenoh.Query) -> None:
-        query.reply(query.key_expr, self._snapshot.status, encoding=JSON)
+        status = self._snapshot.status
+        if not status:
+            query.reply_err(b"daq is starting: expected a status within a second, got none yet",
+                            encoding=zenoh.Encoding.TEXT_PLAIN)
+            return
+        query.reply(query.key_expr, status, encoding=JSON)
 
     def _on_runs(self, query: zenoh.Query) -> None:
         query.reply(query.key_expr, self._snapshot.runs, encoding=JSON)
