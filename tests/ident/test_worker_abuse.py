@@ -1,0 +1,160 @@
+"""Abuse of a running `ident worker` over Zenoh (issue 6, part 4).
+
+One worker runs in this process (thread, the real `run_worker` loop) with a stand-in
+fitter; an attacker session puts malformed, oversized, wrong-typed and forged records on
+the keys the worker subscribes to (`runs/*/finished`, `runs/*/fit`). Then a genuine run is
+announced: it must still be fitted, and nothing may be written outside the runs directory.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import os
+import queue
+import threading
+import time
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+
+import pytest
+import zenoh
+import zenoh.ext
+
+from ident.worker.service import FitJob, WorkerOptions, run_worker
+from schemas import keys
+from schemas.bus import BusConfig
+from schemas.daq import RunFinished
+from schemas.fit import FitReport
+from tests.conftest import pick_free_port
+
+BENCH = "wb"
+WAIT_S = 30.0
+
+
+def stand_in_fit(job: FitJob) -> FitReport:
+    """A fitter that only checks it was handed a real file inside the runs directory."""
+    data = job.run_file.read_bytes()
+    return FitReport(bench=job.finished.bench, run_id=job.finished.run_id, worker=job.worker,
+                     status="ok", extra={"bytes": len(data)})
+
+
+@dataclass
+class Setup:
+    root: Path
+    runs_dir: Path
+    session: zenoh.Session
+    fits: queue.Queue[FitReport]
+    thread: threading.Thread
+    errors: list[BaseException]
+
+
+@pytest.fixture
+def worker(tmp_path: Path) -> Iterator[Setup]:
+    runs_dir = tmp_path / "deep" / "runs"
+    runs_dir.mkdir(parents=True)
+    endpoint = f"tcp/127.0.0.1:{pick_free_port()}"
+    options = WorkerOptions(name="w-abuse", runs_dir=runs_dir, bus=BusConfig.listener(endpoint),
+                            fitter=f"{__name__}:stand_in_fit", settle_s=0.05, sync_s=0.1)
+    stop = threading.Event()
+    errors: list[BaseException] = []
+
+    def serve() -> None:
+        try:
+            run_worker(options, stop)
+        except BaseException as exc:  # noqa: BLE001 - reported by the test
+            errors.append(exc)
+
+    thread = threading.Thread(target=serve, name="worker", daemon=True)
+    thread.start()
+    session = zenoh.open(zenoh.Config.from_json5(BusConfig.connector(endpoint).zenoh_json5()))
+    fits: queue.Queue[FitReport] = queue.Queue()
+    sub = zenoh.ext.declare_advanced_subscriber(
+        session, keys.ALL_FITS, lambda s: fits.put(FitReport.from_json_bytes(s.payload.to_bytes())),
+        history=zenoh.ext.HistoryConfig(detect_late_publishers=True, max_samples=16))
+    try:
+        deadline = time.monotonic() + WAIT_S
+        while not list(session.liveliness().get(keys.ident_alive("w-abuse"), timeout=1.0)):
+            assert time.monotonic() < deadline and thread.is_alive(), f"worker did not come up: {errors}"
+        yield Setup(tmp_path, runs_dir, session, fits, thread, errors)
+    finally:
+        sub.undeclare()
+        session.close()
+        stop.set()
+        thread.join(timeout=20)
+
+
+def _finished(run: str, **change: object) -> dict[str, object]:
+    record = {"bench": BENCH, "run_id": run, "status": "complete", "file": f"{run}.mcap",
+              "n_samples": 10, "release_time_s": 0.5, "duration_s": 1.0}
+    return {**record, **change}
+
+
+def _announce_genuine_and_wait(setup: Setup, run_id: str) -> FitReport:
+    (setup.runs_dir / f"{run_id}.mcap").write_bytes(b"genuine run bytes")
+    setup.session.put(keys.run_finished(BENCH, run_id), json.dumps(_finished(run_id)))
+    deadline = time.monotonic() + WAIT_S
+    while True:
+        assert setup.thread.is_alive(), f"the worker died: {setup.errors}"
+        try:
+            report = setup.fits.get(timeout=0.1)
+        except queue.Empty:
+            assert time.monotonic() < deadline, f"no fit report for {run_id} within {WAIT_S} s"
+            continue
+        if report.run_id == run_id and report.final:
+            return report
+
+
+GARBAGE: list[bytes] = [b"", b"{", b"null", b"\xff\xfe", b"[1,2,3]", b"x" * (5 * 1024 * 1024),
+                        json.dumps(_finished("r1", n_samples="many")).encode(),
+                        json.dumps({**_finished("r1"), "extra_field": 1}).encode(),
+                        json.dumps(_finished("r1", schema_version=99)).encode()]
+
+
+def test_malformed_messages_are_ignored_with_a_logged_reason_and_the_worker_goes_on(
+        worker: Setup, caplog: pytest.LogCaptureFixture) -> None:
+    with caplog.at_level(logging.WARNING, logger="ident.worker"):
+        for payload in GARBAGE:
+            worker.session.put(keys.run_finished(BENCH, "r1"), payload)
+            worker.session.put(keys.run_fit(BENCH, "r1"), payload)
+        report = _announce_genuine_and_wait(worker, "r2")
+    assert report.status == "ok" and report.extra == {"bytes": len(b"genuine run bytes")}
+    ignored = [r.getMessage() for r in caplog.records if "ignored a message" in r.getMessage()]
+    # Every malformed payload on either key is logged with its reason (none is fitted).
+    assert len(ignored) >= 2 * (len(GARBAGE) - 1), ignored
+    assert all("expected" in message for message in ignored)
+    assert not (worker.runs_dir / "r1.fit").exists()
+
+
+def test_a_forged_finished_record_cannot_make_the_worker_write_outside_its_runs_directory(worker: Setup) -> None:
+    outside = worker.root / "escape"
+    for change in ({"bench": "../../escape"}, {"run_id": "../../escape/r3"}, {"file": "/etc/passwd"},
+                   {"file": "../../../escape/r3.mcap"}, {"bench": "/tmp"}):
+        worker.session.put(keys.run_finished(BENCH, "r3"), json.dumps(_finished("r3", **change)))
+    report = _announce_genuine_and_wait(worker, "r4")
+    assert report.status == "ok"
+    assert not outside.exists()
+    written = {p for p in worker.root.rglob("*") if p.is_file()}
+    assert all(worker.runs_dir in p.parents for p in written), sorted(map(str, written))
+
+
+def test_a_finished_record_whose_payload_contradicts_its_key_is_not_fitted(worker: Setup) -> None:
+    (worker.runs_dir / "r5.mcap").write_bytes(b"bytes of r5")
+    # Announced on bench `other`'s key, the payload claims bench `wb`: the key is the truth
+    # (it is what access control checks), so the record must be refused.
+    worker.session.put(keys.run_finished("other", "r5"), json.dumps(_finished("r5")))
+    report = _announce_genuine_and_wait(worker, "r6")
+    assert report.run_id == "r6"
+    seen = []
+    while not worker.fits.empty():
+        seen.append(worker.fits.get_nowait())
+    assert [r for r in seen if r.run_id == "r5"] == []
+
+
+def test_the_worker_survives_a_flood_of_oversized_messages(worker: Setup) -> None:
+    blob = os.urandom(3 * 1024 * 1024)
+    for i in range(10):
+        worker.session.put(keys.run_finished(BENCH, f"flood{i}"), blob)
+    report = _announce_genuine_and_wait(worker, "r7")
+    assert report.status == "ok"
