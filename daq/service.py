@@ -178,7 +178,10 @@ class Service:
             log.warning("serial port %s back after %.1f s", self.config.port, got.gap_s or 0.0)
         writer = self.outputs.writer
         if writer is not None:
-            writer.maybe_flush(now)
+            if got.event is LinkEvent.DISCONNECTED:
+                writer.flush(now)   # the back-off may sleep: leave nothing in memory meanwhile
+            else:
+                writer.maybe_flush(now)
         return got.event is LinkEvent.EOF
 
     def _shutdown(self) -> None:
