@@ -1,0 +1,69 @@
+"""Words for the diagnosis: the corrected linear parameters, how fit % was measured, and a
+short paragraph a student can put in a report. No numerics beyond formatting, no I/O."""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ident.diagnose.chain import modes
+from schemas.diagnosis import DiagnosisReport
+
+FloatArray = NDArray[np.float64]
+
+_WHAT = {
+    "coulomb_friction": ("dry (Coulomb) friction", "the peaks shrink by a nearly constant amount per "
+                         "cycle and the cart stops dead off-centre, which no viscous damping can do"),
+    "quadratic_drag": ("quadratic (velocity-squared) drag", "large swings lose a larger fraction of their "
+                       "amplitude than small ones"),
+    "cubic_stiffness": ("a hardening (cubic) spring", "the oscillation frequency changes with the amplitude"),
+    "quantization": ("encoder quantization", "the measured positions lie on a staircase of equal steps"),
+    "coupled_mode": ("a second resonance (an imperfectly pinned cart or a track mode)",
+                     "the residual rings at a second frequency"),
+}
+
+
+def linear_summary(lin: FloatArray, carts: int) -> dict[str, float]:
+    """wn (rad/s) and zeta of each mode: `wn_rad_s`, `zeta` (one cart) or `_mode1/2`."""
+    found = modes(lin[None, :], carts)
+    if carts == 1:
+        return {"wn_rad_s": found[0][0], "zeta": found[0][1]}
+    out: dict[str, float] = {}
+    for i, (wn, zeta) in enumerate(found, start=1):
+        out[f"wn_mode{i}_rad_s"], out[f"zeta_mode{i}"] = wn, zeta
+    return out
+
+
+def validation_text(decimation: int, n_work: int) -> str:
+    return (f"Window from the end of the hand's influence to the end of the run, every {decimation}"
+            f"{'st' if decimation == 1 else 'th'} sample ({n_work} work samples). Every model was fitted "
+            "(simulated output error) on the even work samples only; fit % (MATLAB compare, simulated "
+            "output) is measured on the odd work samples, which no fit used. An effect is called only "
+            "when its likelihood ratio n ln(SSE_base/SSE_model) exceeds the chi-square noise bound on the "
+            "training samples (alpha 1e-4, plus a look-elsewhere term for a searched frequency) and on the "
+            "held-out samples (alpha 1e-3); among those the largest held-out ratio wins.")
+
+
+def explanation(report: DiagnosisReport, base_lin: FloatArray) -> str:
+    """A short paragraph for a student's report."""
+    base = linear_summary(base_lin, report.carts)
+    key = "zeta" if report.carts == 1 else "zeta_mode1"
+    if report.cause == "none":
+        return (f"The linear model explains the run to within the measurement noise: its held-out fit is "
+                f"{report.baseline.fit_percent:.2f} % and no physical extension (dry friction, quadratic "
+                f"drag, cubic spring, encoder quantization, second mode) improved it by more than noise "
+                f"explains. Damping ratio {base[key]:.4f}.")
+    what, sign = _WHAT[report.cause]
+    chosen = next(c for c in report.candidates if c.effect == report.cause)
+    params = ", ".join(f"{k} = {v:.4g}" for k, v in chosen.parameters.items()
+                       if not k.startswith(("mode_cos", "mode_sin", "lattice_offset")))
+    text = (f"The linear simulation misses {what}: {sign}. Adding it ({params}) raises the held-out "
+            f"fit from {report.baseline.fit_percent:.2f} % to {report.extended.fit_percent:.2f} % "
+            f"(+{report.gain_points:.3g} points), more than noise explains. ")
+    corrected = report.corrected_linear.get(key)
+    if corrected is not None and report.cause in ("coulomb_friction", "quadratic_drag"):
+        text += (f"The linear fit absorbed this loss into viscous damping: its damping ratio "
+                 f"{base[key]:.4f} becomes {corrected:.4f} once the effect is modelled.")
+    elif corrected is not None:
+        text += f"Damping ratio {base[key]:.4f} (linear) and {corrected:.4f} (extended model)."
+    return text

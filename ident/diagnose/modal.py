@@ -1,0 +1,115 @@
+"""Modal fits of a free response by variable projection, and spectral peak picking.
+
+Free response of a linear system with m lightly damped modes, per output i:
+
+    y_i(τ) = s_i + Σ_j e^{-σ_j τ} (a_ij cos ω_j τ + b_ij sin ω_j τ),   τ ≥ 0 (s),
+
+linear in (s_i, a_ij, b_ij), nonlinear in (ω_j rad/s, σ_j 1/s). Variable projection: the
+linear coefficients are solved by least squares inside the residual, so the optimiser only
+sees 2m parameters. Used for start values, the release window and the coupled-mode
+candidate; the physical fits are in `ident.diagnose.fitting`. No I/O here.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.optimize
+from numpy.typing import NDArray
+
+FloatArray = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class ModalFit:
+    """`freqs` ω_j (rad/s, damped), `decays` σ_j (1/s), `rest` s_i (n_out,),
+    `amplitudes` complex a_ij - i b_ij (n_out, m), `sse` residual sum of squares."""
+
+    freqs: FloatArray
+    decays: FloatArray
+    rest: FloatArray
+    amplitudes: NDArray[np.complex128]
+    sse: float
+    residual: FloatArray
+
+
+def _basis(tau: FloatArray, freqs: FloatArray, decays: FloatArray) -> FloatArray:
+    cols = [np.ones_like(tau)]
+    for w, s in zip(freqs, decays):
+        env = np.exp(-s * tau)
+        cols += [env * np.cos(w * tau), env * np.sin(w * tau)]
+    return np.column_stack(cols)
+
+
+def project(tau: FloatArray, y: FloatArray, freqs: FloatArray, decays: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """Linear coefficients (1 + 2m, n_out) and residual (N, n_out) for given modes."""
+    basis = _basis(tau, freqs, decays)
+    coef = np.asarray(np.linalg.lstsq(basis, y, rcond=None)[0], dtype=np.float64)
+    return coef, np.asarray(y - basis @ coef, dtype=np.float64)
+
+
+def fit_modes(tau: FloatArray, y: FloatArray, freq_starts: FloatArray,
+              decay_starts: FloatArray | None = None) -> ModalFit:
+    """Variable-projection fit of m = len(freq_starts) modes to `y` (N, n_out) on `tau` (N,)."""
+    m = len(freq_starts)
+    nyq = np.pi / max(float(np.median(np.diff(tau))), 1e-9)
+    best: ModalFit | None = None
+    factors = (0.02, 0.2) if decay_starts is None else (None,)
+    for factor in factors:
+        decays0 = (np.asarray(decay_starts) if factor is None
+                   else factor * np.asarray(freq_starts) / (2 * np.pi))
+        x0 = np.concatenate([freq_starts, np.maximum(decays0, 1e-4)])
+        lower = np.concatenate([np.full(m, 1e-3), np.full(m, -0.05)])
+        upper = np.concatenate([np.full(m, nyq), np.full(m, np.inf)])
+        x0 = np.clip(x0, lower + 1e-9, upper - 1e-9)
+
+        def res(x: FloatArray) -> FloatArray:
+            return project(tau, y, x[:m], x[m:])[1].ravel()
+
+        sol = scipy.optimize.least_squares(res, x0, bounds=(lower, upper), x_scale="jac",
+                                           max_nfev=200)
+        coef, resid = project(tau, y, sol.x[:m], sol.x[m:])
+        sse = float(np.sum(resid ** 2))
+        if best is None or sse < best.sse:
+            amps = coef[1::2].T - 1j * coef[2::2].T
+            best = ModalFit(sol.x[:m].copy(), sol.x[m:].copy(), coef[0].copy(), amps, sse, resid)
+    assert best is not None
+    return best
+
+
+def spectrum(y: FloatArray, dt: float, pad: int = 8) -> tuple[FloatArray, FloatArray]:
+    """One-sided Hann-windowed power spectrum summed over outputs: (ω rad/s, power)."""
+    y2 = y.reshape(y.shape[0], -1)
+    n = y2.shape[0]
+    win = np.hanning(n)[:, None]
+    nfft = int(2 ** np.ceil(np.log2(n * pad)))
+    spec = np.abs(np.fft.rfft((y2 - y2.mean(axis=0)) * win, n=nfft, axis=0)) ** 2
+    freqs = np.asarray(2 * np.pi * np.fft.rfftfreq(nfft, dt), dtype=np.float64)
+    return freqs, np.asarray(spec.sum(axis=1), dtype=np.float64)
+
+
+def spectral_peaks(y: FloatArray, dt: float, count: int, min_rad_s: float = 0.5,
+                   exclude: FloatArray | None = None, exclude_rel: float = 0.15) -> FloatArray:
+    """The `count` largest local maxima of the spectrum (rad/s, parabolic interpolation).
+
+    Peaks within `exclude_rel`·ω of any frequency in `exclude` are skipped.
+    """
+    w, p = spectrum(y, dt)
+    local = np.flatnonzero((p[1:-1] > p[:-2]) & (p[1:-1] >= p[2:])) + 1
+    local = local[w[local] >= min_rad_s]
+    if exclude is not None:
+        keep = [i for i in local if np.all(np.abs(w[i] - exclude) > exclude_rel * np.asarray(exclude))]
+        local = np.asarray(keep, dtype=int)
+    order = local[np.argsort(p[local])[::-1]]
+    peaks: list[float] = []
+    for i in order:
+        if all(abs(w[i] - q) > 0.15 * q for q in peaks):
+            a, b, c = np.log(p[i - 1] + 1e-300), np.log(p[i] + 1e-300), np.log(p[i + 1] + 1e-300)
+            shift = 0.5 * (a - c) / (a - 2 * b + c) if (a - 2 * b + c) != 0 else 0.0
+            peaks.append(float(w[i] + np.clip(shift, -0.5, 0.5) * (w[1] - w[0])))
+        if len(peaks) == count:
+            break
+    while len(peaks) < count:
+        peaks.append(peaks[-1] * 2.0 if peaks else 2 * np.pi)
+    return np.sort(np.asarray(peaks))

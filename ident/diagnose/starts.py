@@ -1,0 +1,66 @@
+"""Start values and bounds of every model, from the modal fit and the evidence.
+
+Linear start (one mode per cart, `modal.fit_modes`): wn = √(ω_d² + σ²), ζ = σ/wn; the
+state at τ = 0 from the modal coefficients, x0 = s + a, v0 = -σ a + ω_d b; two carts via
+`chain.physical_from_modes` with the mode shapes r_j = Re(c_2j c̄_1j)/|c_1j|².
+Effect starts come from the evidence (envelope step -> friction, envelope curvature ->
+drag, frequency drift -> cubic, residual spectrum -> coupled mode). No I/O here.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ident.diagnose.chain import physical_from_modes
+from ident.diagnose.modal import ModalFit
+
+FloatArray = NDArray[np.float64]
+
+
+def linear_start(fit: ModalFit, carts: int) -> FloatArray:
+    """Linear parameters | x0 | v0 | rest from a modal fit with `carts` modes."""
+    wd, sig = fit.freqs, fit.decays
+    wn = np.hypot(wd, sig)
+    a = fit.amplitudes.real            # (n_out, m)
+    b = -fit.amplitudes.imag
+    x0 = fit.rest + a.sum(axis=1)
+    v0 = (-sig[None, :] * a + wd[None, :] * b).sum(axis=1)
+    if carts == 1:
+        lin = np.array([wn[0], max(sig[0] / wn[0], 1e-4)])
+    else:
+        c = fit.amplitudes
+        shapes = np.array([float(np.real(c[1, j] * np.conj(c[0, j])) / max(abs(c[0, j]) ** 2, 1e-30))
+                           for j in range(2)])
+        lin = physical_from_modes(wn, np.maximum(sig, 1e-4), shapes)
+    return np.concatenate([lin, x0, v0, fit.rest])
+
+
+def linear_bounds(theta: FloatArray, carts: int) -> tuple[FloatArray, FloatArray]:
+    """Bounds of the linear | x0 | v0 | rest block."""
+    n_lin = 2 if carts == 1 else 6
+    lower = np.full(n_lin + 3 * carts, -np.inf)
+    upper = np.full(n_lin + 3 * carts, np.inf)
+    if carts == 1:
+        lower[:2] = [0.2 * theta[0], 0.0]
+        upper[:2] = [5.0 * theta[0], 1.5]
+    else:
+        scale = float(np.max(theta[:4]))
+        lower[:4] = 1e-4 * scale
+        upper[:4] = 50.0 * scale
+        lower[4:6] = 0.0
+        upper[4:6] = 5.0 * np.sqrt(scale)
+    return lower, upper
+
+
+def linear_typical(theta: FloatArray, carts: int, amplitude: float) -> FloatArray:
+    """Typical magnitudes for finite-difference steps."""
+    n_lin = 2 if carts == 1 else 6
+    wn = theta[0] if carts == 1 else float(np.sqrt(np.max(theta[:4])))
+    lin = np.abs(theta[:n_lin]).copy()
+    if carts == 1:
+        lin[1] = max(lin[1], 0.01)
+    else:
+        lin[4:6] = np.maximum(lin[4:6], 0.01 * wn)
+    return np.concatenate([lin, np.full(carts, amplitude), np.full(carts, amplitude * wn),
+                           np.full(carts, amplitude)])
