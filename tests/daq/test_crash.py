@@ -92,3 +92,22 @@ def test_kill_9_loses_at_most_half_a_second_and_restart_recovers(tmp_path: Path)
     assert recovered.complete and recovered.t_ns.tolist() == salvaged.t_ns.tolist()
     assert recovered.finished == record
     assert recovered.release_time_s is not None and 0.5 <= recovered.release_time_s < 0.5 + 1 / RATE_HZ
+
+
+def test_sigint_mid_run_finishes_the_run_file(tmp_path: Path) -> None:
+    runs = tmp_path / "runs"
+    proc = start_daq("run", "--port", SIM, "--bench", BENCH, "--runs-dir", str(runs), "--no-zenoh",
+                     log_path=tmp_path / "daq.log")
+    try:
+        wait_for(lambda: bool(list(runs.glob("*.mcap.part"))), 30, "a run file to be opened")
+        proc.send_signal(signal.SIGINT)
+        assert proc.wait(timeout=20) == 0
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert not list(runs.glob("*.part"))
+    (path,) = runs.glob("*.mcap")
+    run = load_run(path)
+    assert run.complete and run.finished is not None
+    assert run.finished.status == "aborted" and run.finished.reason == "stopped by signal"
+    assert run.finished.n_samples == run.t_ns.size > 0.5 * RATE_HZ
