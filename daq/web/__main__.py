@@ -62,6 +62,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         settings = settings_from_args(args)
     except ValueError as exc:
         parser.error(str(exc))
+    if not args.display_hz > 0:
+        parser.error(f"--display-hz: expected a rate > 0, got {args.display_hz:g}")
     if args.runs_dir is not None and not args.runs_dir.is_dir():
         parser.error(f"--runs-dir: expected an existing directory, got {str(args.runs_dir)!r}")
     print(f"bench page on http://{host_for_url(args.host)}:{args.port}/", file=sys.stderr)

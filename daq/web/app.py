@@ -30,7 +30,7 @@ from starlette.staticfiles import StaticFiles
 
 from daq.web.files import RunFileError, fit_file_path, mcap_path
 from daq.web.hub import Event
-from daq.web.service import WebService, WebSettings
+from daq.web.service import WebService
 from schemas import keys, topics
 from schemas.errors import SchemaError
 
@@ -157,6 +157,3 @@ def build_app(service: WebService) -> Starlette:
     app.state.service = service
     return app
 
-
-def create_app(settings: WebSettings) -> Starlette:
-    return build_app(WebService(settings))

@@ -7,9 +7,11 @@ as long as its page does; `BenchPageServer` ends the streams first, so Ctrl-C (o
 
 from __future__ import annotations
 
+import contextlib
 import socket
 import threading
 import time
+from collections.abc import Iterator
 from types import FrameType
 
 import uvicorn
@@ -28,6 +30,15 @@ class BenchPageServer(uvicorn.Server):
     def handle_exit(self, sig: int, frame: FrameType | None) -> None:
         self.service.end_streams_threadsafe()
         super().handle_exit(sig, frame)
+
+    @contextlib.contextmanager
+    def capture_signals(self) -> Iterator[None]:
+        # uvicorn re-raises a caught SIGINT/SIGTERM after its graceful shutdown (a
+        # KeyboardInterrupt traceback, or death by SIGTERM); a stop on a signal is a clean
+        # stop here, so `main()` returns 0.
+        with super().capture_signals():
+            yield
+            self._captured_signals.clear()
 
     def stop(self) -> None:
         """Ask a server running in another thread to stop (thread-safe)."""

@@ -146,3 +146,40 @@ def test_run_files_stay_inside_the_runs_dir(tmp_path: Path) -> None:
             fit_file_path(runs, "r1", bad)
         with pytest.raises(SchemaError):
             mcap_path(runs, bad)
+
+
+def test_a_page_that_lags_is_dropped_and_told_to_reconnect() -> None:
+    import asyncio
+
+    from daq.web.broadcast import CLIENT_QUEUE_EVENTS, Broadcaster
+    from daq.web.hub import Event
+
+    async def scenario() -> None:
+        hub = Broadcaster()
+        slow, other = hub.add("b1"), hub.add("b2")
+        hub.publish([Event("samples", "b1", {"i": i}) for i in range(CLIENT_QUEUE_EVENTS + 1)])
+        assert slow.dropped and slow not in hub.clients and hub.clients_dropped == 1
+        assert slow.queue.qsize() == 1 and slow.queue.get_nowait() is None   # its stream ends
+        assert other.queue.empty() and not other.dropped                     # other benches untouched
+        hub.publish([Event("benches", None, {})])
+        assert other.queue.get_nowait() == Event("benches", None, {})
+
+    asyncio.run(scenario())
+
+
+def test_command_line_defaults_and_errors(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from daq.web.__main__ import build_parser, main, settings_from_args
+
+    settings = settings_from_args(build_parser().parse_args([]))
+    assert settings.bus.connect == ["tcp/127.0.0.1:7447"] and settings.bus.listen == []
+    assert settings.runs_dir is None and settings.display_hz == 250.0
+    settings = settings_from_args(build_parser().parse_args(
+        ["--listen", "tcp/127.0.0.1:7450", "--runs-dir", str(tmp_path), "--display-hz", "100"]))
+    assert settings.bus.connect == [] and settings.bus.listen == ["tcp/127.0.0.1:7450"]
+    assert settings.runs_dir == tmp_path and settings.display_hz == 100.0
+    for argv, message in ((["--connect", "localhost:7447"], "expected an endpoint like"),
+                          (["--runs-dir", str(tmp_path / "absent")], "expected an existing directory"),
+                          (["--display-hz", "0"], "expected a rate > 0")):
+        with pytest.raises(SystemExit) as exc:
+            main(argv)
+        assert exc.value.code == 2 and message in capsys.readouterr().err

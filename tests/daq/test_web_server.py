@@ -211,3 +211,37 @@ def test_an_mcap_not_on_this_machine_is_fetched_from_the_daq(
     assert status == 200 and body == b"\x89MCAP0\r\nfar1"
     status, body = page.request("GET", "/files/nope/mcap?bench=bench1")
     assert status == 404 and b"expected a known run id" in body
+
+
+def test_the_command_serves_and_stops_cleanly_on_a_signal_with_a_page_open(
+        free_port: int, endpoint: str) -> None:
+    import signal
+    import subprocess
+    import sys
+
+    from tests.daq.web_support import wait_for
+
+    proc = subprocess.Popen([sys.executable, "-m", "daq.web", "--port", str(free_port),
+                             "--connect", endpoint], stderr=subprocess.PIPE)
+    try:
+        def serving() -> bool:
+            try:
+                return PageServer.request_on(free_port, "GET", "/api/stats")[0] == 200
+            except OSError:
+                assert proc.poll() is None, proc.stderr.read() if proc.stderr else ""
+                return False
+
+        wait_for(serving, 20, "python -m daq.web to serve")
+        reader = SseReader(free_port, "/api/events")
+        first = reader.next()
+        assert first.name == "snapshot" and "no daq found" in first.data["status"]["problems"][0]
+        proc.send_signal(signal.SIGINT)
+        assert proc.wait(10) == 0
+        with pytest.raises(EOFError):
+            reader.next()                                   # the open stream was ended, not cut
+        reader.close()
+        assert b"Traceback" not in (proc.stderr.read() if proc.stderr else b"")
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait(5)

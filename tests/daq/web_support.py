@@ -57,9 +57,14 @@ class PageServer(ThreadedPageServer):
 
     def request(self, method: str, path: str, timeout_s: float = 10,
                 headers: dict[str, str] | None = None) -> tuple[int, bytes]:
+        return self.request_on(self.port, method, path, timeout_s, headers)
+
+    @staticmethod
+    def request_on(port: int, method: str, path: str, timeout_s: float = 10,
+                   headers: dict[str, str] | None = None) -> tuple[int, bytes]:
         if headers is None:
             headers = {"X-Cartlab-Action": "1"} if method == "POST" else {}
-        conn = http.client.HTTPConnection("127.0.0.1", self.port, timeout=timeout_s)
+        conn = http.client.HTTPConnection("127.0.0.1", port, timeout=timeout_s)
         try:
             conn.request(method, path, headers=headers)
             resp = conn.getresponse()
