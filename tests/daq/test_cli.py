@@ -105,3 +105,18 @@ def test_a_port_that_goes_away_mid_run_leaves_a_marked_gap(tmp_path: Path) -> No
     emitted = parse_capture(capture.read_bytes())
     start = int(np.searchsorted(emitted["t_us"] * 1000, run.t_ns[0]))
     assert run.raw[:, 0].tolist() == emitted["enc1"][start:start + run.t_ns.size].astype(float).tolist()
+
+
+def test_replaying_the_capture_gives_the_same_runs(sim_runs: tuple[Path, Path], tmp_path: Path) -> None:
+    runs, capture = sim_runs
+    proc = subprocess.run(daq_command("run", "--port", f"replay://{capture}?speed=max", "--runs-dir",
+                                      str(tmp_path / "replayed"), "--no-zenoh", "--until-eof", "--bench", "b1"),
+                          cwd=REPO, capture_output=True, timeout=60)
+    assert proc.returncode == 0, proc.stderr.decode()
+    live = [load_run(p) for p in sorted(runs.glob("*.mcap"))]
+    replayed = [load_run(p) for p in sorted((tmp_path / "replayed").glob("*.mcap"))]
+    assert len(replayed) == len(live) == 3
+    for a, b in zip(live, replayed):
+        assert a.t_ns.tolist() == b.t_ns.tolist()
+        assert a.raw.tolist() == b.raw.tolist()
+        assert a.release_time_s == b.release_time_s
