@@ -8,7 +8,9 @@ scaled by `1 + U(-hold_jitter, hold_jitter)`; the student zeroes here) -> `relea
 `both` both carts are let go at the same instant; a pin stays) -> `ring` (until every
 free cart moves slower than `settle_mps` for `settle_hold_s`, or `ring_max_s`) -> next
 case (a pin stays on until the next grab). An `idle` case removes pins and is hands off
-for `idle_s`.
+for `idle_s`. A `handle` case is slow handling that must not look like a release: the
+hand pulls cart 1 (cart 2 free) over `2 pull_s`, holds, brings it back to rest over
+`2 pull_s` and lets go there (`letgo` event, no `release`).
 
 Hand tremor: a sum of three sines (7-11 Hz, random phases) with RMS `tremor_m`, faded in
 over 0.3 s after the grab. A pin has no tremor.
@@ -33,6 +35,7 @@ class HandPath:
     x1: float
     duration: float
     tremor: tuple[tuple[float, float, float], ...] = ()   # (amplitude m, omega rad/s, phase)
+    tremor_t0: float | None = None      # when the tremor started (a later move keeps it)
 
     def __call__(self, t: float) -> float:
         u = (t - self.t0) / self.duration
@@ -43,8 +46,9 @@ class HandPath:
         else:
             x = self.x0 + (self.x1 - self.x0) * u * u * u * (10.0 - 15.0 * u + 6.0 * u * u)
         if self.tremor:
-            fade = min(1.0, max(0.0, (t - self.t0) / 0.3))
-            x += fade * sum(a * math.sin(w * (t - self.t0) + ph) for a, w, ph in self.tremor)
+            t0 = self.t0 if self.tremor_t0 is None else self.tremor_t0
+            fade = min(1.0, max(0.0, (t - t0) / 0.3))
+            x += fade * sum(a * math.sin(w * (t - t0) + ph) for a, w, ph in self.tremor)
         return x
 
 
@@ -60,7 +64,7 @@ def tremor_terms(rng: np.random.Generator, rms_m: float) -> tuple[tuple[float, f
 
 @dataclass(frozen=True, slots=True)
 class ScriptEvent:
-    """Ground truth for tests: `kind` is case_start, grab, release, settled, end."""
+    """Ground truth for tests: `kind` is case_start, grab, release, letgo, settled."""
 
     kind: str
     case: str
@@ -134,10 +138,19 @@ class Hand:
             self._start_case(t)
         elif self.phase == "rest":
             self._grab(t, x1, x2)
-            self.phase, self.phase_end = "pull", t + tm.pull_s
+            self.phase, self.phase_end = "pull", t + self._move_s()
         elif self.phase == "pull":
             jitter = 1.0 + float(self.rng.uniform(-tm.hold_jitter, tm.hold_jitter))
             self.phase, self.phase_end = "hold", t + tm.hold_s * jitter
+        elif self.phase == "hold" and self.cases[self.index] == "handle":
+            held = self.path1
+            assert isinstance(held, HandPath)
+            self.path1 = HandPath(t, held.x1, 0.0, self._move_s(), held.tremor, held.t0)
+            self.phase, self.phase_end = "return", t + self._move_s()
+        elif self.phase == "return":
+            self._event("letgo", t_now)
+            self.path1 = None
+            self.phase, self.phase_end = "ring", math.inf
         elif self.phase == "hold":
             self._event("release", t_now)
             case = self.cases[self.index]
@@ -147,12 +160,16 @@ class Hand:
                 self.path2 = None
             self.phase, self.phase_end = "ring", math.inf
 
+    def _move_s(self) -> float:
+        """A `handle` case moves twice as slowly as a pull."""
+        return self.timing.pull_s * (2.0 if self.cases[self.index] == "handle" else 1.0)
+
     def _grab(self, t: float, x1: float, x2: float) -> None:
         tm, case = self.timing, self.cases[self.index]
         self._event("grab", t)
 
         def hand(x0: float, target: float) -> HandPath:
-            return HandPath(t, x0, target, tm.pull_s, tremor_terms(self.rng, tm.tremor_m))
+            return HandPath(t, x0, target, self._move_s(), tremor_terms(self.rng, tm.tremor_m))
 
         def pin(x0: float) -> HandPath:
             return HandPath(t, x0, 0.0, tm.pull_s)
@@ -164,3 +181,5 @@ class Hand:
             self.path1, self.path2 = pin(x1), hand(x2, -tm.pull_m)
         elif case == "both":
             self.path1, self.path2 = hand(x1, -tm.pull_m), hand(x2, 0.0)
+        elif case == "handle":
+            self.path1, self.path2 = hand(x1, -tm.pull_m), None

@@ -23,7 +23,7 @@ import serial
 
 from daq.errors import DaqValueError
 
-CASES = ("cart1", "cart2", "both", "idle")
+CASES = ("cart1", "cart2", "both", "idle", "handle")
 DIALECT_NAMES = ("cartlab", "csv", "ecp")
 
 
@@ -182,7 +182,8 @@ _TABLE: dict[str, tuple[Callable[[str], Any], str, str]] = {
     "model": (_text, "", "model field of `$I`"),
     "firmware": (_text, "", "firmware field of `$I`"),
     "cases": (_cases, "", "the script: cases run in order (cart1: cart 2 pinned; cart2: cart 1 pinned; "
-              "both: cart 1 pulled, cart 2 held at rest, both released; idle: hands off for idle_s)"),
+              "both: cart 1 pulled, cart 2 held at rest, both released; idle: hands off for idle_s; "
+              "handle: cart 1 pulled slowly, held, brought back to rest and let go there, no release)"),
     "repeat": (_int(1, 10000), "", "how many times the case list is run"),
     "pull_m": (_float(-1, 1), "m", "the pulled cart is held at -pull_m from its rest"),
     "rest_s": (_float(0, _BIG), "s", "hands off before each case"),
@@ -237,7 +238,7 @@ def parse_sim_url(url: str) -> SimOptions:
 
 def _check_consistent(options: SimOptions) -> None:
     if options.carts == 1 and any(case in ("cart2", "both") for case in options.cases):
-        raise SimOptionError("sim option 'cases'", "only cart1 or idle cases with carts=1",
+        raise SimOptionError("sim option 'cases'", "only cart1, idle or handle cases with carts=1",
                              ",".join(options.cases))
 
 

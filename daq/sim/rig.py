@@ -109,6 +109,11 @@ class Rig:
     def events(self) -> list[ScriptEvent]:
         return self.hand.events
 
+    def device_us(self, t_s: float) -> int:
+        """The device clock (unwrapped, us) at simulated time `t_s` since the last boot."""
+        o = self.options
+        return o.clock0_us + round((t_s - self.boot_s) * (1.0 + o.clock_ppm * 1e-6) * 1e6)
+
     @property
     def finished(self) -> bool:
         """Ended and every byte delivered."""
@@ -238,13 +243,13 @@ class Rig:
         counts = [round(s.x1 * cpm + noise * self._noise.next())]
         if o.carts == 2:
             counts.append(round(s.x2 * cpm + noise * self._noise.next()))
-        t_dev_us = round((t - self.boot_s) * (1.0 + o.clock_ppm * 1e-6) * 1e6)
+        t_dev_us = self.device_us(t)
         if o.dialect == "cartlab":
-            return encode_data(self.seq, o.clock0_us + t_dev_us, counts)
+            return encode_data(self.seq, t_dev_us, counts)
         if o.dialect == "csv":
-            return encode_csv((o.clock0_us + t_dev_us) / 1e6, [c / cpm for c in counts])
+            return encode_csv(t_dev_us / 1e6, [c / cpm for c in counts])
         second = counts[1] if len(counts) == 2 else 0
-        return encode_ecp(counts[0], second, 0, 0.0, (o.clock0_us + t_dev_us) / 1e3)
+        return encode_ecp(counts[0], second, 0, 0.0, t_dev_us / 1e3)
 
     # -- faults, plugging ------------------------------------------------------------
     def _send(self, index: int, line: bytes) -> None:

@@ -121,3 +121,16 @@ def test_script_runs_cases_in_order_with_releases_between_samples() -> None:
     assert [e.case for e in releases] == ["cart1", "cart2", "both"]
     assert all(abs(e.t_s * 100 - round(e.t_s * 100)) > 1e-6 for e in releases)
     assert rig.events[-1].kind == "settled" and t[-1] == pytest.approx(rig.events[-1].t_s + 2.0, abs=0.011)
+
+
+def test_handle_case_moves_slowly_and_lets_go_at_rest_without_a_release() -> None:
+    t, counts, rig = run_rig(BASE + "&cases=handle,idle&idle_s=2")
+    kinds = [e.kind for e in rig.events]
+    assert "release" not in kinds and kinds.count("letgo") == 1
+    x1 = counts[:, 0] / CPM
+    grab = next(e.t_s for e in rig.events if e.kind == "grab")
+    letgo = next(e.t_s for e in rig.events if e.kind == "letgo")
+    assert x1.min() == pytest.approx(-0.15, abs=5e-4)
+    assert np.abs(np.diff(x1[(t > grab) & (t < letgo)])).max() * 500 < 0.15  # never faster than 0.15 m/s
+    assert np.abs(x1[t > letgo]).max() < 1e-3                                 # let go at rest: no ringing
+    assert rig.device_us(letgo) == round(letgo * 1e6)
