@@ -53,7 +53,6 @@ class Timeline:
         self._clock_mod = None if clock_bits is None else 1 << clock_bits
         self.nominal_period_us = nominal_period_us
         self._last_raw_us: int | None = None
-        self._offset_us = 0          # added to the raw clock to give the unwrapped clock
         self._last_us = 0            # last unwrapped time, us
         self._last_step_us = 0       # last accepted forward step, us
         self._last_seq: int | None = None
@@ -69,7 +68,6 @@ class Timeline:
         if step_us is None:
             anomaly = anomaly or "clock_backwards"
             step_us = self._typical_step_us()
-            self._offset_us = self._last_us + step_us - t_us
         else:
             if seq is None and lost == 0:
                 lost = self._lost_by_clock(step_us)
