@@ -2,9 +2,9 @@
 
 `Acquisition` is fed the port's byte chunks and link events and calls an `Outputs` sink
 with what to publish and record: live sample batches, detector state changes, and per
-run the start (metadata + pre-trigger samples), sample batches and the end. It does no
-I/O and reads no clock: the caller passes `now_s` (monotonic seconds, for batching and
-flush pacing) and a wall-clock function for run ids and UTC stamps.
+run the start (metadata), sample batches (the first ones hold the pre-trigger samples) and
+the end. It does no I/O and reads no clock: batches close every 20 ms of device time (or when
+the caller says the port went quiet), and the wall clock for run ids and UTC stamps is passed in.
 
 Runs. A run starts at the detector's back-dated release minus `pre_trigger_s` (samples
 come from a ring buffer, so the file starts before the release) and ends when the carts
@@ -105,7 +105,7 @@ class _Run:
 
 
 class Acquisition:
-    """Feed `data(chunk, now_s)`; call `disconnected`/`reconnected`/`finish` on link events."""
+    """Feed `data(chunk)`; call `disconnected`/`reconnected`/`finish` on link events."""
 
     def __init__(self, config: AcquisitionConfig, outputs: Outputs,
                  wall_clock: Callable[[], datetime], existing_run_ids: Callable[[str], bool]) -> None:
