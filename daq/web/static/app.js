@@ -198,6 +198,7 @@ function renderRuns() {
   body.replaceChildren(...rows.map((row) => {
     const tr = el("tr"); tr.dataset.run = row.run_id;
     const status = el("td", row.status || "—"); if (row.reason) status.title = row.reason;
+    if (row.reason && row.status && row.status !== "complete") status.append(el("div", row.reason, "sub"));
     tr.append(el("td", row.run_id), status, el("td", fmt(row.release_time_s, 3), "num"),
       el("td", fmt(row.duration_s, 2), "num"));
     const cells = fitCells(row);
