@@ -8,19 +8,23 @@ static rest (m), viscous dampers `c1`, `c2` to ground, dry friction `fc1`, `fc2`
 
 `carts=1` is the same chain with cart 2 clamped at 0 (so `k2` goes to the wall).
 
-Integration: symplectic (semi-implicit) Euler at `dt` with the dry friction handled as a
-velocity projection (Moreau time stepping), which gives an exact stick condition:
+Integration, one of two steppers per step `dt`:
 
-    v* = v + dt (F_spring + F_viscous) / m
-    v+ = 0                          if |v*| <= dt fc / m    (the static force suffices)
-    v+ = v* - sign(v*) dt fc / m    otherwise               (kinetic friction)
-    x+ = x + dt v+
+- without dry friction: classical RK4 on the free carts (4th order; at the default 2 kHz
+  the free response matches the closed form to well under a micrometre);
+- with dry friction (`fc1` or `fc2` > 0): symplectic Euler with the friction applied as a
+  velocity projection (Moreau time stepping), which gives an exact stick condition:
 
-It is first order: besides a frequency error of `(w dt)^2 / 24` (2e-7 relative at
-w = 11 rad/s, dt = 0.2 ms) and a damping-rate error of O(zeta w dt) (1e-4 relative), the
-positions lag the exact solution by about `dt / 2` (0.1 ms at the default 5 kHz), far
-below a sample period. A cart held by a hand or pinned follows a prescribed
-path instead: its position is set, its velocity is the finite difference of that path.
+      v* = v + dt (F_spring + F_viscous) / m
+      v+ = 0                          if |v*| <= dt fc / m    (the static force suffices)
+      v+ = v* - sign(v*) dt fc / m    otherwise               (kinetic friction)
+      x+ = x + dt v+
+
+  It is first order (positions lag the exact motion by about 0.7 dt), so the rig runs
+  it with 10 times more steps (`FRICTION_REFINE`).
+
+A cart held by a hand or pinned follows a prescribed path instead: its position is set
+(at every RK4 stage time), its velocity is the finite difference of that path.
 """
 
 from __future__ import annotations
@@ -29,6 +33,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 PositionPath = Callable[[float], float]
+FRICTION_REFINE = 10
 
 
 @dataclass(frozen=True, slots=True)
@@ -74,7 +79,61 @@ def _project(v_star: float, impulse: float) -> float:
 
 def advance(p: ChainParams, s: ChainState, dt: float, steps: int,
             path1: PositionPath | None, path2: PositionPath | None) -> None:
-    """Advance `s` in place by `steps` steps of `dt`; a cart with a path follows it."""
+    """Advance `s` in place by `steps` steps of `dt`; a cart with a path follows it.
+
+    With dry friction each step is split in `FRICTION_REFINE` Moreau steps.
+    """
+    if p.fc1 == 0.0 and p.fc2 == 0.0:
+        for _ in range(steps):
+            _rk4_step(p, s, dt, path1, path2)
+    else:
+        _moreau(p, s, dt / FRICTION_REFINE, steps * FRICTION_REFINE, path1, path2)
+
+
+def _accel(p: ChainParams, x1: float, v1: float, x2: float, v2: float) -> tuple[float, float]:
+    """Accelerations (m/s^2) from springs and viscous dampers (no dry friction)."""
+    f12 = _spring(p.k2, x2 - x1, p.cubic)
+    a1 = (-_spring(p.k1, x1, p.cubic) + f12 - p.c1 * v1) / p.m1
+    a2 = (-f12 - _spring(p.k3, x2, p.cubic) - p.c2 * v2) / p.m2
+    return a1, a2
+
+
+def _rk4_step(p: ChainParams, s: ChainState, dt: float,
+              path1: PositionPath | None, path2: PositionPath | None) -> None:
+    """One RK4 step; held carts take their path's position at every stage time."""
+    h, t = 0.5 * dt, s.t
+    x1, v1, x2, v2 = s.x1, s.v1, s.x2, s.v2
+    clamp2 = p.carts == 1
+    held1 = (path1(t + h), path1(t + dt)) if path1 is not None else None
+    held2 = (0.0, 0.0) if clamp2 else (path2(t + h), path2(t + dt)) if path2 is not None else None
+    a1, a2 = _accel(p, x1, v1, x2, v2)
+    y1 = held1[0] if held1 else x1 + h * v1
+    y2 = held2[0] if held2 else x2 + h * v2
+    w1, w2 = v1 + h * a1, v2 + h * a2
+    b1, b2 = _accel(p, y1, w1, y2, w2)
+    z1 = held1[0] if held1 else x1 + h * w1
+    z2 = held2[0] if held2 else x2 + h * w2
+    u1, u2 = v1 + h * b1, v2 + h * b2
+    c1, c2 = _accel(p, z1, u1, z2, u2)
+    e1 = held1[1] if held1 else x1 + dt * u1
+    e2 = held2[1] if held2 else x2 + dt * u2
+    r1, r2 = v1 + dt * c1, v2 + dt * c2
+    d1, d2 = _accel(p, e1, r1, e2, r2)
+    sixth = dt / 6.0
+    if held1:
+        s.x1, s.v1 = held1[1], (held1[1] - x1) / dt
+    else:
+        s.x1, s.v1 = x1 + sixth * (v1 + 2 * w1 + 2 * u1 + r1), v1 + sixth * (a1 + 2 * b1 + 2 * c1 + d1)
+    if held2:
+        s.x2, s.v2 = held2[1], (held2[1] - x2) / dt
+    else:
+        s.x2, s.v2 = x2 + sixth * (v2 + 2 * w2 + 2 * u2 + r2), v2 + sixth * (a2 + 2 * b2 + 2 * c2 + d2)
+    s.t = t + dt
+
+
+def _moreau(p: ChainParams, s: ChainState, dt: float, steps: int,
+            path1: PositionPath | None, path2: PositionPath | None) -> None:
+    """Symplectic Euler with dry friction as a velocity projection (module docstring)."""
     imp1 = dt * p.fc1 / p.m1
     imp2 = dt * p.fc2 / p.m2
     clamp2 = p.carts == 1

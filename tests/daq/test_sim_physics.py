@@ -134,3 +134,17 @@ def test_handle_case_moves_slowly_and_lets_go_at_rest_without_a_release() -> Non
     assert np.abs(np.diff(x1[(t > grab) & (t < letgo)])).max() * 500 < 0.15  # never faster than 0.15 m/s
     assert np.abs(x1[t > letgo]).max() < 1e-3                                 # let go at rest: no ringing
     assert rig.device_us(letgo) == round(letgo * 1e6)
+
+
+def test_free_response_matches_the_closed_form() -> None:
+    """x(t) = -d e^{-zeta wn t} (cos wd t + zeta wn / wd sin wd t) after a still release."""
+    t, counts, rig = run_rig("sim://?realtime=0&rate_hz=1000&cases=cart1&tremor_m=0&noise_counts=0"
+                             "&counts_per_m=1e9&ring_max_s=5")
+    t_r = release_time(rig)
+    k, m, c = 105.0, 0.85, 0.6
+    wn, zeta = math.sqrt(k / m), c / (2 * math.sqrt(k * m))
+    wd = wn * math.sqrt(1 - zeta**2)
+    sel = (t > t_r) & (t < t_r + 4)
+    tau = t[sel] - t_r
+    exact = -0.15 * np.exp(-zeta * wn * tau) * (np.cos(wd * tau) + zeta * wn / wd * np.sin(wd * tau))
+    assert np.abs(counts[sel, 0] / 1e9 - exact).max() < 1e-7
