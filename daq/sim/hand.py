@@ -12,6 +12,10 @@ for `idle_s`. A `handle` case is slow handling that must not look like a release
 hand pulls cart 1 (cart 2 free) over `2 pull_s`, holds, brings it back to rest over
 `2 pull_s` and lets go there (`letgo` event, no `release`).
 
+A flick (`flick_mps` != 0): after the hold the hand accelerates the pulled cart uniformly
+for `flick_s` and lets go while it moves at `flick_mps` (towards rest when positive), as
+students often do; the `release` event is the instant the hand lets go.
+
 Hand tremor: a sum of three sines (7-11 Hz, random phases) with RMS `tremor_m`, faded in
 over 0.3 s after the grab. A pin has no tremor.
 """
@@ -52,6 +56,25 @@ class HandPath:
         return x
 
 
+@dataclass(frozen=True, slots=True)
+class FlickPath:
+    """Constant acceleration from rest at `x0`, `t0`: `x = x0 + accel (t - t0)^2 / 2`, plus tremor."""
+
+    t0: float
+    x0: float
+    accel: float
+    tremor: tuple[tuple[float, float, float], ...] = ()
+    tremor_t0: float = 0.0
+
+    def __call__(self, t: float) -> float:
+        tau = max(0.0, t - self.t0)
+        x = self.x0 + 0.5 * self.accel * tau * tau
+        if self.tremor:
+            fade = min(1.0, max(0.0, (t - self.tremor_t0) / 0.3))
+            x += fade * sum(a * math.sin(w * (t - self.tremor_t0) + ph) for a, w, ph in self.tremor)
+        return x
+
+
 def tremor_terms(rng: np.random.Generator, rms_m: float) -> tuple[tuple[float, float, float], ...]:
     """Three sines of 7-11 Hz whose sum has RMS `rms_m` (each amplitude rms * sqrt(2/3))."""
     if rms_m == 0.0:
@@ -64,7 +87,7 @@ def tremor_terms(rng: np.random.Generator, rms_m: float) -> tuple[tuple[float, f
 
 @dataclass(frozen=True, slots=True)
 class ScriptEvent:
-    """Ground truth for tests: `kind` is case_start, grab, release, letgo, settled."""
+    """Ground truth for tests: `kind` is case_start, grab, flick, release, letgo, settled."""
 
     kind: str
     case: str
@@ -81,6 +104,8 @@ class CaseTiming:
     pull_m: float
     tremor_m: float
     idle_s: float
+    flick_mps: float = 0.0
+    flick_s: float = 0.1
 
 
 class Hand:
@@ -151,7 +176,17 @@ class Hand:
             self._event("letgo", t_now)
             self.path1 = None
             self.phase, self.phase_end = "ring", math.inf
-        elif self.phase == "hold":
+        elif self.phase == "hold" and tm.flick_mps != 0.0:
+            held = self.path1 if self.cases[self.index] in ("cart1", "both") else self.path2
+            assert isinstance(held, HandPath)
+            flick = FlickPath(t, held.x1, tm.flick_mps / tm.flick_s, held.tremor, held.t0)
+            if self.cases[self.index] == "cart2":
+                self.path2 = flick
+            else:
+                self.path1 = flick
+            self._event("flick", t)
+            self.phase, self.phase_end = "flick", t + tm.flick_s
+        elif self.phase in ("hold", "flick"):
             self._event("release", t_now)
             case = self.cases[self.index]
             if case in ("cart1", "both"):

@@ -66,6 +66,8 @@ class SimOptions:
     pull_s: float = 1.5
     hold_s: float = 2.0
     hold_jitter: float = 0.2
+    flick_mps: float = 0.0
+    flick_s: float = 0.1
     tremor_m: float = 5e-5
     settle_mps: float = 0.002
     settle_hold_s: float = 1.0
@@ -191,6 +193,9 @@ _TABLE: dict[str, tuple[Callable[[str], Any], str, str]] = {
     "pull_s": (_float(0.01, _BIG), "s", "duration of the smooth (minimum-jerk) pull"),
     "hold_s": (_float(0, _BIG), "s", "holding still after the pull (the student zeroes here)"),
     "hold_jitter": (_float(0, 0.9), "", "hold_s is scaled by 1 + U(-j, j), so releases fall between samples"),
+    "flick_mps": (_float(-5, 5), "m/s", "release while moving: the hand accelerates the cart for flick_s "
+                  "and lets go at this speed (positive: towards rest; 0: still release)"),
+    "flick_s": (_float(0.001, 10), "s", "duration of the flick"),
     "tremor_m": (_float(0, 0.01), "m", "RMS of the hand tremor (7-11 Hz) while a hand holds a cart"),
     "settle_mps": (_float(0, 10), "m/s", "a ringing case is settled when every free cart moves slower than this"),
     "settle_hold_s": (_float(0, _BIG), "s", "... for this long"),

@@ -24,7 +24,7 @@ Integration, one of two steppers per step `dt`:
   it with 10 times more steps (`FRICTION_REFINE`).
 
 A cart held by a hand or pinned follows a prescribed path instead: its position is set
-(at every RK4 stage time), its velocity is the finite difference of that path.
+(at every RK4 stage time), its velocity is a backward difference of that path.
 """
 
 from __future__ import annotations
@@ -120,12 +120,14 @@ def _rk4_step(p: ChainParams, s: ChainState, dt: float,
     r1, r2 = v1 + dt * c1, v2 + dt * c2
     d1, d2 = _accel(p, e1, r1, e2, r2)
     sixth = dt / 6.0
+    # a held cart's velocity at t + dt: second-order backward difference of its path, so
+    # a cart let go while moving leaves with the hand's speed
     if held1:
-        s.x1, s.v1 = held1[1], (held1[1] - x1) / dt
+        s.x1, s.v1 = held1[1], (3.0 * held1[1] - 4.0 * held1[0] + x1) / dt
     else:
         s.x1, s.v1 = x1 + sixth * (v1 + 2 * w1 + 2 * u1 + r1), v1 + sixth * (a1 + 2 * b1 + 2 * c1 + d1)
     if held2:
-        s.x2, s.v2 = held2[1], (held2[1] - x2) / dt
+        s.x2, s.v2 = held2[1], (3.0 * held2[1] - 4.0 * held2[0] + x2) / dt
     else:
         s.x2, s.v2 = x2 + sixth * (v2 + 2 * w2 + 2 * u2 + r2), v2 + sixth * (a2 + 2 * b2 + 2 * c2 + d2)
     s.t = t + dt

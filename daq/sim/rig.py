@@ -80,7 +80,8 @@ class Rig:
         self._fault_u = _Blocks(self._fault_rng, normal=False)
         self.params = ChainParams(o.carts, o.m1, o.m2, o.k1, o.k2, o.k3, o.c1, o.c2, o.fc1, o.fc2, o.cubic)
         self.state = ChainState()
-        timing = CaseTiming(o.rest_s, o.pull_s, o.hold_s, o.hold_jitter, o.pull_m, o.tremor_m, o.idle_s)
+        timing = CaseTiming(o.rest_s, o.pull_s, o.hold_s, o.hold_jitter, o.pull_m, o.tremor_m, o.idle_s,
+                            o.flick_mps, o.flick_s)
         self.hand = Hand(o.cases * o.repeat, timing, np.random.default_rng(seeds[1]), o.carts)
         self.rate_hz = o.rate_hz
         self.next_sample_s = 0.0

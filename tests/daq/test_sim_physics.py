@@ -148,3 +148,22 @@ def test_free_response_matches_the_closed_form() -> None:
     tau = t[sel] - t_r
     exact = -0.15 * np.exp(-zeta * wn * tau) * (np.cos(wd * tau) + zeta * wn / wd * np.sin(wd * tau))
     assert np.abs(counts[sel, 0] / 1e9 - exact).max() < 1e-7
+
+
+def test_flick_release_leaves_with_the_hand_speed() -> None:
+    t, counts, rig = run_rig("sim://?realtime=0&rate_hz=1000&cases=cart1&tremor_m=0&noise_counts=0"
+                             "&counts_per_m=1e9&ring_max_s=3&flick_mps=0.4&flick_s=0.12")
+    t_r = release_time(rig)
+    t_f = next(e.t_s for e in rig.events if e.kind == "flick")
+    assert t_r - t_f == pytest.approx(0.12, abs=5e-4)       # released at the next step
+    x1 = counts[:, 0] / 1e9
+    accel = 0.4 / 0.12
+    before = (t > t_f) & (t <= t_r)
+    assert x1[before] == pytest.approx(-0.15 + 0.5 * accel * (t[before] - t_f) ** 2, abs=1e-6)
+    k, m, c = 105.0, 0.85, 0.6
+    x_r, v_r = -0.15 + 0.5 * accel * (t_r - t_f) ** 2, accel * (t_r - t_f)
+    after = (t > t_r) & (t < t_r + 0.01)
+    dt = t[after] - t_r
+    a_r = (-k * x_r - c * v_r) / m                        # free motion from (x_r, v_r): Taylor to 3rd order
+    j_r = (-k * v_r - c * a_r) / m
+    assert x1[after] == pytest.approx(x_r + v_r * dt + a_r * dt**2 / 2 + j_r * dt**3 / 6, abs=2e-6)
