@@ -168,10 +168,12 @@ class Rig:
                 if value is None or not _MIN_RATE_HZ <= value <= _MAX_RATE_HZ:
                     self.stats.bad_commands += 1
                     continue
-                self._rate_t0 = self.next_sample_s - 1.0 / self.rate_hz
-                self._rate_k = 1
+                if self.sample_index:             # next sample: one new period after the last
+                    self._rate_t0, self._rate_k = self.next_sample_s - 1.0 / self.rate_hz, 1
+                else:
+                    self._rate_t0, self._rate_k = self.next_sample_s, 0
                 self.rate_hz = value
-                self.next_sample_s = self._rate_t0 + 1.0 / value
+                self.next_sample_s = self._rate_t0 + self._rate_k / value
             if self.plugged:
                 self.pending += self._info_line()
 

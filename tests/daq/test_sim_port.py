@@ -235,3 +235,17 @@ def test_reboot_on_reconnect_restarts_seq_and_clock_and_sends_info() -> None:
     steps = [timeline.push(f.seq, f.t_us) for f in data]
     assert steps[200].anomaly == "seq_reset" and timeline.counters.clock_backwards == 1
     assert all(b.t_ns > a.t_ns for a, b in zip(steps, steps[1:]))
+
+
+def test_rate_command_before_the_first_sample() -> None:
+    port = serial.serial_for_url("sim://?realtime=0&cases=none&duration_s=0.1&rate_hz=100")
+    try:
+        port.write(encode_rate_command(200))
+        stream = bytearray()
+        with pytest.raises(EndOfStream):
+            for _ in range(100):
+                stream += port.read(4096)
+    finally:
+        port.close()
+    times = [f.t_us for f in data_frames(decode(bytes(stream))[0])]
+    assert times == [5000 * i for i in range(21)]
