@@ -47,7 +47,8 @@ class Model:
     """A fitted model `y = offset + G(s) (u(t - input_delay_s) - u[0]) + e`.
 
     `sigma`, `omega` (m,): poles -σ ± jω; `theta` (n_out, 1 + 2m): (D, c0_i, c1_i) of
-    `ident.modal`; `t` (N,) the time base; `relative_degree` per output as fitted.
+    `ident.modal`; `t` (N,) the time base; `relative_degree` per output as fitted; `K`
+    (n, n_out) the innovation gain at the time base's Ts (None: output-error noise model).
     """
 
     sigma: FloatArray
@@ -68,6 +69,7 @@ class Model:
     success: bool
     message: str
     notes: tuple[str, ...] = field(default=())
+    K: FloatArray | None = None
 
     @property
     def order(self) -> int:
@@ -108,7 +110,8 @@ class Model:
     def discrete(self, ts: float | None = None) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
         """Innovation form (Ad, Bd, C, D, K) at sample time `ts` (default: the time base's), zoh.
 
-        The noise model is output error (H = 1), so K = 0.
+        K is the estimated innovation gain (`pem(..., noise_model="innovation")`), zero for
+        the output-error noise model (H = 1). K belongs to the fitted sample time only.
         """
         step = float(np.median(np.diff(self.t))) if ts is None else ts
         ss = self.state_space
@@ -117,7 +120,18 @@ class Model:
         aug[:n, :n] = ss.A * step
         aug[:n, n:] = ss.B * step
         e = expm(aug)
-        return e[:n, :n], e[:n, n:], ss.C, ss.D, np.zeros((n, self.n_outputs))
+        gain = np.zeros((n, self.n_outputs)) if self.K is None else self.K
+        return e[:n, :n], e[:n, n:], ss.C, ss.D, gain
+
+    def predict(self, u: ArrayLike, y: ArrayLike) -> FloatArray:
+        """One-step-ahead predictions (N, n_out) on the fitted time base (uniform)."""
+        from ident.innovation import predict
+
+        gain = np.zeros((self.order, self.n_outputs)) if self.K is None else self.K
+        ts = float(np.median(np.diff(self.t)))
+        return predict(self.sigma, self.omega, self.theta, self.offset, gain,
+                       np.asarray(u, dtype=np.float64).reshape(-1),
+                       np.asarray(y, dtype=np.float64).reshape(len(self.t), -1), ts, self.input_delay_s)
 
     def simulate(self, u: ArrayLike, t: ArrayLike | None = None) -> FloatArray:
         """Free-run simulated output (N, n_out) for input `u` (N,) on time base `t` (default:

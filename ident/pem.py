@@ -18,7 +18,7 @@ Order selection: `order=None` fits 2, 4 and 6 and keeps the smallest BIC.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 
@@ -34,18 +34,21 @@ CANDIDATE_ORDERS = (2, 4, 6)
 
 def pem(data: IdData, order: int | None = None, *, relative_degree: int | Sequence[int] = 2,
         dc_gain: float | None | Sequence[float | None] = None, fit_release: bool = True,
-        fit_offset: bool = True) -> Model:
+        fit_offset: bool = True, noise_model: Literal["oe", "innovation"] = "oe") -> Model:
     """Identify a linear model of even `order` (2: one cart, 4: two carts; None: BIC choice).
 
     `relative_degree` (per output or one for all) and `dc_gain` (per output, None = free)
     are the physical structure imposed as constraints: relative degree 2 is what every
-    input structure of the lab implies. `fit_release=False` keeps the release fixed at
+    input structure of the lab implies. `noise_model="innovation"` then refines everything
+    jointly with an innovation gain K by minimising one-step prediction errors
+    (`ident.innovation`; white noise gives K ≈ 0). `fit_release=False` keeps the release fixed at
     `data.release_time_s` (e.g. from the run's metadata), or where `u` steps when that is None.
     Raises `IdentValueError` for unusable data and `FitFailed` when no fit converges.
     """
     if order is None:
         models = [pem(data, n, relative_degree=relative_degree, dc_gain=dc_gain,
-                      fit_release=fit_release, fit_offset=fit_offset) for n in CANDIDATE_ORDERS]
+                      fit_release=fit_release, fit_offset=fit_offset, noise_model=noise_model)
+                  for n in CANDIDATE_ORDERS]
         return min(models, key=lambda model: _bic(model, data))
     if order < 2 or order % 2:
         raise IdentValueError("order", "an even order ≥ 2 (2 per oscillatory mode) or None", order)
@@ -56,7 +59,16 @@ def pem(data: IdData, order: int | None = None, *, relative_degree: int | Sequen
     solution = _best_fit(problem, data, release0, n_modes)
     if problem.y.shape[1] > 1:
         solution = _reweighted(problem, solution)
-    return _to_model(data, problem, solution)
+    model = _to_model(data, problem, solution)
+    if noise_model == "innovation":
+        from ident.innovation import refine
+
+        if any(dc is not None for dc in problem.dc_gain):
+            raise IdentValueError("dc_gain", "None with noise_model='innovation'", problem.dc_gain)
+        model = refine(model, data if data.is_uniform() else make_uniform(data, "linear"))
+    elif noise_model != "oe":
+        raise IdentValueError("noise_model", "'oe' or 'innovation'", noise_model)
+    return model
 
 
 def _per_output(value: object, n_out: int, name: str) -> tuple[Any, ...]:
