@@ -12,6 +12,10 @@ turns them into a continuous int64 device time in nanoseconds and counts what we
   `1 < ds < 2**31` a gap of `ds - 1` lost lines, else a counter reset (`seq_resets`).
 - without a sequence counter (`csv`, `ecp`) and with `nominal_period_us` known, a clock
   step of more than 1.5 periods counts `round(dt / period) - 1` lost lines.
+- with a sequence counter, a clock step outside [0.5, 1.5] x `ds` periods counts
+  `clock_jumps` (anomaly "clock_jump"; the device time is kept as sent). The period is
+  `nominal_period_us` when set (update it when an `$I` line gives a new rate), else the
+  last step with `ds == 1` (a rate change then costs one flagged step).
 
 For dialects whose time does not wrap pass `clock_bits=None`.
 """
@@ -30,7 +34,7 @@ class TimelineStep:
     t_ns: int
     lost: int = 0
     duplicate: bool = False
-    anomaly: str | None = None   # "clock_backwards", "seq_reset" or None
+    anomaly: str | None = None   # "clock_backwards", "clock_jump", "seq_reset" or None
 
 
 @dataclass(slots=True)
@@ -43,6 +47,7 @@ class TimelineCounters:
     seq_resets: int = 0
     clock_wraps: int = 0
     clock_backwards: int = 0
+    clock_jumps: int = 0
 
 
 class Timeline:
@@ -56,6 +61,7 @@ class Timeline:
         self._last_us = 0            # last unwrapped time, us
         self._last_step_us = 0       # last accepted forward step, us
         self._last_seq: int | None = None
+        self._learned_period_us: int | None = None
 
     def push(self, seq: int | None, t_us: int) -> TimelineStep:
         self.counters.samples += 1
@@ -71,6 +77,8 @@ class Timeline:
         else:
             if seq is None and lost == 0:
                 lost = self._lost_by_clock(step_us)
+            elif seq is not None and anomaly is None and not duplicate:
+                anomaly = self._check_jump(step_us, lost + 1)
             if step_us > 0:
                 self._last_step_us = step_us
         self._last_raw_us = t_us
@@ -114,6 +122,16 @@ class Timeline:
         if t_us < self._last_raw_us:
             self.counters.clock_wraps += 1
         return step
+
+    def _check_jump(self, step_us: int, seq_step: int) -> str | None:
+        """A clock step far from `seq_step` periods (garbage that passed the checksum, a glitch)."""
+        period = self.nominal_period_us or self._learned_period_us
+        if seq_step == 1 and not self.nominal_period_us:
+            self._learned_period_us = step_us
+        if not period or 0.5 * seq_step * period <= step_us <= 1.5 * seq_step * period:
+            return None
+        self.counters.clock_jumps += 1
+        return "clock_jump"
 
     def _typical_step_us(self) -> int:
         if self.nominal_period_us:

@@ -63,3 +63,15 @@ def test_sim_started_near_the_wrap_decodes_to_continuous_time() -> None:
     assert t_ns == [(start + 5_000 * i) * 1000 for i in range(len(frames))]
     assert len(frames) == 1201
     assert timeline.counters.clock_wraps == 1 and timeline.counters.seq_wraps == 1
+
+
+def test_clock_jump_against_the_sequence_is_flagged() -> None:
+    timeline = Timeline()
+    pairs = [(0, 0), (1, 10_000), (2, 20_000), (3, 5_020_000), (4, 5_030_000), (6, 5_050_000), (7, 5_052_000)]
+    steps = [timeline.push(s, t) for s, t in pairs]
+    assert [s.anomaly for s in steps] == [None, None, None, "clock_jump", "clock_jump", None, "clock_jump"]
+    assert steps[3].t_ns == 5_020_000_000            # kept as sent
+    assert timeline.counters.clock_jumps == 3 and timeline.counters.lost_lines == 1
+    nominal = Timeline(nominal_period_us=10_000)
+    flags = [nominal.push(s, t).anomaly for s, t in pairs]
+    assert flags == [None, None, None, "clock_jump", None, None, "clock_jump"]
