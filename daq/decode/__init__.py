@@ -24,13 +24,13 @@ from daq.decode.cartlab import (
     xor_checksum,
 )
 from daq.decode.text import CsvDecoder, EcpDecoder, encode_csv, encode_csv_header, encode_ecp
-from daq.frames import DIALECTS, Decoder, Dialect
 from daq.errors import DaqValueError
+from daq.frames import DIALECTS, Decoder, Dialect, Frame, InfoFrame
 
 __all__ = [
     "CartlabDecoder", "CsvDecoder", "EcpDecoder", "make_decoder", "encode_data", "encode_frame",
     "encode_info", "encode_query_command", "encode_rate_command", "parse_host_command",
-    "xor_checksum", "encode_csv", "encode_csv_header", "encode_ecp",
+    "xor_checksum", "encode_csv", "encode_csv_header", "encode_ecp", "encode",
 ]
 
 
@@ -43,3 +43,28 @@ def make_decoder(dialect: Dialect | str, max_line: int = 256) -> Decoder:
     if dialect == "ecp":
         return EcpDecoder(max_line)
     raise DaqValueError("dialect", " or ".join(DIALECTS), dialect)
+
+
+def _exact(value: float) -> str:
+    return str(int(value)) if float(value).is_integer() else repr(float(value))
+
+
+def encode(dialect: Dialect | str, frame: Frame) -> bytes:
+    """The line `frame` was decoded from, in `dialect` (exact round trip for DataFrames).
+
+    cartlab: `$D`/`$I` lines (counts rounded to integers); csv: `time_s,pos...` with the
+    time to the microsecond and positions exact; ecp: `c1:c2:0:0:time_ms` (target and
+    duty are not kept by the decoder, written as 0). csv and ecp have no `$I` line.
+    """
+    if dialect == "cartlab":
+        return encode_frame(frame)
+    if isinstance(frame, InfoFrame) or dialect not in DIALECTS:
+        raise DaqValueError("encode", "a DataFrame in cartlab, csv or ecp", (dialect, frame))
+    if dialect == "csv":
+        fields = [f"{frame.t_us // 1_000_000}.{frame.t_us % 1_000_000:06d}" if frame.t_us >= 0
+                  else f"{frame.t_us / 1e6:.6f}"] + [_exact(p) for p in frame.raw]
+        return (",".join(fields) + "\n").encode()
+    if len(frame.raw) != 2:
+        raise DaqValueError("encode ecp", "two positions", frame.raw)
+    time_ms = f"{frame.t_us // 1000}.{frame.t_us % 1000:03d}" if frame.t_us >= 0 else f"{frame.t_us / 1e3:.3f}"
+    return f"{_exact(frame.raw[0])}:{_exact(frame.raw[1])}:0:0:{time_ms}\n".encode()

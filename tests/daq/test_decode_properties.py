@@ -101,3 +101,21 @@ def test_xor_checksum_equals_the_bytewise_xor(body: bytes) -> None:
     for byte in body:
         expected ^= byte
     assert xor_checksum(body) == expected
+
+
+positions = st.floats(-1e6, 1e6, allow_nan=False, allow_infinity=False)
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.integers(0, 10**12), st.lists(positions, min_size=1, max_size=2), st.integers(0, U32 - 1),
+       st.lists(st.integers(-(2**31), 2**31 - 1), min_size=1, max_size=2), st.integers(-(10**6), 10**6))
+def test_encode_then_decode_is_the_identity(t_us: int, pos: list[float], t32: int, counts: list[int],
+                                            c2: int) -> None:
+    from daq.decode import encode
+
+    cartlab = DataFrame(7, t32, tuple(float(c) for c in counts))
+    assert make_decoder("cartlab").feed(encode("cartlab", cartlab)) == [cartlab]
+    csv = DataFrame(None, t_us, tuple(pos))
+    assert make_decoder("csv").feed(encode("csv", csv)) == [csv]
+    ecp = DataFrame(None, t_us, (float(counts[0]), float(c2)))
+    assert make_decoder("ecp").feed(encode("ecp", ecp)) == [ecp]
