@@ -7,6 +7,11 @@
     released --(every cart still within ±settle_band_m for settle_s, or max_run_s)--> settled
     settled --> idle (on the next sample)
 
+Holes in the data. A hole shorter than `max_hole_s` (a line lost to corruption) is only
+missing samples: the still window and the onset fit use the samples' own times, so `hole()`
+keeps the state. A longer hole (an unplugged port) may hide a release or a move of the
+hand, so it forgets the hold (`reset()`); a run in progress is always left alone.
+
 Release instant. The hand lets go at t0; from rest, the cart's position is then
 `x(t) = x0 + ½ a (t - t0)² + b (t - t0)³ + …` (spring force step; the cubic term carries
 damping and the first change of the force). The threshold crossing comes 10–40 ms late,
@@ -62,10 +67,11 @@ class DetectorSettings:
     settle_s: float = 1.0
     max_run_s: float = 60.0
     pre_trigger_s: float = 0.5
+    max_hole_s: float = 0.05
 
     def __post_init__(self) -> None:
         for name in ("still_band_m", "still_s", "fire_m", "fit_post_s", "fit_lookback_s", "rest_margin_m",
-                     "min_accel_m_s2", "settle_band_m", "settle_s", "max_run_s"):
+                     "min_accel_m_s2", "settle_band_m", "settle_s", "max_run_s", "max_hole_s"):
             if not getattr(self, name) > 0:
                 raise DaqValueError(f"detector {name}", "> 0", getattr(self, name))
         if self.pre_trigger_s < 0.5:
@@ -173,6 +179,15 @@ class ReleaseDetector:
         self._trigger_t = None
         self._hold = tuple(pos)
         return [Armed(t_s, self._hold)]
+
+    def hole(self, span_s: float) -> list[Event]:
+        """Samples are missing: `span_s` between the samples either side of the hole (s).
+
+        Up to `max_hole_s` (a few lost lines) nothing changes; a longer hole resets.
+        """
+        if span_s <= self.settings.max_hole_s:
+            return []
+        return self.reset()
 
     def reset(self) -> list[Event]:
         """Forget the hold (e.g. after a gap in the data); a run in progress is left alone."""

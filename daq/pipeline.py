@@ -11,7 +11,10 @@ come from a ring buffer, so the file starts before the release) and ends when th
 settle (`complete`), or early at shutdown or end of stream (`aborted`, with the reason).
 A run keeps the calibration (zero offsets) it started with; zeroing during a run only
 affects the live view. A disconnected port leaves a gap interval in the counters; the
-run keeps what it has and continues when the port comes back.
+run keeps what it has and continues when the port comes back. Lost lines (a sequence gap)
+leave a gap interval too; outside a run they disarm the detector only when the hole is
+longer than its `max_hole_s` (a corrupted line during the hold must not lose the release),
+while a disconnect or a clock anomaly always does.
 """
 
 from __future__ import annotations
@@ -235,7 +238,11 @@ class Acquisition:
             "clock_jump" if anomaly else "seq_gap")
         self.gaps.append(GapInterval(start_t_ns=start, end_t_ns=t_ns, reason=reason, lost_frames=lost or None))
         self._disconnected_at = None
-        if self.run is None:
+        if self.run is not None:
+            return
+        if reason == "seq_gap":   # lost lines: the detector judges whether the hole can hide a move
+            self._events(self.detector.hole((t_ns - start) * 1e-9), t_ns)
+        else:                     # unplugged, or the device clock is not to be trusted
             self._events(self.detector.reset(), t_ns)
 
     def _run_add(self, run: _Run, t_ns: int, raw: tuple[float, ...]) -> None:

@@ -157,3 +157,30 @@ def test_fast_pulls_from_rest_are_not_taken_for_releases() -> None:
     assert all(abs(r.t_release_s - t) < 1.0 / rate for r, t in zip(found, truth))
     yanks = [e for e in events if isinstance(e, Rejected) and e.reason == "pulled from rest"]
     assert len(yanks) == 3 and min(e.accel_m_s2 for e in yanks) > DetectorSettings().min_accel_m_s2
+
+
+def test_a_lost_line_during_the_hold_keeps_the_detector_armed_and_a_long_hole_disarms() -> None:
+    trace = lab_run(LAB_CASES[0], 1000, seed=21)
+    assert trace.release_t_s is not None
+    scale = trace.counts_per_m
+    lost = {int(i) for i in np.flatnonzero(trace.t_s < trace.release_t_s)[-400::37]}   # every 37 ms
+    detector = ReleaseDetector()
+    events: list[object] = []
+    last_t = None
+    for i, (t, (c1, c2)) in enumerate(zip(trace.t_s.tolist(), trace.counts.tolist())):
+        if i in lost:
+            continue
+        if last_t is not None and t - last_t > 1.5e-3:
+            events += detector.hole(t - last_t)
+        events += detector.feed(t, (c1 / scale, c2 / scale))
+        last_t = t
+    assert not [e for e in events if isinstance(e, Disarmed)]
+    releases = [e for e in events if isinstance(e, Released)]
+    assert len(releases) == 1 and abs(releases[0].t_release_s - trace.release_t_s) < 1e-3
+
+    detector = ReleaseDetector()
+    for k in range(40):   # 0.4 s still at 100 Hz: armed
+        detector.feed(k * 0.01, (0.0,))
+    assert detector.state == "armed"
+    assert detector.hole(DetectorSettings().max_hole_s) == []
+    assert [type(e) for e in detector.hole(0.25)] == [Disarmed] and detector.state == "idle"
