@@ -232,8 +232,10 @@ def _to_model(data: IdData, problem: varpro.Problem, solution: varpro.Solution) 
 
 
 def _bic(model: Model, data: IdData) -> float:
-    """N log(RSS/N) + p log N over all outputs (p: modes, release, linear coefficients)."""
+    """N log(RSS/N) + p log N over all outputs (p: modes, release, free linear coefficients;
+    numerator coefficients after the relative-degree constraints: order + 1 - r per output)."""
     n_total = model.residuals.size
     rss = float(np.sum((model.residuals / model.noise_std) ** 2))
-    n_params = 2 * len(model.sigma) + 1 + model.theta.size + model.offset.size
+    numerators = sum(model.order + 1 - r for r in model.relative_degree)
+    n_params = 2 * len(model.sigma) + 1 + numerators + model.offset.size
     return n_total * np.log(rss / n_total) + n_params * np.log(n_total)

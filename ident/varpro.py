@@ -119,6 +119,16 @@ def _least_squares_small(design: FloatArray, target: FloatArray) -> FloatArray:
         return np.asarray(np.linalg.lstsq(scaled, target, rcond=None)[0] / scale)
 
 
+def n_linear_parameters(problem: Problem, sigma: FloatArray, omega: FloatArray) -> int:
+    """Free linear parameters: numerator/feedthrough coefficients left by the constraints, offsets."""
+    count = 0
+    for j in range(problem.y.shape[1]):
+        rows, rhs = modal.constraint_rows(sigma, omega, problem.relative_degree[j], problem.dc_gain[j])
+        count += modal.constrained_parametrisation(rows, rhs, 1 + 2 * len(sigma))[1].shape[1]
+        count += 1 if problem.fit_offset else 0
+    return count
+
+
 def _weighted_residual(p: FloatArray, problem: Problem) -> FloatArray:
     t_r, sigma, omega = _split(problem, p)
     _, _, residuals = solve_linear(problem, t_r, sigma, omega)
@@ -155,8 +165,7 @@ def fit(problem: Problem, release_s: float, sigma: FloatArray, omega: FloatArray
     t_r, sig, om = _split(problem, p)
     theta, offset, residuals = solve_linear(problem, t_r, sig, om)
     weighted = residuals * problem.weights
-    n_linear = theta.shape[0] * (theta.shape[1] - 0) + (theta.shape[0] if problem.fit_offset else 0)
-    dof = max(1, weighted.size - len(p) - n_linear)
+    dof = max(1, weighted.size - len(p) - n_linear_parameters(problem, sig, om))
     s2 = float(np.sum(weighted ** 2)) / dof
     jac = central_jacobian(problem, p)
     covariance = s2 * np.linalg.pinv(jac.T @ jac)

@@ -178,6 +178,12 @@ def crb_wn_zeta(case: Case, t: FloatArray, clean: FloatArray) -> tuple[FloatArra
 
 def monte_carlo(seeds: int, names: list[str]) -> None:
     print(f"\n## Monte-Carlo efficiency ({seeds} noise seeds, release unknown, CRB from the Jacobian at the truth)")
+    from scipy.stats import chi2
+
+    dof = seeds - 1
+    lo, hi = chi2.ppf(0.025, dof) / dof, chi2.ppf(0.975, dof) / dof  # sample variance / variance
+    print(f"(efficiency = CRB / sample variance; its 95 % sampling interval is ×[{lo:.2f}, {hi:.2f}] "
+          f"of the value shown for {seeds} seeds)")
     print(f"{'case':<18} {'method':<6} {'mode':>4} {'wn bias %':>10} {'eff wn':>7} {'zeta bias %':>11} "
           f"{'eff zeta':>8} {'t_r std ms':>10} {'failed':>6}")
     for case in [c for c in cases() if c.name in names]:

@@ -33,6 +33,8 @@ def add_parser(subparsers: Any) -> None:
     parser.add_argument("--release", type=float, default=None, help="release time (s) if known")
     parser.add_argument("--step-m", type=float, default=0.15, help="pull distance (m), default 0.15")
     parser.add_argument("--order", type=int, default=None, help="PEM order (default: 2 per cart)")
+    parser.add_argument("--noise-model", choices=("oe", "innovation"), default="oe",
+                        help="PEM noise model: output error (white noise) or innovation form with K")
     parser.add_argument("--json", action="store_true", help="print one JSON document")
     parser.set_defaults(func=run)
 
@@ -72,17 +74,18 @@ def fit_file(args: argparse.Namespace) -> dict[str, Any]:
     methods = ["pem", "rk4", "euler"] if args.method == "all" else [args.method]
     for method in methods:
         if method == "pem":
-            report["fits"].append(_pem_report(data, args.order or 2 * carts))
+            report["fits"].append(_pem_report(data, args.order or 2 * carts, args.noise_model))
         elif data.n_outputs == 1 and args.input_col is None:
             report["fits"].append(_simple_report(data, method))
     return report
 
 
-def _pem_report(data: Any, order: int) -> dict[str, Any]:
+def _pem_report(data: Any, order: int, noise_model: str = "oe") -> dict[str, Any]:
     from ident.pem import pem
 
-    model = pem(data, order)
-    return {"method": f"pem order {order}", "release_time_s": model.release_time_s,
+    model = pem(data, order, noise_model=noise_model)  # type: ignore[arg-type]
+    label = f"pem order {order}" + (" (innovation form)" if noise_model == "innovation" else "")
+    return {"method": label, "release_time_s": model.release_time_s,
             "modes": [{"wn": m.wn, "wn_std": m.wn_std, "zeta": m.zeta, "zeta_std": m.zeta_std}
                       for m in model.modes],
             "outputs": [{"num": num.tolist(), "den": den.tolist(), "fit_percent": fit, "dc_gain": float(dc)}
