@@ -168,6 +168,6 @@ def fit(problem: Problem, release_s: float, sigma: FloatArray, omega: FloatArray
     dof = max(1, weighted.size - len(p) - n_linear_parameters(problem, sig, om))
     s2 = float(np.sum(weighted ** 2)) / dof
     jac = central_jacobian(problem, p)
-    covariance = s2 * np.linalg.pinv(jac.T @ jac)
+    covariance = np.asarray(s2 * np.linalg.pinv(jac.T @ jac), dtype=np.float64)
     return Solution(t_r, sig, om, theta, offset, residuals, covariance, free_release,
                     float(result.cost), int(result.nfev), bool(result.success), str(result.message))
