@@ -28,7 +28,8 @@ from daq.frames import DIALECTS
 from schemas import SchemaError
 from schemas.bus import DEFAULT_LISTEN, BusConfig
 
-log = logging.getLogger("daq")
+log = logging.getLogger(__name__)
+PACKAGE_LOG = logging.getLogger("daq")   # the console script shows what every daq module logs
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -170,8 +171,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     handler = logging.StreamHandler(sys.stderr)
     handler.setFormatter(logging.Formatter("daq: %(message)s"))
-    log.addHandler(handler)
-    log.setLevel(logging.DEBUG if args.verbose else logging.INFO)
+    PACKAGE_LOG.addHandler(handler)
+    PACKAGE_LOG.setLevel(logging.DEBUG if args.verbose else logging.INFO)
     try:
         code: int = args.func(args)
     except ValidationError as exc:
@@ -186,7 +187,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"daq {args.command}: {exc}", file=sys.stderr)
         return 1
     finally:
-        log.removeHandler(handler)
+        PACKAGE_LOG.removeHandler(handler)
     return code
 
 

@@ -35,9 +35,10 @@ from schemas.bus import BusConfig
 from schemas.daq import (DaqStatus, DetectorStateMsg, RunFinished, RunList, RunMetadata, SampleBatch,
                          ZeroReply)
 
-log = logging.getLogger("daq")
+log = logging.getLogger(__name__)
 SNAPSHOT_EVERY_S = 0.2
 QUIET_FLUSH_S = 0.05
+MAX_REFUSAL_CHARS = 300   # a refusal quotes what was asked: bound what a caller can make us log
 
 
 @dataclass(frozen=True)
@@ -222,15 +223,23 @@ class Service:
         try:
             run_id = keys.check_name("run_id", request.run_id or "")
         except SchemaError as exc:
-            bus.reply_error(request, f"run: {exc}")
+            self._refuse(bus, request, f"run: {exc}")
             return
         runs_dir = self.config.runs_dir.resolve()
         path = final_path(runs_dir, run_id).resolve()
         if path.parent != runs_dir or not path.is_file():
-            bus.reply_error(request, f"run: expected the id of a finished run in this bench's runs directory, "
-                                     f"got {run_id!r}")
+            self._refuse(bus, request, f"run: expected the id of a finished run in this bench's runs directory, "
+                                       f"got {run_id!r}")
             return
         bus.reply_bytes(request, path.read_bytes())
+
+    @staticmethod
+    def _refuse(bus: DaqBus, request: BusRequest, reason: str) -> None:
+        """Answer a request with an error reply and log why (the reason shortened)."""
+        if len(reason) > MAX_REFUSAL_CHARS:
+            reason = reason[:MAX_REFUSAL_CHARS] + f"... ({len(reason)} characters)"
+        log.warning("refused a %s request: %s", request.kind, reason)
+        bus.reply_error(request, reason)
 
     def status(self) -> DaqStatus:
         acq = self.acq

@@ -143,8 +143,6 @@ def test_an_undecodable_run_id_payload_is_answered_with_an_error(running: Runnin
     _assert_still_serving(running)
 
 
-@pytest.mark.xfail(strict=True, reason="BUG daq/service.py Service._answer_run: a refused run request is "
-                   "answered with an error reply but not logged")
 def test_a_refused_run_request_is_logged_with_its_reason(running: Running, caplog: pytest.LogCaptureFixture) -> None:
     with caplog.at_level(logging.INFO, logger="daq"):
         _, errs = _ok_payloads(running.session, f"{keys.daq_query(BENCH, 'run')}?id=../secret")
