@@ -70,24 +70,37 @@ def fit(spec: ModelSpec, theta0: FloatArray, lower: FloatArray, upper: FloatArra
 
     def residual(x: FloatArray) -> FloatArray:
         pred = spec.predict(full(x[None, :]), dt, n)[0]
-        return (pred[train] - y_train).ravel()
+        return _finite((pred[train] - y_train).ravel())
 
     def jacobian(x: FloatArray) -> FloatArray:
         rows = np.repeat(x[None, :], free.size + 1, axis=0)
         h = steps * np.where(x + steps > upper[free], -1.0, 1.0)
         rows[1:] += np.diag(h)
         pred = spec.predict(full(rows), dt, n)[:, train, :].reshape(rows.shape[0], -1)
-        jac: FloatArray = ((pred[1:] - pred[0]) / h[:, None]).T
+        jac: FloatArray = _finite(((pred[1:] - pred[0]) / h[:, None]).T)
         return jac
 
     x0 = _inside(base[free], lower[free], upper[free])
-    sol = scipy.optimize.least_squares(residual, x0, jac=jacobian, bounds=(lower[free], upper[free]),
-                                       x_scale="jac", max_nfev=max_nfev, ftol=1e-10, xtol=1e-10)
+    with np.errstate(all="ignore"):
+        sol = scipy.optimize.least_squares(residual, x0, jac=jacobian, bounds=(lower[free], upper[free]),
+                                           x_scale="jac", max_nfev=max_nfev, ftol=1e-10, xtol=1e-10)
     theta = base.copy()
     theta[free] = sol.x
     std = np.zeros_like(theta)
     std[free] = _std(sol.jac, float(np.sum(sol.fun ** 2)))
-    return evaluate(spec, theta, dt, y, train, std)
+    with np.errstate(all="ignore"):
+        result = evaluate(spec, theta, dt, y, train, std)
+        start = evaluate(spec, base, dt, y, train)
+    if not np.isfinite(result.sse_train) or result.sse_train > start.sse_train:
+        return start if np.isfinite(start.sse_train) else result
+    return result
+
+
+def _finite(a: FloatArray) -> FloatArray:
+    """Unstable trial parameters overflow the simulation: a large finite penalty instead."""
+    if np.all(np.isfinite(a)):
+        return a
+    return np.nan_to_num(a, nan=1e3, posinf=1e3, neginf=-1e3)
 
 
 def _inside(x: FloatArray, lower: FloatArray, upper: FloatArray) -> FloatArray:

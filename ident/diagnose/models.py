@@ -13,7 +13,10 @@ equilibrium (the step, when `--step` is not given). Effect parameters:
     cubic_stiffness    cubic_per_m2_s2        (k3 / m on each cart's x_i - rest_i)
     coupled_mode       mode_hz, mode_decay_1_s, mode_cos_m_j, mode_sin_m_j (per output j):
                        + e^{-σ τ}(a_j cos 2π f τ + b_j sin 2π f τ) added to output j
-    quantization       quantum_m, lattice_offset_m: y = offset + q·round((x - offset)/q)
+    quantization       quantum_m, lattice_offset_m, quantization_blur: the expected reading
+                       E[offset + q·round((x + e - offset)/q)], e ~ N(0, (b q)²), a smoothed
+                       staircase; b -> 0 is the bare encoder, b ≈ 0.45 is nearly the identity,
+                       so the linear model is nested and b absorbs jitter and model error
 
 The model predicts positions (P, N, carts) on τ_k = k·dt. No fitting and no I/O here.
 """
@@ -23,6 +26,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+import scipy.special
 from numpy.typing import NDArray
 
 from ident.diagnose.chain import LINEAR_NAMES
@@ -51,7 +55,7 @@ def effect_names(effect: str, carts: int) -> tuple[str, ...]:
         return (("mode_hz", "mode_decay_1_s") + tuple(f"mode_cos_m_{j}" for j in range(1, carts + 1))
                 + tuple(f"mode_sin_m_{j}" for j in range(1, carts + 1)))
     if effect == "quantization":
-        return ("quantum_m", "lattice_offset_m")
+        return ("quantum_m", "lattice_offset_m", "quantization_blur")
     return ()
 
 
@@ -90,9 +94,7 @@ class ModelSpec:
         if self.effect == "coupled_mode":
             x = x + _extra_mode(extra, dt, n_samples, c)
         elif self.effect == "quantization":
-            q = np.maximum(extra[:, 0], 1e-12)[:, None, None]
-            off = extra[:, 1][:, None, None]
-            x = off + q * np.round((x - off) / q)
+            x = smoothed_staircase(x, extra[:, 0], extra[:, 1], extra[:, 2])
         return x
 
     def _terms(self, extra: FloatArray) -> NonlinearTerms:
@@ -105,6 +107,24 @@ class ModelSpec:
             return NonlinearTerms(cubic_per_m2_s2=np.repeat(extra[:, :1], c, axis=1))
         del p
         return NonlinearTerms()
+
+
+def smoothed_staircase(x: FloatArray, q: FloatArray, offset: FloatArray, blur: FloatArray) -> FloatArray:
+    """E[offset + q round((x + e - offset)/q)], e ~ N(0, (b q)²); x (P, N, c), q/offset/b (P,).
+
+    With r = (x - offset)/q = n + φ (0 ≤ φ < 1): E = n + Σ_j Φ((φ - j + ½)/b) - Σ_j Φ((-φ - j - ½)/b),
+    j = 1, 2 and j = 0, 1 (terms further out are below 1e-6 for b ≤ 0.5).
+    """
+    qq = np.maximum(q, 1e-15)[:, None, None]
+    off = offset[:, None, None]
+    b = np.maximum(blur, 1e-6)[:, None, None]
+    r = (x - off) / qq
+    n = np.floor(r)
+    phi = r - n
+    level = n + sum(scipy.special.ndtr((phi - j + 0.5) / b) for j in (1, 2))
+    level = level - sum(scipy.special.ndtr((-phi - j - 0.5) / b) for j in (0, 1))
+    out: FloatArray = off + qq * level
+    return out
 
 
 def _extra_mode(extra: FloatArray, dt: float, n_samples: int, carts: int) -> FloatArray:

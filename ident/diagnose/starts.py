@@ -36,6 +36,21 @@ def linear_start(fit: ModalFit, carts: int) -> FloatArray:
     return np.concatenate([lin, x0, v0, fit.rest])
 
 
+def linear_starts(fit: ModalFit, carts: int) -> list[FloatArray]:
+    """Start vectors to try: the modal mapping and, for two carts, a symmetric chain with
+    the same two frequencies (a1 = a2 = wn1², b1 = b2 = (wn2² - wn1²)/2), which is always
+    stable when the mode-shape mapping is not."""
+    first = linear_start(fit, carts)
+    if carts == 1:
+        return [first]
+    wn = np.sort(np.hypot(fit.freqs, fit.decays))
+    sym = first.copy()
+    coupling = max(0.5 * (wn[1] ** 2 - wn[0] ** 2), 0.05 * wn[0] ** 2)
+    sym[:6] = [wn[0] ** 2, coupling, coupling, wn[0] ** 2, 2 * max(fit.decays.mean(), 1e-3),
+               2 * max(fit.decays.mean(), 1e-3)]
+    return [first, sym] if np.all(np.isfinite(first)) else [sym]
+
+
 def linear_bounds(theta: FloatArray, carts: int) -> tuple[FloatArray, FloatArray]:
     """Bounds of the linear | x0 | v0 | rest block."""
     n_lin = 2 if carts == 1 else 6
