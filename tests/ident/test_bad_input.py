@@ -41,10 +41,11 @@ def run_file(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Path]:
 
 
 #: Exceptions `ident.io.load_mcap` lets out today on damaged files (reported, and pinned by the
-#: xfail tests `test_truncated_mcap_header_is_a_data_file_error` and
-#: `test_a_corrupted_compressed_chunk_is_a_data_file_error`). The fuzz tests tolerate them so
+#: xfail tests `test_truncated_mcap_header_is_a_data_file_error`,
+#: `test_a_corrupted_compressed_chunk_is_a_data_file_error` and
+#: `test_a_corrupted_length_inside_a_chunk_is_a_data_file_error`). The fuzz tests tolerate them so
 #: that they keep looking for anything else.
-KNOWN_LEAKS: tuple[type[BaseException], ...] = (struct.error, zstandard.ZstdError)
+KNOWN_LEAKS: tuple[type[BaseException], ...] = (struct.error, zstandard.ZstdError, MemoryError)
 
 
 def _load_or_ident_error(path: Path, tolerate: tuple[type[BaseException], ...] = KNOWN_LEAKS) -> IdData | IdentError | None:
@@ -178,8 +179,34 @@ def test_truncated_mcap_header_is_a_data_file_error(run_file: Path, tmp_path: Pa
                    "zstandard.ZstdError (not caught), not DataFileError")
 def test_a_corrupted_compressed_chunk_is_a_data_file_error(run_file: Path, tmp_path: Path) -> None:
     data = bytearray(run_file.read_bytes())
-    data[int(0.75 * len(data))] = 0
+    records = _first_chunk_records_length_offset(bytes(data)) + 8
+    size = struct.unpack_from("<Q", data, records - 8)[0]
+    data[records + size // 2: records + size // 2 + 16] = bytes(16)   # zero 16 bytes of zstd data
     path = tmp_path / "flipped.mcap"
+    path.write_bytes(bytes(data))
+    with pytest.raises(DataFileError):
+        load(path)
+
+
+def _first_chunk_records_length_offset(data: bytes) -> int:
+    """Byte offset of the u64 `records` length of the first CHUNK record (MCAP spec)."""
+    pos = 8                                    # after the magic
+    while pos + 9 <= len(data):
+        opcode, length = data[pos], struct.unpack_from("<Q", data, pos + 1)[0]
+        if opcode == 0x06:                     # CHUNK: 3 x u64, u32 crc, string compression, records
+            body = pos + 9
+            compression_len = struct.unpack_from("<I", data, body + 28)[0]
+            return body + 32 + compression_len
+        pos += 9 + length
+    raise AssertionError("no chunk in the run file")
+
+
+@pytest.mark.xfail(strict=True, reason="BUG ident/io.py load_mcap: a bit error in a chunk's records length "
+                   "makes mcap read a ~2**56-byte buffer: MemoryError leaks instead of DataFileError")
+def test_a_corrupted_length_inside_a_chunk_is_a_data_file_error(run_file: Path, tmp_path: Path) -> None:
+    data = bytearray(run_file.read_bytes())
+    struct.pack_into("<Q", data, _first_chunk_records_length_offset(bytes(data)), 2**56)
+    path = tmp_path / "bad_length.mcap"
     path.write_bytes(bytes(data))
     with pytest.raises(DataFileError):
         load(path)
