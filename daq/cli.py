@@ -1,8 +1,10 @@
-"""The `daq` console script: `daq run|info|export|recover ...`.
+"""The `daq` console script: `daq run|serve|info|export|recover ...`.
 
     daq run --port URL [--dialect cartlab|csv|ecp] [--bench NAME] [--runs-dir DIR]
             [--zenoh-config FILE | --listen ENDPOINT ... --connect ENDPOINT ...] [--no-zenoh]
             [--until-eof] [--counts-per-m N] [--invert 1|2]
+    daq serve [--host H] [--port P] [--connect ENDPOINT ...] [--runs-dir DIR] ...   (the bench page;
+            every option after `serve` goes to `daq.web`: `daq serve --help` lists them)
     daq info RUN.mcap [--json]
     daq export RUN.mcap --format csv|mat|json [-o FILE]
     daq recover PATH            (a .mcap.part file or a runs directory)
@@ -58,6 +60,10 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--baudrate", type=int, default=115200)
     run.set_defaults(func=_cmd_run)
 
+    serve = sub.add_parser("serve", add_help=False, help="serve the bench page (live plot, Zero/Arm, runs, "
+                           "fits); 'daq serve --help' for its options")
+    serve.set_defaults(func=_cmd_serve)
+
     info = sub.add_parser("info", help="metadata, counters and release time of a run file")
     info.add_argument("file", type=Path)
     info.add_argument("--json", action="store_true", help="print JSON (has release_time_s)")
@@ -108,6 +114,14 @@ def _cmd_run(args: argparse.Namespace) -> int:
             signal.signal(sig, handler)
     log.info("stopped: %d run(s) recorded in %s", n_runs, args.runs_dir)
     return 0
+
+
+def _cmd_serve(args: argparse.Namespace) -> int:
+    """The bench page: `daq.web` parses the rest of the command line (imported here, so that
+    `daq run` never loads the web stack)."""
+    from daq.web.__main__ import main as serve_main
+
+    return serve_main(args.serve_argv)
 
 
 def _cmd_info(args: argparse.Namespace) -> int:
@@ -168,7 +182,12 @@ def _cmd_recover(args: argparse.Namespace) -> int:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
+    parser = build_parser()
+    args, rest = parser.parse_known_args(argv)
+    if args.command == "serve":
+        args.serve_argv = rest   # `daq serve` owns everything after its name
+    elif rest:
+        parser.error(f"unrecognized arguments: {' '.join(rest)}")
     handler = logging.StreamHandler(sys.stderr)
     handler.setFormatter(logging.Formatter("daq: %(message)s"))
     PACKAGE_LOG.addHandler(handler)

@@ -1,10 +1,13 @@
-"""`daq run` on a `sim://` rig end to end (subprocess), and the file commands."""
+"""`daq run` on a `sim://` rig end to end (subprocess), the file commands, and `daq serve`."""
 
 from __future__ import annotations
 
 import csv
 import json
+import signal
 import subprocess
+import sys
+import urllib.request
 from pathlib import Path
 
 import numpy as np
@@ -12,7 +15,8 @@ import pytest
 
 from daq.cli import main
 from daq.run_file import load_run
-from tests.daq.daq_process import REPO, daq_command, parse_capture
+from tests.conftest import pick_free_port
+from tests.daq.daq_process import REPO, daq_command, parse_capture, wait_for
 
 SIM = "sim://?realtime=0&rate_hz=200&cases=cart1,cart2,both&seed=5&c1=2&c2=2&capture={capture}"
 
@@ -120,3 +124,50 @@ def test_replaying_the_capture_gives_the_same_runs(sim_runs: tuple[Path, Path], 
         assert a.t_ns.tolist() == b.t_ns.tolist()
         assert a.raw.tolist() == b.raw.tolist()
         assert a.release_time_s == b.release_time_s
+
+
+def test_serve_help_is_the_bench_page_help(capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit) as exc:
+        main(["serve", "--help"])
+    assert exc.value.code == 0
+    out = capsys.readouterr().out
+    assert out.startswith("usage: daq serve") and "--display-hz" in out and "--runs-dir" in out
+    with pytest.raises(SystemExit) as exc:
+        main(["run", "--port", "x", "--display-hz", "5"])   # serve's options are serve's only
+    assert exc.value.code == 2
+    assert "unrecognized arguments: --display-hz 5" in capsys.readouterr().err
+
+
+def test_daq_run_does_not_load_the_web_stack(tmp_path: Path) -> None:
+    probe = ("import sys; from daq.cli import main; "
+             f"code = main(['run', '--port', '/dev/does-not-exist-42', '--runs-dir', {str(tmp_path)!r}]); "
+             "print(code, sorted(m for m in sys.modules if m.split('.')[0] in ('starlette', 'uvicorn') "
+             "or m.startswith('daq.web')))")
+    proc = subprocess.run([sys.executable, "-c", probe], cwd=REPO, capture_output=True, timeout=60)
+    assert proc.stdout.decode().split() == ["1", "[]"], proc.stderr.decode()
+
+
+def test_serve_serves_the_page_and_stops_cleanly_on_sigterm(free_port: int) -> None:
+    nobody = f"tcp/127.0.0.1:{pick_free_port()}"   # no daq there: the page says so and keeps serving
+    proc = subprocess.Popen(daq_command("serve", "--port", str(free_port), "--connect", nobody), cwd=REPO,
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    url = f"http://127.0.0.1:{free_port}/api/stats"
+
+    def serving() -> bool:
+        try:
+            with urllib.request.urlopen(url, timeout=2) as reply:
+                return bool(reply.status == 200)
+        except OSError:
+            assert proc.poll() is None, proc.stderr.read() if proc.stderr else b""
+            return False
+
+    try:
+        wait_for(serving, 20, "daq serve to answer")
+        proc.send_signal(signal.SIGTERM)
+        assert proc.wait(10) == 0
+        err = proc.stderr.read() if proc.stderr else b""
+        assert f"bench page on http://127.0.0.1:{free_port}/".encode() in err and b"Traceback" not in err
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait(5)
