@@ -116,22 +116,24 @@ def run_method(method: str, data: IdData, n_modes: int, known: bool) -> Estimate
     return Estimate(np.array([fit.wn]), np.array([fit.zeta]), fit.release_time_s, list(fit.fit_percent))
 
 
-def timed(fn: Callable[[], Estimate], repeats: int) -> tuple[Estimate, float]:
-    times = []
+def timed(fn: Callable[[], Estimate], repeats: int) -> tuple[Estimate, float, float]:
+    """(result, median wall time, median CPU time of this process) over `repeats` calls."""
+    walls, cpus = [], []
     result = None
     for _ in range(repeats):
-        start = time.perf_counter()
+        start, cpu = time.perf_counter(), time.process_time()
         result = fn()
-        times.append(time.perf_counter() - start)
+        walls.append(time.perf_counter() - start)
+        cpus.append(time.process_time() - cpu)
     assert result is not None
-    return result, statistics.median(times)
+    return result, statistics.median(walls), statistics.median(cpus)
 
 
 def accuracy_table(repeats: int) -> None:
     print("## Accuracy and speed (seed 1; wall = median of", repeats, "fits)")
     print(f"{'case':<18} {'release':<8} {'method':<6} {'fit %':>14} {'floor %':>14} "
-          f"{'wn err %':>9} {'zeta err %':>10} {'t_r err ms':>10} {'wall ms':>8}")
-    walls = []
+          f"{'wn err %':>9} {'zeta err %':>10} {'t_r err ms':>10} {'wall ms':>8} {'cpu ms':>7}")
+    walls, cpus = [], []
     for case in cases():
         t, clean = case.clean()
         rng = np.random.default_rng(1)
@@ -142,15 +144,17 @@ def accuracy_table(repeats: int) -> None:
         for known in (False, True):
             for method in methods:
                 data = make_data(case, t, y, known)
-                est, wall = timed(partial(run_method, method, data, len(wn_true), known), repeats)
+                est, wall, cpu = timed(partial(run_method, method, data, len(wn_true), known), repeats)
                 walls.append(wall)
+                cpus.append(cpu)
                 wn_err = 100 * np.max(np.abs(est.wn / wn_true - 1))
                 zeta_err = 100 * np.max(np.abs(est.zeta / zeta_true - 1))
                 print(f"{case.name:<18} {'known' if known else 'unknown':<8} {method:<6} "
                       f"{'/'.join(f'{f:.2f}' for f in est.fit):>14} {'/'.join(f'{f:.2f}' for f in floor):>14} "
-                      f"{wn_err:>9.4f} {zeta_err:>10.3f} {1e3 * (est.release - case.t_r):>10.3f} {1e3 * wall:>8.1f}")
+                      f"{wn_err:>9.4f} {zeta_err:>10.3f} {1e3 * (est.release - case.t_r):>10.3f} {1e3 * wall:>8.1f} {1e3 * cpu:>7.1f}")
     print(f"median wall time per fit: {1e3 * statistics.median(walls):.1f} ms "
-          f"(max {1e3 * max(walls):.1f} ms) over {len(walls)} fits")
+          f"(max {1e3 * max(walls):.1f} ms), median CPU time {1e3 * statistics.median(cpus):.1f} ms, "
+          f"over {len(walls)} fits; load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
 
 
 def crb_wn_zeta(case: Case, t: FloatArray, clean: FloatArray) -> tuple[FloatArray, FloatArray]:
