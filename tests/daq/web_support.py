@@ -320,7 +320,8 @@ def chromium_driver(user_data_dir: str) -> Any:
 class DaqProcess:
     """`daq run --port sim://...` in a subprocess, listening on `endpoint`."""
 
-    def __init__(self, sim_url: str, bench: str, runs_dir: Any, endpoint: str) -> None:
+    def __init__(self, sim_url: str, bench: str, runs_dir: Any, endpoint: str,
+                 extra: tuple[str, ...] = ()) -> None:
         import subprocess
         import sys
         from pathlib import Path
@@ -330,7 +331,7 @@ class DaqProcess:
         self.log_path = Path(runs_dir).parent / f"daq-{bench}.log"
         self.log = open(self.log_path, "wb")  # noqa: SIM115 - closed in stop()
         self.proc = subprocess.Popen([*cmd, "run", "--port", sim_url, "--bench", bench,
-                                      "--runs-dir", str(runs_dir), "--listen", endpoint],
+                                      "--runs-dir", str(runs_dir), "--listen", endpoint, *extra],
                                      stdout=self.log, stderr=subprocess.STDOUT)
 
     def stop(self) -> str:
