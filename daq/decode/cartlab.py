@@ -152,15 +152,35 @@ class CartlabDecoder:
         tail = lines.pop()
         if lines:
             self.counters.lines += len(lines)
-            match = _DATA_LINE.fullmatch
-            for line in lines:
-                hit = match(line)
-                if hit is not None:
-                    self._data_frame(hit, out)
-                else:
-                    self._slow_line(line, out)
+            fast = self._decode_lines(lines, out)   # (the slow path counts its own frames)
+            self.counters.frames += fast
         self._tail = self._bound_tail(tail, out)
         return out
+
+    def _decode_lines(self, lines: list[bytes], out: list[Frame]) -> int:
+        """Complete lines -> frames; returns how many clean data lines took the fast path."""
+        match, checksum, append = _DATA_LINE.fullmatch, xor_checksum, out.append
+        fast = 0
+        for line in lines:
+            hit = match(line)
+            if hit is None:
+                self._slow_line(line, out)
+                continue
+            body, seq_text, t_text, enc1_text, enc2_text, hex_text = hit.groups()
+            if int(hex_text, 16) == checksum(body):
+                seq, t_us, enc1 = int(seq_text), int(t_text), int(enc1_text)
+                if seq < U32 and t_us < U32 and I32_MIN <= enc1 <= I32_MAX:
+                    if enc2_text is None:
+                        append(DataFrame(seq, t_us, (float(enc1),)))
+                        fast += 1
+                        continue
+                    enc2 = int(enc2_text)
+                    if I32_MIN <= enc2 <= I32_MAX:
+                        append(DataFrame(seq, t_us, (float(enc1), float(enc2))))
+                        fast += 1
+                        continue
+            self._data_frame(hit, out)      # a rejection: counted there
+        return fast
 
     def _skip_discarded(self, data: bytes) -> bytes:
         """Drop the rest of an already counted over-long run, up to the next `$` or `\\n`."""
