@@ -32,6 +32,22 @@ from daq.sim.options import DIALECT_NAMES, SimOptionError
 from daq.timeline import Timeline
 
 
+REPLAY_OPTIONS: tuple[tuple[str, str, str], ...] = (
+    ("speed", "max", "`max`: as fast as read; a number > 0: real time times that factor, paced by the "
+                     "lines' time stamps (1: real time)"),
+    ("dialect", "guessed", "cartlab, csv or ecp: how to read the time stamps for pacing "
+                           "(guess: `$` -> cartlab, four `:` -> ecp, else csv)"),
+    ("rate_hz", "-", "pace at this many lines per second instead of by the time stamps"),
+)
+
+
+def describe_replay_options() -> str:
+    """The Markdown table of the `replay://` options."""
+    rows = ["| option | default | meaning |", "|---|---|---|"]
+    rows += [f"| `{name}` | `{default}` | {text} |" for name, default, text in REPLAY_OPTIONS]
+    return "\n".join(rows)
+
+
 def _parse(url: str) -> tuple[Path, float, str | None, float | None]:
     parts = urllib.parse.urlsplit(url)
     if parts.scheme != "replay" or not (parts.netloc or parts.path):

@@ -99,3 +99,9 @@ def test_guess_dialect() -> None:
     assert protocol_replay.guess_dialect(b"\x00junk\n$D,1,2,3*58\n") == "cartlab"
     assert protocol_replay.guess_dialect(b"1:2:3:0.5:10\n") == "ecp"
     assert protocol_replay.guess_dialect(b"time_s,pos1\n0.0,1.0\n") == "csv"
+
+
+def test_replay_option_table_names_every_option() -> None:
+    table = protocol_replay.describe_replay_options()
+    for name in ("speed", "dialect", "rate_hz"):
+        assert f"| `{name}` |" in table
