@@ -105,3 +105,18 @@ def test_replay_option_table_names_every_option() -> None:
     table = protocol_replay.describe_replay_options()
     for name in ("speed", "dialect", "rate_hz"):
         assert f"| `{name}` |" in table
+
+
+@pytest.mark.timeout(30)
+def test_rate_hz_paces_lines_without_using_their_stamps(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    fake = FakeClock()
+    monkeypatch.setattr(protocol_replay.Serial, "clock", staticmethod(fake.clock))
+    monkeypatch.setattr(protocol_replay.Serial, "sleep", staticmethod(fake.sleep))
+    export = tmp_path / "same_time.csv"
+    export.write_bytes(b"".join(encode_csv(0.0, [0.001 * i]) for i in range(100)))
+    port = serial.serial_for_url(f"replay://{export}?speed=1&rate_hz=100&dialect=csv", timeout=0.255)
+    try:
+        first = port.read(10**6)
+    finally:
+        port.close()
+    assert len(data_frames(decode(first, "csv")[0])) == 26
