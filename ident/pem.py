@@ -21,6 +21,7 @@ from collections.abc import Sequence
 from typing import Any, Literal
 
 import numpy as np
+from numpy.typing import NDArray
 
 from ident import subspace, varpro
 from ident.data import FloatArray, IdData, make_uniform
@@ -85,8 +86,7 @@ def _problem(data: IdData, relative_degree: tuple[int, ...], dc_gain: tuple[floa
     if jumps.size == 0:
         raise IdentValueError("u", "a step at the release (or an input that changes)", "a constant input")
     step = jumps.size == 1
-    release0 = (data.release_time_s if data.release_time_s is not None
-                else estimate_release_time(data.t, data.y)) if step else float(data.t[0])
+    release0 = _release_start(data, jumps) if step else float(data.t[0])
     source = data if (step or data.is_uniform()) else make_uniform(data, "linear")
     weights = 1.0 / _noise_level(source, release0)
     known = data.release_time_s if data.release_time_s is not None else float(data.t[jumps[0] + 1])
@@ -96,6 +96,17 @@ def _problem(data: IdData, relative_degree: tuple[int, ...], dc_gain: tuple[floa
         step=step, u=np.asarray(source.u), ts=source.sample_time(), relative_degree=relative_degree,
         dc_gain=dc_gain, fit_offset=fit_offset, fixed_release_s=fixed)
     return problem, (release0 if fixed is None else fixed)
+
+
+def _release_start(data: IdData, jumps: NDArray[np.intp]) -> float:
+    """Start value of the release: the known one, else the motion onset, else where u steps
+    (a recorded input whose response starts with the record)."""
+    if data.release_time_s is not None:
+        return data.release_time_s
+    try:
+        return estimate_release_time(data.t, data.y)
+    except IdentValueError:
+        return float(data.t[int(jumps[0]) + 1])
 
 
 def _noise_level(data: IdData, release0: float) -> FloatArray:
