@@ -6,7 +6,8 @@ timeout has passed (`realtime=1`, paced by `Serial.clock`); with `realtime=0` sa
 made on demand, so `read(size)` returns `size` bytes at once until the stream ends. After
 the last byte `read` raises `EndOfStream`. While the simulated device is unplugged,
 `read`/`in_waiting` raise `SerialException` and so does `open()`; a rig that is unplugged
-is kept (per URL) so that reopening the same URL reconnects to the same running rig.
+is kept (per URL) so that reopening the same URL reconnects to the same running rig (in
+real time, unless it has been back for more than a minute without being reopened).
 """
 
 from __future__ import annotations
@@ -25,6 +26,7 @@ from daq.sim.rig import Rig
 _PARKED: dict[str, tuple[Rig, float]] = {}    # url -> (unplugged rig, its wall-clock origin)
 _PARKED_LOCK = threading.Lock()
 _FAST_BLOCK = 4096
+_STALE_S = 60.0
 
 
 class Serial(SerialBase):
@@ -51,6 +53,9 @@ class Serial(SerialBase):
         options = parse_sim_url(url)
         with _PARKED_LOCK:
             parked = _PARKED.pop(url, None)
+        if parked is not None and options.realtime and self.clock() - parked[1] > parked[0].plug_back_s + _STALE_S:
+            parked[0].close()                 # unplugged long ago and never reopened: a new rig
+            parked = None
         if parked is None:
             rig, origin = Rig(options), self.clock()
         else:

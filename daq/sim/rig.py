@@ -30,7 +30,7 @@ import numpy as np
 from daq.decode.cartlab import encode_data, encode_info, parse_host_command
 from daq.decode.text import encode_csv, encode_csv_header, encode_ecp
 from daq.sim.hand import CaseTiming, Hand, ScriptEvent
-from daq.sim.options import SimOptions
+from daq.sim.options import SimOptionError, SimOptions
 from daq.sim.physics import ChainParams, ChainState, advance
 
 _U32 = 1 << 32
@@ -103,7 +103,12 @@ class Rig:
         self._settled_since: float | None = None
         self._command_buf = b""
         self.last_line_bytes = 30
-        self.capture: BinaryIO | None = open(o.capture, "wb") if o.capture else None  # noqa: SIM115
+        self.capture: BinaryIO | None = None
+        if o.capture:
+            try:
+                self.capture = open(o.capture, "wb")  # noqa: SIM115  (closed by close())
+            except OSError as exc:
+                raise SimOptionError("sim option 'capture'", "a writable file path", o.capture) from exc
         self._boot()
 
     @property

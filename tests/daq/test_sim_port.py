@@ -249,3 +249,8 @@ def test_rate_command_before_the_first_sample() -> None:
         port.close()
     times = [f.t_us for f in data_frames(decode(bytes(stream))[0])]
     assert times == [5000 * i for i in range(21)]
+
+
+def test_unwritable_capture_path_is_a_named_option_error(tmp_path: Path) -> None:
+    with pytest.raises(SimOptionError, match="'capture': expected a writable file path"):
+        serial.serial_for_url(f"sim://?capture={tmp_path / 'missing' / 'c.bin'}")
