@@ -158,16 +158,17 @@ def _fit_candidates(prob: _Problem, base: FitResult, ev: EvidenceResult, fixed: 
         lower, upper = np.concatenate([lower0, lo]), np.concatenate([upper0, hi])
         typical = np.concatenate([typical0, typ])
         theta0 = np.concatenate([base.theta, extra0])
-        if effect in ("coulomb_friction", "quadratic_drag"):
-            out[effect] = _fit_dissipative(spec, prob, theta0, lower, upper, typical, ev)
+        if effect == "coulomb_friction":
+            out[effect] = _fit_friction(spec, prob, theta0, lower, upper, typical, ev)
         else:
-            out[effect] = fit(spec, theta0, lower, upper, typical, prob.dt, prob.y, prob.train)
+            out[effect] = fit(spec, theta0, lower, upper, typical, prob.dt, prob.y, prob.train,
+                              max_nfev=40)
     return out
 
 
-def _fit_dissipative(spec: ModelSpec, prob: _Problem, theta0: FloatArray, lower: FloatArray,
+def _fit_friction(spec: ModelSpec, prob: _Problem, theta0: FloatArray, lower: FloatArray,
                      upper: FloatArray, typical: FloatArray, ev: EvidenceResult) -> FitResult:
-    """Friction and drag fits in two stages, from two starts.
+    """Friction fits in two stages, from two starts.
 
     The linear fit has put the extra loss into viscous damping, and where a frictional cart
     stops depends discontinuously on the parameters; so each start is first fitted on the

@@ -27,7 +27,7 @@ from ident.errors import IdentValueError
 
 FloatArray = NDArray[np.float64]
 
-MAX_WORK_SAMPLES = 700
+MAX_WORK_SAMPLES = 500
 SCAN_STEPS = 9
 
 
