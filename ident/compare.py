@@ -14,6 +14,8 @@ whiteness passes when the portmanteau statistic N Σ_{τ≥1} ρ_ee² is below t
 
 from __future__ import annotations
 
+import sys
+import types
 from dataclasses import dataclass
 from typing import Protocol
 
@@ -124,3 +126,14 @@ def resid(model: Simulates, data: IdData, max_lag: int = 25) -> list[ResidualTes
     """MATLAB-style `resid`: one `ResidualTest` per output of the simulation error."""
     errors = data.y - model.simulate(data.u, data.t)
     return [residual_test(errors[:, j], data.u, max_lag) for j in range(data.n_outputs)]
+
+
+class _CallableModule(types.ModuleType):
+    """Importing `ident.compare` makes the package attribute `ident.compare` this module (the
+    import system sets it), hiding the function of the same name; calling the module calls it."""
+
+    def __call__(self, model: Simulates, data: IdData) -> list[float]:
+        return compare(model, data)
+
+
+sys.modules[__name__].__class__ = _CallableModule

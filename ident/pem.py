@@ -17,6 +17,8 @@ Order selection: `order=None` fits 2, 4 and 6 and keeps the smallest BIC.
 
 from __future__ import annotations
 
+import sys
+import types
 from collections.abc import Sequence
 from typing import Any, Literal
 
@@ -250,3 +252,14 @@ def _bic(model: Model, data: IdData) -> float:
     numerators = sum(model.order + 1 - r for r in model.relative_degree)
     n_params = 2 * len(model.sigma) + 1 + numerators + model.offset.size
     return n_total * np.log(rss / n_total) + n_params * np.log(n_total)
+
+
+class _CallableModule(types.ModuleType):
+    """Importing `ident.pem` makes the package attribute `ident.pem` this module (the import
+    system sets it), hiding the function of the same name; calling the module calls it."""
+
+    def __call__(self, *args: Any, **kwargs: Any) -> Model:
+        return pem(*args, **kwargs)
+
+
+sys.modules[__name__].__class__ = _CallableModule
