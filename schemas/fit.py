@@ -9,7 +9,10 @@ subscribers get it) and written as `<run_id>.fit/report.json` beside the figures
   a result: consumers that want results keep only `final` reports. A claim is void once
   its worker's liveliness token is gone.
 - `withdrawn`: that worker takes its claim back (it lost the tie-break with another claim).
-- `ok`: every requested fit ran; the result fields are filled in.
+- `ok`: the fits ran; the result fields are filled in. While `pending` names stages still
+  running (`diagnosis`, `figures`), the report is a partial result published early (the
+  transfer functions within a second of the run's end) and still counts as the worker's
+  claim; the same worker then publishes the complete report (`pending` empty).
 - `failed`: the run could not be fitted; `reason` says why ("expected X, got Y" style).
   Whatever was computed before the failure is still reported.
 
@@ -109,6 +112,7 @@ class FitReport(Record):
     pem: PemFitRec | None = None
     diagnosis: DiagnosisReport | None = None
     figures: list[str] = Field(default_factory=list)
+    pending: list[Literal["diagnosis", "figures"]] = Field(default_factory=list)
     timings: FitTimings = Field(default_factory=FitTimings)
     fitted_utc: str | None = None
     software_version: str = ""
@@ -122,13 +126,20 @@ class FitReport(Record):
 
     @property
     def final(self) -> bool:
-        """True for a result (`ok` or `failed`), False for a claim or its withdrawal."""
+        """True for a complete result (`ok` or `failed`, nothing pending)."""
+        return self.status in ("ok", "failed") and not self.pending
+
+    @property
+    def has_results(self) -> bool:
+        """True for a partial or complete result (not a claim or a withdrawal)."""
         return self.status in ("ok", "failed")
 
     @model_validator(mode="after")
     def _reason_when_failed(self) -> FitReport:
         if self.status == "failed" and not self.reason:
             raise ValueError("expected a reason for a failed fit report, got none")
+        if self.pending and self.status != "ok":
+            raise ValueError(f"expected pending stages only on an ok report, got {self.status}")
         return self
 
 

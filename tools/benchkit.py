@@ -101,6 +101,8 @@ class FitWatcher:
     finished_at: dict[tuple[str, str], float] = field(default_factory=dict)
     fits: dict[tuple[str, str], list[FitReport]] = field(default_factory=lambda: defaultdict(list))
     fit_at: dict[tuple[str, str], float] = field(default_factory=dict)
+    partial_at: dict[tuple[str, str], float] = field(default_factory=dict)
+    results: dict[tuple[str, str], list[FitReport]] = field(default_factory=lambda: defaultdict(list))
     claims: list[FitReport] = field(default_factory=list)
     _subs: list[Any] = field(default_factory=list)
 
@@ -125,15 +127,24 @@ class FitWatcher:
                 self.finished_at.setdefault((record.bench, record.run_id), at)
             else:
                 report = FitReport.from_json_bytes(payload)
+                key = (report.bench, report.run_id)
+                if report.has_results:
+                    self.partial_at.setdefault(key, at)    # first results, partial or not
+                    self.results[key].append(report)
                 if report.final:
-                    self.fits[(report.bench, report.run_id)].append(report)
-                    self.fit_at.setdefault((report.bench, report.run_id), at)
-                else:
+                    self.fits[key].append(report)
+                    self.fit_at.setdefault(key, at)
+                elif not report.has_results:
                     self.claims.append(report)
 
     def final_reports(self) -> dict[tuple[str, str], list[FitReport]]:
         self.drain()
         return dict(self.fits)
+
+    def first_results(self) -> dict[tuple[str, str], list[FitReport]]:
+        """Every report with results (partial or complete) per run."""
+        self.drain()
+        return dict(self.results)
 
     def close(self) -> None:
         for sub in self._subs:

@@ -45,11 +45,12 @@ class Progress:
 
     def __call__(self) -> None:
         self.bench.watcher.drain()
-        fitting = {(c.bench, c.run_id) for c in self.bench.watcher.claims}
-        line = (f"[{time.monotonic() - self.started:5.1f} s] runs recorded "
-                f"{len(self.bench.watcher.finished)}/3, being fitted "
-                f"{len(fitting - set(self.bench.watcher.fits))}, fitted "
-                f"{len(self.bench.watcher.fits)}/3")
+        w = self.bench.watcher
+        done = set(w.fits)
+        fitting = {(c.bench, c.run_id) for c in w.claims} - set(w.partial_at) - done
+        diagnosing = set(w.partial_at) - done
+        line = (f"[{time.monotonic() - self.started:5.1f} s] runs recorded {len(w.finished)}/3, "
+                f"fitting {len(fitting)}, diagnosing {len(diagnosing)}, done {len(done)}/3")
         if line[10:] != self.last[10:] or sys.stdout.isatty():
             end = "\r" if sys.stdout.isatty() else "\n"
             print(line, end=end, flush=True)

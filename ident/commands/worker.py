@@ -65,7 +65,11 @@ def run(args: argparse.Namespace) -> int:
     stop = threading.Event()
 
     def _stop(signum: int, frame: object) -> None:
-        stop.set()
+        # Leave at once, also in the middle of a fit: the session closes on the way out, the
+        # worker's token and claims vanish with it, and another worker takes the run over.
+        if not stop.is_set():
+            stop.set()
+            raise SystemExit(0)
 
     signal.signal(signal.SIGTERM, _stop)
     signal.signal(signal.SIGINT, _stop)

@@ -1,6 +1,6 @@
 """Everything the lab asks of one run, computed once: pure (IdData in, `RunAnalysis` out).
 
-For a run of lab case
+For a run of lab case (`analyse_fits`, then `with_diagnosis`)
 - `cart1` / `cart2` (the other cart pinned): the simple identification of the pulled cart
   with RK4 and with Euler (`ident.simple`), PEM of order 2 on that cart, the diagnosis;
 - `both` (two free carts): PEM of order 4 on both outputs, the diagnosis of both carts.
@@ -13,6 +13,7 @@ recorded in `errors` (stage -> "expected …, got …" message) and the others s
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -25,6 +26,7 @@ from ident.errors import IdentError, IdentValueError
 from schemas.fit import LabCase, SimpleMethod
 
 if TYPE_CHECKING:
+    from ident.diagnose import Diagnosis
     from ident.model import Model
     from schemas.diagnosis import DiagnosisReport
 
@@ -63,6 +65,7 @@ class RunAnalysis:
     pem: Model | None = None
     pem_y_hat: FloatArray | None = None
     diagnosis: DiagnosisReport | None = None
+    diagnosis_traces: Diagnosis | None = None
     timings_s: dict[str, float] = field(default_factory=dict)
     errors: dict[str, str] = field(default_factory=dict)
 
@@ -104,15 +107,21 @@ def _timed(stage: str, timings: dict[str, float], errors: dict[str, str],
     started = time.perf_counter()
     try:
         return work()
-    except (IdentError, ValueError, ArithmeticError, np.linalg.LinAlgError, ImportError) as exc:
+    except (IdentError, ValueError, ArithmeticError, np.linalg.LinAlgError) as exc:
         errors[stage] = str(exc) or type(exc).__name__
         return None
     finally:
         timings[stage] = timings.get(stage, 0.0) + time.perf_counter() - started
 
 
-def analyse(data: IdData) -> RunAnalysis:
-    """Detect the case and run every fit the lab asks for on it."""
+def analyse(data: IdData, diagnose: bool = True) -> RunAnalysis:
+    """Detect the case and run every fit the lab asks for on it (the diagnosis last)."""
+    analysis = analyse_fits(data)
+    return with_diagnosis(analysis) if diagnose else analysis
+
+
+def analyse_fits(data: IdData) -> RunAnalysis:
+    """The case, the simple identifications and PEM (fast: well under a second)."""
     case, moving = detect_case(data)
     columns = [c - 1 for c in moving] if case != "both" else [0, 1]
     cart_data = data.select_outputs(columns) if data.n_outputs != len(columns) else data
@@ -128,9 +137,17 @@ def analyse(data: IdData) -> RunAnalysis:
     order = 4 if case == "both" else 2
     model = _timed("pem", timings, errors, lambda: _pem(cart_data, order))
     y_hat = None if model is None else model.simulate(cart_data.u)
-    diagnosis = _timed("diagnose", timings, errors, lambda: _diagnose(cart_data))
     return RunAnalysis(case, cart_data, tuple(moving) if case != "both" else (1, 2),
-                       tuple(simple), model, y_hat, diagnosis, timings, errors)
+                       tuple(simple), model, y_hat, timings_s=timings, errors=errors)
+
+
+def with_diagnosis(analysis: RunAnalysis) -> RunAnalysis:
+    """The analysis plus `ident.diagnose` (what the linear model misses; seconds)."""
+    timings, errors = dict(analysis.timings_s), dict(analysis.errors)
+    carts = 2 if analysis.case == "both" else 1
+    traces = _timed("diagnose", timings, errors, lambda: _diagnose(analysis.data, carts))
+    return dataclasses.replace(analysis, diagnosis=None if traces is None else traces.report,
+                               diagnosis_traces=traces, timings_s=timings, errors=errors)
 
 
 def warm_up() -> None:
@@ -151,15 +168,10 @@ def _pem(data: IdData, order: int) -> Model:
     return pem(data, order)
 
 
-def _diagnose(data: IdData) -> DiagnosisReport:
-    import importlib
+def _diagnose(data: IdData, carts: int) -> Diagnosis:
+    from ident.diagnose import diagnose
 
-    # TODO(integration): a plain import once ident.diagnose.diagnose has landed
-    diagnose = getattr(importlib.import_module("ident.diagnose"), "diagnose", None)
-    if diagnose is None:
-        raise ImportError("ident.diagnose.diagnose is not available")
-    report: DiagnosisReport = diagnose(data)
-    return report
+    return diagnose(data.t, data.y, carts=carts, source=data.name)
 
 
 def fit_simple_result(data: IdData, method: SimpleMethod, output: int) -> SimpleResult:
@@ -175,4 +187,4 @@ def fit_simple_result(data: IdData, method: SimpleMethod, output: int) -> Simple
 
 
 __all__ = ["MOVING_MIN_M", "MOVING_SIGMAS", "RunAnalysis", "SimpleResult", "analyse",
-           "detect_case", "fit_simple_result", "warm_up"]
+           "analyse_fits", "detect_case", "fit_simple_result", "warm_up", "with_diagnosis"]

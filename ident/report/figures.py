@@ -87,6 +87,23 @@ def pem_figure(analysis: RunAnalysis) -> Figure | None:
                                  analysis.outputs)
 
 
+def diagnosis_figure(analysis: RunAnalysis) -> Figure | None:
+    """Measured vs the linear baseline and the extended model, on the diagnosis window."""
+    traces, report = analysis.diagnosis_traces, analysis.diagnosis
+    if traces is None or report is None:
+        return None
+    carts = analysis.outputs[: traces.y.shape[1]]
+    per_cart = report.baseline.fit_percent_per_output or [report.baseline.fit_percent] * len(carts)
+    ext_cart = report.extended.fit_percent_per_output or [report.extended.fit_percent] * len(carts)
+    linear = [f"linear model, fit {f:.2f} %" for f in per_cart]
+    cause = report.cause.replace("_", " ")
+    extended = [f"with {cause}, fit {f:.2f} %" for f in ext_cart]
+    estimates: list[tuple[list[str], FloatArray]] = [(linear, traces.baseline)]
+    if report.cause != "none":
+        estimates.append((extended, traces.extended))
+    return measured_vs_estimated(traces.t, traces.y, estimates, carts)
+
+
 def save(fig: Figure, directory: Path, stem: str) -> list[str]:
     """Write `<stem>.png` (150 dpi) and `<stem>.svg`; return the file names."""
     directory.mkdir(parents=True, exist_ok=True)
@@ -97,9 +114,10 @@ def save(fig: Figure, directory: Path, stem: str) -> list[str]:
 
 
 def figures_of(analysis: RunAnalysis) -> dict[str, Figure]:
-    """Every figure of a run by file stem: `simple`, `pem` (when fitted)."""
+    """Every figure of a run by file stem: `simple`, `pem`, `diagnosis` (when fitted)."""
     out: dict[str, Figure] = {}
-    for stem, fig in (("simple", simple_figure(analysis)), ("pem", pem_figure(analysis))):
+    for stem, fig in (("simple", simple_figure(analysis)), ("pem", pem_figure(analysis)),
+                      ("diagnosis", diagnosis_figure(analysis))):
         if fig is not None:
             out[stem] = fig
     return out
@@ -131,5 +149,5 @@ def close(figures: dict[str, Figure]) -> None:
         fig.clear()
 
 
-__all__ = ["check_figure_rules", "figures_of", "measured_vs_estimated", "pem_figure", "save",
+__all__ = ["check_figure_rules", "diagnosis_figure", "figures_of", "measured_vs_estimated", "pem_figure", "save",
            "simple_figure", "style"]

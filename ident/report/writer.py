@@ -39,14 +39,14 @@ def _safe_id(stem: str) -> str:
 
 
 def _fit_here(path: Path, fit_dir: Path) -> FitReport:
-    from ident.worker.pipeline import fit_run
+    from ident.worker.pipeline import fit_to_completion
     from ident.worker.service import FitJob
 
     finished = read_finished(path) if path.suffix == topics.RUN_SUFFIX else None
     if finished is None:
         finished = RunFinished(bench="local", run_id=_safe_id(path.stem), status="complete",
                                file=path.name, n_samples=0, release_time_s=None, duration_s=0.0)
-    report = fit_run(FitJob(finished, path, fit_dir, "ident-report"))
+    report = fit_to_completion(FitJob(finished, path, fit_dir, "ident-report"))
     write_report(fit_dir, report)
     return report
 

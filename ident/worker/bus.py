@@ -58,7 +58,8 @@ def zenoh_config(bus: BusConfig) -> zenoh.Config:
 class WorkerBus:
     """One Zenoh session of one worker. Use as a context manager."""
 
-    def __init__(self, bus: BusConfig, name: str, events: queue.Queue[BusEvent]) -> None:
+    def __init__(self, bus: BusConfig, name: str, events: queue.Queue[Any]) -> None:
+        """`events` receives `BusEvent`s (the worker's queue also carries its own items)."""
         self.name = keys.check_name("worker", name)
         self._bus = bus
         self._events = events

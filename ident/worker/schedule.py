@@ -130,9 +130,9 @@ class Scheduler:
         return [run for _, run in sorted(waiting)]
 
     def next_claim(self) -> RunRef | None:
-        """The oldest pending run that I own and nobody alive has claimed, else None."""
+        """The oldest pending run that I own and nobody alive (me included) has claimed."""
         for run in self.pending():
-            if owner(run, self.alive) == self.me and not self.live_claimants(run) - {self.me}:
+            if owner(run, self.alive) == self.me and not self.live_claimants(run):
                 return run
         return None
 

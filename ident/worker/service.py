@@ -1,8 +1,11 @@
-"""The worker's main loop: drain events, claim, fit, report. One thread does it all.
+"""The worker's main loop: drain events, claim, fit, report.
 
 Zenoh callbacks (`ident.worker.bus`) only enqueue `BusEvent`s; this loop parses them,
-updates the `Scheduler`, and runs the fitter (a plug-in: `FitJob -> FitReport`). Waits are
-bounded by the injected clock; the loop ends when `stop` is set.
+updates the `Scheduler`, runs the fitter (a plug-in: `FitJob -> FitReport | Pending`) and
+publishes. A `Pending` outcome's first results are published at once and its second stage
+runs on the `Finisher` thread, whose `Completed` comes back through the same queue: only
+this loop publishes, writes reports and touches the scheduler. Waits are bounded by the
+injected clock; the loop ends when `stop` is set.
 """
 
 from __future__ import annotations
@@ -23,6 +26,7 @@ from schemas.daq import RunFinished
 from schemas.errors import SchemaError
 from schemas.fit import FitReport
 from ident.worker.bus import BusEvent, WorkerBus
+from ident.worker.finisher import Completed, Finisher, FitOutcome, Pending
 from ident.worker.runs_dir import (find_run_file, fit_dir_for, read_report, scan_runs,
                                    write_report)
 from ident.worker.schedule import RunRef, Scheduler
@@ -42,7 +46,9 @@ class FitJob:
     worker: str
 
 
-Fitter = Callable[[FitJob], FitReport]
+#: A fitter returns the complete report, or `Pending` (first results + the slow rest).
+Fitter = Callable[[FitJob], FitOutcome]
+Event = BusEvent | Completed
 
 
 @dataclass
@@ -56,6 +62,7 @@ class WorkerOptions:
     settle_s: float = 0.2
     sync_s: float = 0.3
     poll_s: float = 0.05
+    max_backlog: int = 4
 
 
 def load_fitter(spec: str) -> Fitter:
@@ -76,13 +83,15 @@ def failed_report(finished: RunFinished, worker: str, reason: str) -> FitReport:
 class Worker:
     """A worker bound to an open `WorkerBus` (see `run_worker` for the usual entry)."""
 
-    def __init__(self, options: WorkerOptions, bus: WorkerBus, events: queue.Queue[BusEvent],
-                 fitter: Fitter, clock: Callable[[], float] = time.monotonic) -> None:
+    def __init__(self, options: WorkerOptions, bus: WorkerBus, events: queue.Queue[Event],
+                 fitter: Fitter, clock: Callable[[], float] = time.monotonic,
+                 finisher: Finisher | None = None) -> None:
         self.options = options
         self.bus = bus
         self.events = events
         self.fitter = fitter
         self.clock = clock
+        self.finisher = finisher if finisher is not None else Finisher(events)
         self.sched = Scheduler(options.name)
         self.fitted: list[FitReport] = []
 
@@ -99,7 +108,11 @@ class Worker:
                 return
             self.handle(event)
 
-    def handle(self, event: BusEvent) -> None:
+    def handle(self, event: Event) -> None:
+        if isinstance(event, Completed):
+            self.finisher.done()
+            self._complete(event.fit_dir, event.report)
+            return
         try:
             if event.kind == "finished":
                 finished = RunFinished.from_json_bytes(event.payload)
@@ -149,7 +162,8 @@ class Worker:
     def step(self) -> bool:
         """Handle queued events, then claim and fit one run if one is mine. True if fitted."""
         self.pump(0.0)
-        run = self.sched.next_claim()
+        busy = self.finisher.backlog >= self.options.max_backlog
+        run = None if busy else self.sched.next_claim()
         if run is None:
             self.pump(self.options.poll_s)
             return False
@@ -168,14 +182,39 @@ class Worker:
             return False
         if not self._claim(run, finished):
             return False
-        report = self._fit(finished, run_file, fit_dir)
+        outcome = self._fit(finished, run_file, fit_dir)
+        if isinstance(outcome, Pending):
+            partial = self._checked(finished, outcome.partial)
+            if partial.final:      # a partial that does not round-trip became a failure
+                self._complete(fit_dir, partial)
+                return True
+            self.bus.publish_fit(partial)
+            log.info("%s: fitted in %.2f s; %s next", run, partial.timings.total_s,
+                     " and ".join(partial.pending))
+            self.finisher.submit(fit_dir, outcome.finish, lambda reason: failed_report(
+                finished, self.options.name, reason))
+        else:
+            self._complete(fit_dir, outcome)
+        return True
+
+    def _complete(self, fit_dir: Path, report: FitReport) -> None:
+        finished = self.sched.runs[RunRef(report.bench, report.run_id)].finished
+        if finished is not None:
+            report = self._checked(finished, report)
         write_report(fit_dir, report)
         self.bus.publish_fit(report)
         self.sched.fit_seen(report)
         self.fitted.append(report)
-        log.info("%s: %s in %.2f s%s", run, report.status, report.timings.total_s,
-                 f" ({report.reason})" if report.reason else "")
-        return True
+        log.info("%s/%s: %s in %.2f s%s", report.bench, report.run_id, report.status,
+                 report.timings.total_s, f" ({report.reason})" if report.reason else "")
+
+    def _checked(self, finished: RunFinished, report: FitReport) -> FitReport:
+        """The report as subscribers will parse it (a NaN, written as null, would not)."""
+        try:
+            return FitReport.from_json_bytes(report.to_json_bytes())
+        except SchemaError as exc:
+            return failed_report(finished, self.options.name,
+                                 f"the fit report does not round-trip: {exc}")
 
     def _claim(self, run: RunRef, finished: RunFinished) -> bool:
         name = self.options.name
@@ -191,24 +230,21 @@ class Worker:
         log.info("%s: another worker claimed it first; withdrawn", run)
         return False
 
-    def _fit(self, finished: RunFinished, run_file: Path | None, fit_dir: Path) -> FitReport:
+    def _fit(self, finished: RunFinished, run_file: Path | None, fit_dir: Path) -> FitOutcome:
         name = self.options.name
         started = self.clock()
         try:
             if run_file is None:
                 dest = self.options.runs_dir / finished.bench / Path(finished.file).name
                 run_file = self.bus.fetch_run(finished.bench, finished.run_id, dest)
-            report = self.fitter(FitJob(finished, run_file, fit_dir, name))
+            outcome = self.fitter(FitJob(finished, run_file, fit_dir, name))
         except Exception as exc:  # noqa: BLE001 - any failure becomes a failed report
             log.exception("%s/%s: fit failed", finished.bench, finished.run_id)
-            report = failed_report(finished, name, f"{type(exc).__name__}: {exc}")
-        if report.timings.total_s == 0.0:
-            timings = report.timings.model_copy(update={"total_s": self.clock() - started})
-            report = report.model_copy(update={"timings": timings})
-        try:  # what subscribers will parse: a NaN, written as null, would not come back
-            return FitReport.from_json_bytes(report.to_json_bytes())
-        except SchemaError as exc:
-            return failed_report(finished, name, f"the fit report does not round-trip: {exc}")
+            outcome = failed_report(finished, name, f"{type(exc).__name__}: {exc}")
+        if isinstance(outcome, FitReport) and outcome.timings.total_s == 0.0:
+            timings = outcome.timings.model_copy(update={"total_s": self.clock() - started})
+            outcome = outcome.model_copy(update={"timings": timings})
+        return outcome
 
     def serve(self, stop: threading.Event) -> None:
         self.start()
@@ -218,12 +254,15 @@ class Worker:
 
 def run_worker(options: WorkerOptions, stop: threading.Event) -> list[FitReport]:
     """Open the bus, serve until `stop` is set, close. Returns the reports this worker made."""
-    events: queue.Queue[BusEvent] = queue.Queue()
+    events: queue.Queue[Event] = queue.Queue()
     fitter = load_fitter(options.fitter)
     options.runs_dir.mkdir(parents=True, exist_ok=True)
     with WorkerBus(options.bus, options.name, events) as bus:
         worker = Worker(options, bus, events, fitter)
-        worker.serve(stop)
+        try:
+            worker.serve(stop)
+        finally:
+            worker.finisher.close()
         return worker.fitted
 
 

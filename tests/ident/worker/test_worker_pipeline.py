@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from schemas.daq import RunFinished
-from ident.worker.pipeline import fit_run
+from ident.worker.pipeline import fit_to_completion as fit_run
 from ident.worker.service import FitJob
 
 

@@ -50,6 +50,8 @@ def test_each_run_goes_to_exactly_one_of_two_workers() -> None:
     assert not set(a.my_share()) & set(b.my_share())
     run = a.next_claim()
     assert run is not None and run in a.my_share() and b.next_claim() != run
+    a.claim(run)                                   # in progress (e.g. being diagnosed)
+    assert a.next_claim() != run
 
 
 def test_a_claim_blocks_others_and_dies_with_its_worker() -> None:

@@ -73,6 +73,21 @@ class FitCollector:
                 out[RunRef(report.bench, report.run_id)].append(report)
         return out
 
+    def with_results(self) -> dict[RunRef, list[FitReport]]:
+        """Reports with results, partial (`pending`) or complete, per run."""
+        self.drain()
+        out: dict[RunRef, list[FitReport]] = defaultdict(list)
+        for report in self.messages:
+            if report.has_results:
+                out[RunRef(report.bench, report.run_id)].append(report)
+        return out
+
+    def wait_results(self, runs: Iterable[RunRef], timeout_s: float) -> dict[RunRef, list[FitReport]]:
+        wanted = set(runs)
+        wait_for(lambda: wanted <= set(self.with_results()), timeout_s,
+                 f"fit results of {sorted(map(str, wanted))}")
+        return self.with_results()
+
     def wait_finals(self, runs: Iterable[RunRef], timeout_s: float) -> dict[RunRef, list[FitReport]]:
         wanted = set(runs)
         wait_for(lambda: wanted <= set(self.finals()), timeout_s,
