@@ -10,6 +10,7 @@ from collections.abc import Sequence
 #: Subcommand modules under `ident.commands`, in the order `--help` lists them.
 COMMANDS: tuple[str, ...] = (
     "fit",
+    "diagnose",
     "worker",
     "report",
 )

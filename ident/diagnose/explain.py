@@ -35,13 +35,14 @@ def linear_summary(lin: FloatArray, carts: int) -> dict[str, float]:
 
 
 def validation_text(decimation: int, n_work: int) -> str:
-    return (f"Window from the end of the hand's influence to the end of the run, every {decimation}"
-            f"{'st' if decimation == 1 else 'th'} sample ({n_work} work samples). Every model was fitted "
-            "(simulated output error) on the even work samples only; fit % (MATLAB compare, simulated "
-            "output) is measured on the odd work samples, which no fit used. An effect is called only "
-            "when its likelihood ratio n ln(SSE_base/SSE_model) exceeds the chi-square noise bound on the "
-            "training samples (alpha 1e-4, plus a look-elsewhere term for a searched frequency) and on the "
-            "held-out samples (alpha 1e-3); among those the largest held-out ratio wins.")
+    which = "every sample" if decimation == 1 else f"every {decimation}-th sample"
+    return (f"Window from the end of the hand's influence to the end of the run, {which} "
+            f"({n_work} work samples). Every model was fitted (simulated output error) on the even "
+            "work samples only; fit % (MATLAB compare, simulated output) is measured on the odd work "
+            "samples, which no fit used. An effect is called only when its likelihood ratio "
+            "n ln(SSE_base/SSE_model) exceeds the chi-square noise bound on the training samples "
+            "(alpha 1e-4, plus a look-elsewhere term for a searched frequency) and on the held-out "
+            "samples (alpha 1e-3); among those the largest held-out ratio wins.")
 
 
 def explanation(report: DiagnosisReport, base_lin: FloatArray) -> str:
