@@ -120,3 +120,14 @@ def test_transfer_function_is_a_control_object_with_the_identified_dc_gain() -> 
     assert isinstance(tf, control.TransferFunction)
     assert float(np.real(tf.dcgain())) == pytest.approx(model.dc_gain[0], rel=1e-9)
     assert PULL_M == 0.15
+
+
+def test_non_uniform_time_stamps_are_fitted_where_they_are() -> None:
+    run = cart1_run(200.0, seed=9)
+    rng = np.random.default_rng(9)
+    keep = rng.random(run.t.size) > 0.2  # a fifth of the samples lost at random
+    data = IdData(run.t[keep], step(run.t[keep], 0.7), run.y[keep])
+    assert not data.is_uniform()
+    model = pem(data, 2)
+    thinned = Run(run.t[keep], run.y[keep], run.y_clean[keep], run.release_time_s, run.wn, run.zeta)
+    _check(thinned, model.modes, model.release_time_s, compare(model, data))
