@@ -256,3 +256,28 @@ def test_bench_selector_failed_fit_and_daq_gone(browser: Any, page: PageServer, 
         assert browser.find_element("id", "zero-btn").get_attribute("disabled") is not None
     finally:
         other.close()
+
+
+def test_an_unplugged_encoder_port_is_reported_and_cleared(browser: Any, page: PageServer, daq: DaqProcess,
+                                                          runs_dir: Path, endpoints: dict[str, str]) -> None:
+    from tests.conftest import pick_free_port
+
+    # a second real daq whose simulated USB link drops for 1.5 s every 2 s of streaming
+    unplugging = DaqProcess("sim://?rate_hz=200&cases=idle&idle_s=600&realtime=1"
+                            "&disconnect_every_s=2&disconnect_s=1.5", "benchU", runs_dir,
+                            f"tcp/127.0.0.1:{pick_free_port()}", ("--connect", endpoints["page"]))
+    try:
+        wait_for(lambda: browser.find_elements("css selector", '#bench-select option[value="benchU"]'), 30,
+                 "benchU in the selector")
+        browser.execute_script("const s = document.getElementById('bench-select');"
+                               "s.value = 'benchU'; s.dispatchEvent(new Event('change'));")
+        wait_for(lambda: js(browser, "window.cartlab.bench") == "benchU", 10, "the page to follow benchU")
+        wait_for(lambda: "is not connected: check the USB cable" in browser.find_element("id", "problems").text,
+                 20, "the unplugged port on the page")
+        assert browser.find_element("id", "st-port").text.startswith("NOT CONNECTED")
+        # the daq reopens the port: the problem goes away by itself
+        wait_for(lambda: not browser.find_element("id", "problems").is_displayed(), 20, "the port back")
+        assert browser.find_element("id", "st-port").text.startswith("connected")
+    finally:
+        log = unplugging.stop()
+    assert "back after" in log
