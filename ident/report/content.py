@@ -192,10 +192,15 @@ def diagnosis_blocks(results: list[CaseResult]) -> list[Block]:
             f"cart comes to rest {ev.rest_offset_m * 1000:+.2f} mm from the linear model's "
             f"rest and stays still for the last {ev.stuck_for_s:.2f} s. Validation: "
             f"{d.validation}."))
-        for kind, stem in r.figures.items():
-            if kind.startswith("diagnosis"):
-                blocks.append(Figure(stem, f"diagnosis, {CASE_TITLES[r.case]}: measured "
-                                     f"(solid), linear and extended ({d.cause}) models"))
+        if "diagnosis" in r.figures:
+            blocks.append(Figure(r.figures["diagnosis"], f"diagnosis, {CASE_TITLES[r.case]}: "
+                                 "measured position (solid), the linear model (dashed) and the "
+                                 f"model extended with {d.cause.replace('_', ' ')} (dotted), on "
+                                 "the window after the release"))
+        if "envelope" in r.figures:
+            blocks.append(Figure(r.figures["envelope"], f"peak envelope, {CASE_TITLES[r.case]}: "
+                                 "half-cycle peaks of |x - rest| against time; a straight line "
+                                 "is dry friction, an exponential decay viscous damping"))
     return blocks
 
 

@@ -1,51 +1,32 @@
 """Figures of one run's analysis: measured vs estimated outputs, by the lab's plotting rules.
 
-Rules (DESIGN.md "Figures"): font family and size set once (`ident.plotting`'s style, the
-same the HTML report uses), line width ≥ 2, x and y labels with units on every axis, no
-title (the report's caption describes each figure: caption or title, never both), measured
-and estimated traces in different line styles. Functions return `matplotlib.figure.Figure`
+Rules (DESIGN.md "Figures"), through `ident.plotting` (the lab's style, shared with
+`ident diagnose`): font family and size set once (the HTML report uses the same), line
+width ≥ 2, x and y labels with units on every axis, no title (the report's caption
+describes each figure: caption or title, never both), measured and estimated traces in
+different line styles. Functions return `matplotlib.figure.Figure`
 objects (testable) and `save` writes PNG and SVG. Matplotlib is used headless (Agg).
 """
 
 from __future__ import annotations
 
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
+from ident import plotting
 from ident.data import FloatArray
 from ident.report.analysis import RunAnalysis
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
-MEASURED_STYLE = {"linestyle": "-", "color": "0.15"}
-ESTIMATE_STYLES = [{"linestyle": "--", "color": "tab:red"},
-                   {"linestyle": ":", "color": "tab:blue"},
-                   {"linestyle": "-.", "color": "tab:green"}]
 MIN_LINE_WIDTH = 2.0
 
 
 def style() -> tuple[str, float]:
-    """Apply the lab's figure style once; return (font family, font size in pt)."""
-    try:
-        from ident import plotting
-    except ImportError:  # TODO(integration): ident.plotting not landed yet
-        import matplotlib
-
-        matplotlib.rcParams.update({"font.family": "DejaVu Sans", "font.size": 11.0,
-                                    "lines.linewidth": 2.0, "svg.fonttype": "none"})
-        return "DejaVu Sans", 11.0
+    """Apply the lab's figure style (`ident.plotting`) once; return (font family, size in pt)."""
     plotting.apply_style()
     return plotting.FONT_FAMILY, float(plotting.FONT_SIZE_PT)
-
-
-def _figure(n_axes: int) -> tuple[Figure, list[Any]]:
-    from matplotlib.figure import Figure as MplFigure
-
-    style()
-    fig = MplFigure(figsize=(7.0, 2.6 * n_axes + 0.6), layout="constrained")
-    axes = [fig.add_subplot(n_axes, 1, i + 1) for i in range(n_axes)]
-    return fig, axes
 
 
 def measured_vs_estimated(t: FloatArray, y: FloatArray,
@@ -56,16 +37,13 @@ def measured_vs_estimated(t: FloatArray, y: FloatArray,
     `t` (N,) s, `y` (N, n_carts) m, each estimate a label per cart and (N, n_carts) m,
     `carts` the cart numbers.
     """
-    fig, axes = _figure(len(carts))
-    width = max(MIN_LINE_WIDTH, 2.0)
+    fig, axes = plotting.new_figure(len(carts))
+    styles = plotting.ESTIMATE_STYLES
     for j, (ax, cart) in enumerate(zip(axes, carts)):
-        ax.plot(t, y[:, j], label=f"measured, cart {cart}", linewidth=width, **MEASURED_STYLE)
+        ax.plot(t, y[:, j], label=f"measured, cart {cart}", **plotting.MEASURED_STYLE)
         for k, (labels, y_hat) in enumerate(estimates):
-            ax.plot(t, y_hat[:, j], label=labels[j], linewidth=width,
-                    **ESTIMATE_STYLES[k % len(ESTIMATE_STYLES)])
-        ax.set_xlabel("time (s)")
-        ax.set_ylabel(f"cart {cart} position (m)")
-        ax.grid(True, alpha=0.3)
+            ax.plot(t, y_hat[:, j], label=labels[j], **styles[k % len(styles)])
+        plotting.label_axes(ax, "time (s)", f"cart {cart} position (m)")
         ax.legend(loc="best")
     return fig
 
@@ -104,20 +82,27 @@ def diagnosis_figure(analysis: RunAnalysis) -> Figure | None:
     return measured_vs_estimated(traces.t, traces.y, estimates, carts)
 
 
+def envelope_figure(analysis: RunAnalysis) -> Figure | None:
+    """The half-cycle peaks against time (`ident.diagnose.figures`): a straight line is dry
+    friction, an exponential viscous damping."""
+    if analysis.diagnosis_traces is None:
+        return None
+    from ident.diagnose.figures import envelope_figure as draw
+
+    return draw(analysis.diagnosis_traces)
+
+
 def save(fig: Figure, directory: Path, stem: str) -> list[str]:
     """Write `<stem>.png` (150 dpi) and `<stem>.svg`; return the file names."""
-    directory.mkdir(parents=True, exist_ok=True)
-    fig.savefig(directory / f"{stem}.png", dpi=150)
-    fig.savefig(directory / f"{stem}.svg")
-    names = [f"{stem}.png", f"{stem}.svg"]
-    return names
+    return [path.name for path in plotting.save(fig, directory / stem)]
 
 
 def figures_of(analysis: RunAnalysis) -> dict[str, Figure]:
-    """Every figure of a run by file stem: `simple`, `pem`, `diagnosis` (when fitted)."""
+    """Every figure of a run by file stem: `simple`, `pem`, `diagnosis`, `envelope`."""
     out: dict[str, Figure] = {}
     for stem, fig in (("simple", simple_figure(analysis)), ("pem", pem_figure(analysis)),
-                      ("diagnosis", diagnosis_figure(analysis))):
+                      ("diagnosis", diagnosis_figure(analysis)),
+                      ("envelope", envelope_figure(analysis))):
         if fig is not None:
             out[stem] = fig
     return out
@@ -149,5 +134,5 @@ def close(figures: dict[str, Figure]) -> None:
         fig.clear()
 
 
-__all__ = ["check_figure_rules", "diagnosis_figure", "figures_of", "measured_vs_estimated", "pem_figure", "save",
+__all__ = ["check_figure_rules", "diagnosis_figure", "envelope_figure", "figures_of", "measured_vs_estimated", "pem_figure", "save",
            "simple_figure", "style"]
