@@ -59,8 +59,8 @@ def read_table(text: str) -> Table:
     bad = [i for i, r in enumerate(rows) if len(r) != width]
     if bad:
         raise DataFileError(f"expected {width} values per row, got {len(rows[bad[0]])} in data row {bad[0]}")
-    if len(names) != width:
-        names = [f"col{i}" for i in range(width)] if len(names) != width else names
+    if len(names) != width:  # no header line, or one we could not split: number the columns
+        names = [f"col{i}" for i in range(width)]
     return Table(names, np.asarray(rows, dtype=np.float64))
 
 
@@ -126,6 +126,7 @@ def load_text(path: str | Path, time_col: str | None = None, pos_cols: list[str]
               step_m: float = DEFAULT_STEP_M, pulled_cart: int | None = None,
               input_col: str | None = None) -> IdData:
     """Load a delimited export. `scale` (m per unit) overrides a unit found in the names.
+    The time base is the file's (a given `release_time_s` is on it).
 
     With `input_col` (e.g. the ECP's 'Control Effort', a motor input) `u` is that column as
     recorded; otherwise `u` is the release step.
@@ -145,9 +146,9 @@ def load_text(path: str | Path, time_col: str | None = None, pos_cols: list[str]
     t, _, y = check_arrays(t, None, y)
     if input_col is not None:
         u = table.values[:, _find_column(table.names, input_col)]
-        return IdData(t - t[0], u, y, release_time_s, pulled_cart, file.name,
+        return IdData(t, u, y, release_time_s, pulled_cart, file.name,
                       (f"input: column {table.names[_find_column(table.names, input_col)]!r} as recorded",))
-    return from_release(t - t[0], y, release_time_s, step_m, pulled_cart, file.name)
+    return from_release(t, y, release_time_s, step_m, pulled_cart, file.name)
 
 
 def _position_scale(name: str, scale: float | None) -> float:
