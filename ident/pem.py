@@ -3,13 +3,17 @@
 Pipeline (MATLAB `pem` → `d2c` → `tf`, made robust for lightly damped poles at high rates):
 1. start values: release time from the onset of the motion (`ident.release`), modes from a
    subspace (Hankel/shift-invariance) estimate on the free response after the release,
-   decimated so the poles do not crowd z = 1 (`ident.subspace`); FFT peaks as fallback;
+   decimated so the poles do not crowd z = 1 (`ident.subspace`); for any other recorded
+   input, PO-MOESP on the whole record and `d2c_zoh`; FFT peaks as fallback; the starts are
+   tried in the order of their projected cost;
 2. refinement: minimise the output prediction error of the continuous-time modal model
    (noise model H = 1: white measurement noise, for which the one-step predictor equals the
    simulation, so PEM = output error) by variable projection (`ident.varpro`), with the
    release time a continuous parameter and the physical structure (relative degree, DC gain)
    as linear constraints;
-3. the result is continuous-time already: poles, `wn`, `zeta` per mode, transfer functions.
+3. optionally (`noise_model="innovation"`), a joint refinement of everything with an
+   innovation gain K on the one-step prediction errors (`ident.innovation`);
+4. the result is continuous-time already: poles, `wn`, `zeta` per mode, transfer functions.
    The discrete innovation form is available from `Model.discrete()`.
 
 Order selection: `order=None` fits 2, 4 and 6 and keeps the smallest BIC.
