@@ -35,6 +35,12 @@ def _f(value: float | None, digits: int = 4) -> str:
     return "–" if value is None else f"{value:.{digits}g}"
 
 
+def zetas(parameters: dict[str, float]) -> str:
+    """The damping ratio(s) in a parameter map (`zeta`, or `zeta_mode1`, `zeta_mode2`)."""
+    found = [f"{v:.4g}" for k, v in sorted(parameters.items()) if k.startswith("zeta")]
+    return ", ".join(found) or "–"
+
+
 def _pct(value: float | None) -> str:
     return "–" if value is None else f"{value:.2f} %"
 
@@ -170,10 +176,12 @@ def diagnosis_blocks(results: list[CaseResult]) -> list[Block]:
         assert d is not None
         extra = ", ".join(f"`{k}` = {v:.4g}" for k, v in d.extended.parameters.items()
                           if k not in d.baseline.parameters) or "–"
-        zeta = d.corrected_linear.get("zeta")
+        linear = zetas(d.baseline.parameters)
+        if linear == "–" and r.report.pem is not None:    # two carts: the PEM modes' ζ
+            linear = ", ".join(f"{m.zeta:.4g}" for m in r.report.pem.modes)
         rows.append((r.case, f"**{d.cause}**", _pct(d.baseline.fit_percent),
                      _pct(d.extended.fit_percent), f"{d.gain_points:+.3f}", extra,
-                     _f(d.baseline.parameters.get("zeta"), 3), _f(zeta, 3)))
+                     linear, zetas(d.corrected_linear)))
     blocks.append(Table(("case", "cause", "linear fit", "extended fit", "gain (points)",
                          "extension parameters", "ζ linear", "ζ corrected"), tuple(rows)))
     for r in diagnosed:
@@ -191,7 +199,7 @@ def diagnosis_blocks(results: list[CaseResult]) -> list[Block]:
             f"{ev.residual_rms_m * 1000:.2f} mm vs noise {ev.noise_std_m * 1000:.3f} mm); the "
             f"cart comes to rest {ev.rest_offset_m * 1000:+.2f} mm from the linear model's "
             f"rest and stays still for the last {ev.stuck_for_s:.2f} s. Validation: "
-            f"{d.validation}."))
+            f"{d.validation.rstrip('.')}."))
         if "diagnosis" in r.figures:
             blocks.append(Figure(r.figures["diagnosis"], f"diagnosis, {CASE_TITLES[r.case]}: "
                                  "measured position (solid), the linear model (dashed) and the "

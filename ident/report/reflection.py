@@ -66,8 +66,10 @@ def diagnosis_paragraph(cases: dict[str, FitReport]) -> str | None:
         if d is None:
             continue
         where = {"cart1": "cart 1 alone", "cart2": "cart 2 alone", "both": "the two-cart run"}[case]
-        zeta_lin = d.baseline.parameters.get("zeta")
-        zeta_cor = d.corrected_linear.get("zeta")
+        zeta_lin = _first_zeta(d.baseline.parameters)
+        if zeta_lin is None and report.pem is not None and report.pem.modes:
+            zeta_lin = report.pem.modes[0].zeta        # two carts: the linear PEM model's
+        zeta_cor = _first_zeta(d.corrected_linear)
         if d.cause == "none":
             sentences.append(
                 f"For {where} no extension beat the noise (best gain {d.gain_points:+.3f} "
@@ -77,18 +79,34 @@ def diagnosis_paragraph(cases: dict[str, FitReport]) -> str | None:
                 f"model reaches {d.extended.fit_percent:.2f} % against {d.baseline.fit_percent:.2f} % "
                 f"for the linear one ({d.gain_points:+.3f} points on held-out data)")
         if zeta_lin is not None and zeta_cor is not None and zeta_lin > 0:
-            text += (f", and the damping ratio falls from {zeta_lin:.4f} to {zeta_cor:.4f} once "
+            which = "the damping ratio" if case != "both" else "the first mode's damping ratio"
+            change = "falls" if zeta_cor < zeta_lin else "rises"
+            text += (f", and {which} {change} from {zeta_lin:.4f} to {zeta_cor:.4f} once "
                      f"the effect is modelled ({100 * (zeta_cor / zeta_lin - 1):+.0f} %)")
         sentences.append(text + ".")
     if not sentences:
         return None
-    causes = {r.diagnosis.cause for r in cases.values() if r.diagnosis is not None}
-    if "coulomb_friction" in causes:
+    friction = [r.diagnosis for r in cases.values()
+                if r.diagnosis is not None and r.diagnosis.cause == "coulomb_friction"]
+    if friction:
+        steps = [d for d in friction if d.evidence.envelope_shape == "constant_step"]
+        stuck = max(d.evidence.stuck_for_s for d in friction)
+        how = ("the peaks shrink by a constant step rather than a constant ratio"
+               if steps else "the oscillation dies out faster at small amplitude than viscous "
+               "damping allows")
         sentences.append(
-            "Dry friction explains what a linear model cannot: the peaks shrink by a constant "
-            "step rather than a constant ratio and the cart stops off its rest, so a linear "
-            "fit absorbs the friction into a damping ratio that is too high.")
+            f"Dry friction explains what a linear model cannot: {how}, and the carts stop dead "
+            f"(still for up to {stuck:.2f} s at the end) while the linear simulation keeps "
+            "ringing; a linear fit absorbs the friction into a damping ratio that is too high.")
     return " ".join(sentences)
+
+
+def _first_zeta(parameters: dict[str, float]) -> float | None:
+    """`zeta`, or the first mode's (`zeta_mode1`) for two carts."""
+    for name in ("zeta", "zeta_mode1"):
+        if name in parameters:
+            return parameters[name]
+    return None
 
 
 def coupling_paragraph(cases: dict[str, FitReport]) -> str | None:
