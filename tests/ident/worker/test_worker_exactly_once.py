@@ -152,3 +152,28 @@ def test_real_pipeline_reports_corrupted_and_truncated_runs_and_goes_on(router, 
     ok = results[good][0]
     assert ok.status == "ok" and ok.case == "cart1" and ok.pem is not None and ok.pem.order == 2
     assert ok.pending == ["diagnosis", "figures"] and ok.simple
+
+
+def test_a_restarted_worker_republishes_stored_fits_without_refitting(router, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
+    endpoint, session = router
+    runs_dir = tmp_path / "runs"
+    runs_dir.mkdir()
+    log = tmp_path / "fits.log"
+    env = {"FAKE_FIT_LOG": str(log)}
+    daq = FakeDaq(session, "bench1", runs_dir)
+    runs = [daq.announce(f"r{i}") for i in range(3)]
+    first = start_worker("wa", _client(endpoint), runs_dir, tmp_path, "fake_fitters:instant_fit", env)
+    try:
+        FitCollector(session).wait_finals(runs, timeout_s=30)
+    finally:
+        assert stop(first) == 0
+    # The worker's publishers (and their caches) are gone; a new worker and a new listener.
+    wait_for(lambda: alive_workers(session) == set(), 20, "the first worker gone")
+    late = FitCollector(session)
+    second = start_worker("wb", _client(endpoint), runs_dir, tmp_path, "fake_fitters:instant_fit", env)
+    try:
+        finals = late.wait_finals(runs, timeout_s=30)
+    finally:
+        assert stop(second) == 0
+    assert all(len(v) == 1 and v[0].worker == "wa" for v in finals.values())   # stored, not refitted
+    assert all(ws == ["wa"] for ws in fit_log_counts(log)["done"].values())
