@@ -243,15 +243,20 @@ def _effect_start(effect: str, prob: _Problem, base: FitResult, ev: EvidenceResu
         k0 = float(np.clip(ev.cubic_start_per_m2_s2, -0.5 * k_max, 0.5 * k_max))
         return (np.array([k0]), np.array([-k_max]), np.array([k_max]), np.array([0.01 * k_max]))
     # coupled_mode: the residual's strongest peak away from the baseline modes
+    # a SECOND resonance: kept on its side of the baseline modes, at least 25 % away, so it
+    # cannot turn into a beat with the main mode that mimics an amplitude-dependent envelope
     res = prob.y - base.prediction
-    w3 = float(spectral_peaks(res, prob.dt, 1, exclude=wn_modes)[0])
+    w3 = float(spectral_peaks(res, prob.dt, 1, exclude=wn_modes, exclude_rel=0.3)[0])
     s3 = 0.01 * w3
     coef, _ = project(prob.tau, res, np.array([w3]), np.array([s3]))
     a3, b3 = coef[1], coef[2]
     nyq_hz = 0.5 / prob.dt
-    start = np.concatenate([[w3 / (2 * np.pi), s3], a3, b3])
-    lower = np.concatenate([[0.05, 0.0], np.full(2 * c, -np.inf)])
-    upper = np.concatenate([[0.98 * nyq_hz, np.inf], np.full(2 * c, np.inf)])
+    f_lo, f_hi = float(np.min(wn_modes)) / (2 * np.pi), float(np.max(wn_modes)) / (2 * np.pi)
+    above = w3 / (2 * np.pi) > f_hi
+    band = (1.25 * f_hi, 0.98 * nyq_hz) if above else (0.05, 0.8 * f_lo)
+    start = np.concatenate([[float(np.clip(w3 / (2 * np.pi), *band)), s3], a3, b3])
+    lower = np.concatenate([[band[0], 0.0], np.full(2 * c, -np.inf)])
+    upper = np.concatenate([[band[1], np.inf], np.full(2 * c, np.inf)])
     typical = np.concatenate([[w3 / (2 * np.pi), 0.1 * w3], np.full(2 * c, 0.01 * amp)])
     return start, lower, upper, typical
 
