@@ -155,7 +155,7 @@ class ReleaseDetector:
     # --- public -----------------------------------------------------------------------------
     def feed(self, t_s: float, pos: Sequence[float]) -> list[Event]:
         """One sample: device time in seconds (continuous) and one position per channel (m)."""
-        sample = tuple(pos)
+        sample = pos if type(pos) is tuple else tuple(pos)
         history = self._history
         history.append((t_s, sample))
         horizon = t_s - self._keep_s
@@ -234,12 +234,14 @@ class ReleaseDetector:
 
     def _feed_armed(self, t_s: float, sample: tuple[float, ...]) -> list[Event]:
         if self._trigger_t is None:
-            deviation = [abs(x - h) for x, h in zip(sample, self._hold)]
-            worst = max(range(len(deviation)), key=deviation.__getitem__)
-            if deviation[worst] <= self.settings.fire_m:
+            fire_m = self.settings.fire_m
+            for x, h in zip(sample, self._hold):   # the common case, every sample of a hold: still
+                if x - h > fire_m or h - x > fire_m:
+                    break
+            else:
                 return []
             self._trigger_t = t_s
-            self._trigger_channel = worst
+            self._trigger_channel = self._channel_moved_most(sample)
             self._post_samples = 0
             return []
         self._post_samples += 1

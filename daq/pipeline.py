@@ -64,30 +64,40 @@ class AcquisitionConfig:
 
 
 class _Batch:
-    """Column lists of samples waiting to be sent (one per destination)."""
+    """Column lists of samples waiting to be sent (one per destination): times and raw values.
+
+    Positions are computed when the batch is taken, `pos_m = raw * gain - offset_m`, with the
+    calibration the batch was filled under: the owner takes the batch before it changes the
+    calibration (the same arithmetic per sample, once per batch instead of once per sample).
+    """
 
     def __init__(self) -> None:
         self.clear()
 
     def clear(self) -> None:
         self.t_ns: list[int] = []
-        self.raw: list[list[float]] = [[], []]
-        self.pos: list[list[float]] = [[], []]
+        self.raw1: list[float] = []
+        self.raw2: list[float] = []
 
-    def add(self, t_ns: int, raw: tuple[float, ...], pos: tuple[float, ...]) -> None:
+    def add(self, t_ns: int, raw: tuple[float, ...]) -> None:
         self.t_ns.append(t_ns)
-        self.raw[0].append(raw[0])
-        self.pos[0].append(pos[0])
+        self.raw1.append(raw[0])
         if len(raw) == 2:
-            self.raw[1].append(raw[1])
-            self.pos[1].append(pos[1])
+            self.raw2.append(raw[1])
 
-    def take(self, bench: str, run_id: str | None, seq: int, unit: RawUnit, n_channels: int) -> SampleBatch:
-        two = n_channels == 2
+    def take(self, bench: str, run_id: str | None, seq: int, unit: RawUnit,
+             gains: tuple[float, ...], offsets_m: tuple[float, ...]) -> SampleBatch:
+        """The batch as a record (len(gains) channels), and empty the lists."""
+        g1, o1 = gains[0], offsets_m[0]
+        pos1 = [r * g1 - o1 for r in self.raw1]
+        pos2 = raw2 = None
+        if len(gains) == 2:
+            g2, o2 = gains[1], offsets_m[1]
+            raw2 = self.raw2
+            pos2 = [r * g2 - o2 for r in raw2]
         batch = SampleBatch.model_construct(
-            bench=bench, run_id=run_id, batch_seq=seq, t_ns=self.t_ns, pos1_m=self.pos[0],
-            pos2_m=self.pos[1] if two else None, raw1=self.raw[0], raw2=self.raw[1] if two else None,
-            raw_unit=unit, schema_version=1)
+            bench=bench, run_id=run_id, batch_seq=seq, t_ns=self.t_ns, pos1_m=pos1, pos2_m=pos2,
+            raw1=self.raw1, raw2=raw2, raw_unit=unit, schema_version=1)
         self.clear()
         return batch
 
@@ -118,6 +128,7 @@ class Acquisition:
         self._run_id_taken = existing_run_ids
         self.decoder = make_decoder(config.dialect)
         self.timeline = Timeline(clock_bits=32 if config.dialect == "cartlab" else None)
+        self._live = _Batch()   # before the calibration: setting one takes the live batch
         cpm = config.counts_per_m or DEFAULT_COUNTS_PER_M[config.dialect]
         self.calibration = Calibration(cpm, config.signs, (0.0, 0.0))
         self.detector = ReleaseDetector(config.detector)
@@ -132,7 +143,6 @@ class Acquisition:
         self._unit: RawUnit = "m" if config.dialect == "csv" else "counts"
         self._ring: deque[tuple[int, tuple[float, ...]]] = deque()
         self._ring_ns = int((config.detector.pre_trigger_s + 1.5) * 1e9)
-        self._live = _Batch()
         self._live_seq = 0
         self._batch_start_ns = 0
         self._disconnected_at: int | None = None
@@ -191,6 +201,8 @@ class Acquisition:
 
     @calibration.setter
     def calibration(self, value: Calibration) -> None:
+        if self._live.t_ns:   # the batched samples keep the calibration they were taken under
+            self._flush_live()
         self._calibration = value
         self._gains, self._offsets_m = value.linear_terms()
 
@@ -212,20 +224,20 @@ class Acquisition:
         ring.append((t_ns, raw))
         while ring[0][0] < t_ns - self._ring_ns:
             ring.popleft()
-        g, o = self._gains, self._offsets_m
-        if len(raw) == 2:
-            unzeroed: tuple[float, ...] = (raw[0] * g[0], raw[1] * g[1])
-            pos: tuple[float, ...] = (unzeroed[0] - o[0], unzeroed[1] - o[1])
-        else:
-            unzeroed = (raw[0] * g[0],)
-            pos = (unzeroed[0] - o[0],)
+        g = self._gains
         live = self._live
         if not live.t_ns:
             self._batch_start_ns = t_ns
-        live.add(t_ns, raw, pos)
+        live.t_ns.append(t_ns)
+        live.raw1.append(raw[0])
+        if len(raw) == 2:
+            live.raw2.append(raw[1])
+            unzeroed: tuple[float, ...] = (raw[0] * g[0], raw[1] * g[1])
+        else:
+            unzeroed = (raw[0] * g[0],)
         run = self.run
         if run is not None:
-            self._run_add(run, t_ns, raw)
+            run.batch.add(t_ns, raw)
         events = self.detector.feed(t_ns * 1e-9, unzeroed)
         if events:
             self._events(events, t_ns)
@@ -244,19 +256,6 @@ class Acquisition:
             self._events(self.detector.hole((t_ns - start) * 1e-9), t_ns)
         else:                     # unplugged, or the device clock is not to be trusted
             self._events(self.detector.reset(), t_ns)
-
-    def _run_add(self, run: _Run, t_ns: int, raw: tuple[float, ...]) -> None:
-        g, o = run.gains, run.offsets_m
-        pos = (raw[0] * g[0] - o[0], raw[1] * g[1] - o[1]) if len(raw) == 2 else (raw[0] * g[0] - o[0],)
-        run.batch.add(t_ns, raw, pos)
-        low, high = run.low_m, run.high_m
-        for c, x in enumerate(pos):
-            if x < low[c]:
-                low[c] = x
-            if x > high[c]:
-                high[c] = x
-        run.n_samples += 1
-        run.last_t_ns = t_ns
 
     # --- detector events ---------------------------------------------------------------------------
     def _events(self, events: list[Event], t_ns: int) -> None:
@@ -320,7 +319,7 @@ class Acquisition:
         self.run = _Run(meta, cal, self.counters(), gains=gains, offsets_m=offsets_m)
         self.outputs.run_started(meta)
         for t, raw in pre:
-            self._run_add(self.run, t, raw)
+            self.run.batch.add(t, raw)
 
     def _end_run(self, status: str, reason: str) -> None:
         run = self.run
@@ -339,20 +338,33 @@ class Acquisition:
         self.outputs.run_finished(meta, finished)
 
     def _flush_batches(self) -> None:
-        n_channels = self.n_channels or 1
         if self._live.t_ns:
-            run_id = self.run.metadata.run_id if self.run is not None else None
-            self.outputs.live(self._live.take(self.config.bench, run_id, self._live_seq, self._unit, n_channels))
-            self._live_seq += 1
+            self._flush_live()
         if self.run is not None:
             self._flush_run(self.run)
 
+    def _flush_live(self) -> None:
+        n_channels = self.n_channels or 1
+        run_id = self.run.metadata.run_id if self.run is not None else None
+        batch = self._live.take(self.config.bench, run_id, self._live_seq, self._unit,
+                                self._gains[:n_channels], self._offsets_m[:n_channels])
+        self._live_seq += 1
+        self.outputs.live(batch)
+
     def _flush_run(self, run: _Run) -> None:
-        if run.batch.t_ns:
-            batch = run.batch.take(self.config.bench, run.metadata.run_id, run.batch_seq, self._unit,
-                                   run.calibration.n_channels)
-            run.batch_seq += 1
-            self.outputs.run_samples(batch)
+        if not run.batch.t_ns:
+            return
+        n_channels = run.calibration.n_channels
+        batch = run.batch.take(self.config.bench, run.metadata.run_id, run.batch_seq, self._unit,
+                               run.gains[:n_channels], run.offsets_m[:n_channels])
+        run.batch_seq += 1
+        run.n_samples += len(batch.t_ns)
+        run.last_t_ns = batch.t_ns[-1]
+        for c, pos in enumerate((batch.pos1_m, batch.pos2_m)):
+            if pos:
+                run.low_m[c] = min(run.low_m[c], min(pos))
+                run.high_m[c] = max(run.high_m[c], max(pos))
+        self.outputs.run_samples(batch)
 
 
 def _lab_case(run: _Run) -> str | None:
