@@ -30,7 +30,7 @@ from daq.bus import DaqBus
 from ident.worker.bus import BusEvent, WorkerBus
 from schemas import keys
 from schemas.bus import BusConfig
-from schemas.daq import DaqCounters, DaqStatus, RunFinished, RunList
+from schemas.daq import DaqCounters, DaqStatus, RunFinished, RunList, ZeroReply
 from schemas.fit import FitReport
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tools"))
@@ -45,7 +45,8 @@ from zenoh_router import (  # noqa: E402
     router_config,
 )
 
-PASSWORDS = {"daq-bench1": "pw-daq1", "daq-bench2": "pw-daq2", "ident": "pw-ident", "viewer": "pw-view"}
+PASSWORDS = {"daq-bench1": "pw-daq1", "daq-bench2": "pw-daq2", "ident": "pw-ident", "viewer": "pw-view",
+             "operator": "pw-op"}
 CLIENT_FILES = {"daq-bench1": DAQ_CLIENT, "ident": IDENT_CLIENT, "viewer": VIEWER_CLIENT}
 WAIT_S = 10.0
 REFUSE_MS = 700
@@ -366,6 +367,40 @@ def test_the_allowed_flows_of_a_bench_work_through_the_secure_router(router: Rou
                 except queue.Empty:
                     pass
             assert "finished" in kinds
+    finally:
+        bus.close()
+
+
+def test_only_an_operator_can_zero_or_arm_a_bench(router: Router) -> None:
+    """`zero` and `arm` act on the bench: ident and viewers may not query them, not even
+    through a wildcard; an operator may. A request reaching the daq lands on its queue."""
+    daq_session = router.client("daq-bench1")
+    bus = DaqBus("bench1", BusConfig(), session=daq_session)
+    try:
+        status = DaqStatus(bench="bench1", state="idle", run_id=None, port="sim://", dialect="cartlab",
+                           connected=True, counts_per_m=1e4, zero_offsets_raw=[0.0], last_t_ns=None,
+                           last_pos_m=None, n_runs=0, counters=DaqCounters(), software_version="test")
+        bus.set_snapshot(status, RunList(bench="bench1", runs=[]))
+        for user in ("viewer", "ident"):
+            session = router.client(user)
+            # The read-only queryable answers this user (so the daq is reachable) ...
+            deadline = time.monotonic() + WAIT_S
+            while not [r for r in session.get(keys.daq_query("bench1", "status"), timeout=1.0) if r.ok]:
+                assert time.monotonic() < deadline, f"{user}: no status reply"
+            # ... but zero and arm, named or through a wildcard, never reach it.
+            for selector in (keys.daq_query("bench1", "zero"), keys.daq_query("bench1", "arm"),
+                             keys.daq_queries("bench1"), "cartlab/bench1/**"):
+                replies = list(session.get(selector, timeout=0.5))
+                assert [r for r in replies if r.ok is not None and b"zero_offsets_raw" in r.ok.payload.to_bytes()
+                        and b'"ok"' in r.ok.payload.to_bytes()] == []
+            assert bus.requests.empty(), f"{user} reached {bus.requests.get_nowait().kind}"
+        operator = router.client("operator")
+        replies = operator.get(keys.daq_query("bench1", "zero"), timeout=WAIT_S)
+        request = bus.requests.get(timeout=WAIT_S)
+        assert request.kind == "zero"
+        DaqBus.reply_record(request, ZeroReply(bench="bench1", ok=True, zero_offsets_raw=[12.0]))
+        answers = [ZeroReply.from_json_bytes(r.ok.payload.to_bytes()) for r in replies if r.ok is not None]
+        assert answers == [ZeroReply(bench="bench1", ok=True, zero_offsets_raw=[12.0])]
     finally:
         bus.close()
 
