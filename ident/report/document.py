@@ -99,8 +99,9 @@ def equation_svg(tex: str, fontsize: float) -> str | None:
     from matplotlib.mathtext import math_to_image
 
     buffer = io.BytesIO()
+    display = tex.replace(r"\frac", r"\dfrac")    # display-size fractions, as on paper
     try:
-        math_to_image(f"${tex}$", buffer, prop=FontProperties(size=fontsize), format="svg")
+        math_to_image(f"${display}$", buffer, prop=FontProperties(size=fontsize), format="svg")
     except ValueError:
         return None
     return _strip_xml_header(buffer.getvalue().decode())
