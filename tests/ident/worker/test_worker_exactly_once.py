@@ -15,7 +15,7 @@ import pytest
 
 from schemas.bus import BusConfig
 from worker_harness import (FakeDaq, FitCollector, alive_workers, fit_log_counts, open_session,
-                            start_worker, stop, wait_for)
+                            record_sim_run, start_worker, stop, wait_for)
 
 pytestmark = pytest.mark.timeout(90)
 
@@ -118,18 +118,8 @@ def test_unloadable_run_gets_a_failed_report_and_the_worker_goes_on(router, tmp_
 
 
 def test_real_pipeline_reports_corrupted_and_truncated_runs_and_goes_on(router, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
-    import subprocess
-    import sys
-
-    from worker_harness import REPO
-
     endpoint, session = router
-    recorded = tmp_path / "recorded"
-    subprocess.run([sys.executable, "-m", "daq.cli", "run", "--port",
-                    "sim://?cases=cart1&rate_hz=100&seed=9&realtime=0", "--bench", "bench1",
-                    "--runs-dir", str(recorded), "--no-zenoh", "--until-eof"],
-                   cwd=REPO, check=True, capture_output=True, timeout=60)
-    good_bytes = next(recorded.glob("*.mcap")).read_bytes()
+    good_bytes = record_sim_run(tmp_path / "recorded")
     runs_dir = tmp_path / "runs"
     runs_dir.mkdir()
     daq = FakeDaq(session, "bench1", runs_dir)
@@ -177,3 +167,32 @@ def test_a_restarted_worker_republishes_stored_fits_without_refitting(router, tm
         assert stop(second) == 0
     assert all(len(v) == 1 and v[0].worker == "wa" for v in finals.values())   # stored, not refitted
     assert all(ws == ["wa"] for ws in fit_log_counts(log)["done"].values())
+
+
+def test_kill_9_during_the_diagnosis_the_other_worker_completes_the_run(router, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
+    """The real two-stage pipeline: a worker dies after its early report (transfer functions
+    published, diagnosis running); the other one fits the run again and completes it, once."""
+    endpoint, session = router
+    run_bytes = record_sim_run(tmp_path / "recorded", cases="cart2", seed=11)
+    runs_dir = tmp_path / "runs"
+    runs_dir.mkdir()
+    daq = FakeDaq(session, "bench1", runs_dir)
+    collector = FitCollector(session)
+    workers = {n: start_worker(n, _client(endpoint), runs_dir, tmp_path) for n in ("wa", "wb")}
+    try:
+        wait_for(lambda: alive_workers(session) == {"wa", "wb"}, 30, "both workers alive")
+        runs = [daq.announce(f"r{i}", content=run_bytes) for i in range(2)]
+        early = collector.wait_results(runs[:1], timeout_s=30)[runs[0]][0]
+        assert early.pending and not early.final
+        victim = early.worker
+        workers[victim].send_signal(signal.SIGKILL)
+        workers[victim].wait(timeout=10)
+        finals = collector.wait_finals(runs, timeout_s=60)
+    finally:
+        codes = {n: stop(w) for n, w in workers.items()}
+    survivor = "wb" if victim == "wa" else "wa"
+    assert codes[survivor] == 0
+    assert all(len(v) == 1 and v[0].status == "ok" for v in finals.values()), finals
+    assert finals[runs[0]][0].worker == survivor                      # taken over
+    assert finals[runs[0]][0].diagnosis is not None and finals[runs[0]][0].case == "cart2"
+    assert (runs_dir / f"{runs[0].run_id}.fit" / "report.json").is_file()

@@ -144,6 +144,15 @@ def stop(proc: subprocess.Popen[bytes], timeout_s: float = 10.0) -> int:
     return proc.returncode
 
 
+def record_sim_run(directory: Path, cases: str = "cart1", seed: int = 9) -> bytes:
+    """The bytes of one real run file: `daq run` on the simulated rig (100 Hz, no Zenoh)."""
+    subprocess.run([sys.executable, "-m", "daq.cli", "run", "--port",
+                    f"sim://?cases={cases}&rate_hz=100&seed={seed}&realtime=0", "--bench", "bench1",
+                    "--runs-dir", str(directory), "--no-zenoh", "--until-eof"],
+                   cwd=REPO, check=True, capture_output=True, timeout=60)
+    return next(directory.glob("*.mcap")).read_bytes()
+
+
 def fit_log_counts(path: Path) -> dict[str, dict[str, list[str]]]:
     """`{"start"|"done": {"bench/run": [worker, ...]}}` from a fake fitter's log."""
     counts: dict[str, dict[str, list[str]]] = {"start": defaultdict(list), "done": defaultdict(list)}
