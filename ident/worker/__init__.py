@@ -1,8 +1,9 @@
 """`ident worker`: fit every finished run of every bench, exactly once, over Zenoh.
 
 Modules: `schedule` (pure: who fits what), `bus` (Zenoh adapter, callbacks only enqueue),
-`runs_dir` (files), `service` (the loop), `pipeline` (the default fitter: simple ID with
-RK4 and Euler, PEM of order 2 or 4, diagnosis, figures).
+`runs_dir` (files), `service` (the loop), `finisher` (the slow second stage on one
+thread), `pipeline` (the default fitter: simple ID with RK4 and Euler, PEM of order 2 or 4
+published at once, then the diagnosis and the figures).
 
 How a run is fitted exactly once
 --------------------------------
@@ -14,11 +15,12 @@ reset), or after the Zenoh lease (10 s) for a hung host.
 1. Ownership by rendezvous hashing. The owner of run r is `argmax_{w in A} h(w, r)`
    (`schedule.owner`). All workers compute it from the same A, so they agree without
    talking; when a worker leaves, only its runs move, each to its next-highest scorer.
-2. Done means a final report exists. A run is skipped when an `ok`/`failed` report was
-   seen on `runs/<run_id>/fit` (advanced subscriber with history: reports published
-   before this worker started arrive too) or is stored in `<run_id>.fit/report.json`
-   (written atomically before it is published; a stored report is republished, not
-   refitted).
+2. Done means a complete report exists. A run is skipped when an `ok`/`failed` report
+   with nothing `pending` was seen on `runs/<run_id>/fit` (advanced subscriber with
+   history: reports published before this worker started arrive too) or is stored in
+   `<run_id>.fit/report.json` (written atomically before it is published; a stored report
+   is republished, not refitted). An early report (transfer functions published while the
+   diagnosis runs, `pending` not empty) is not done: it counts as its worker's claim.
 3. Claim, settle, check. Before fitting, the owner publishes a `fitting` claim on the
    run's fit key, handles events for `settle_s` (0.2 s by default; claims cross a LAN in
    milliseconds), then fits only if it is the highest-scoring alive claimant and no final
@@ -28,10 +30,11 @@ reset), or after the Zenoh lease (10 s) for a hung host.
    the other publishes `withdrawn`.
 4. Take-over. A claim is void once its worker's token is gone. When a worker dies
    mid-fit, the others drop its claims, recompute owners over the smaller A, and the new
-   owner of each orphaned run claims and fits it. The dead worker published no final
-   report (it publishes only after writing the complete report), so the run is still
-   fitted once. A worker that restarts recovers its state from history, the runs
-   directory and each daq's `runs` queryable.
+   owner of each orphaned run claims and fits it. The dead worker published no complete
+   report (it publishes only after writing report.json), so the run is completed once (if
+   it died after its early report, the first stage is computed a second time). A worker
+   that restarts recovers its state from history, the runs directory and each daq's
+   `runs` queryable. SIGTERM/SIGINT make a worker leave at once, even mid-fit.
 
 Limits: the argument assumes claims reach the other workers within `settle_s`, and that
 a worker whose token vanished (a network partition, not a crash) is really gone; after a
