@@ -121,3 +121,22 @@ def test_rule_checker_flags_title_thin_lines_missing_units_and_same_styles() -> 
     assert any("y label ''" in p for p in problems)
     assert any("share line styles" in p for p in problems)
     assert any("title" in p for p in problems)
+
+
+def test_ident_report_command_reuses_existing_fits_and_prints_the_summary(
+        report: tuple[Path, list[CaseResult]], tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from ident.cli import main
+
+    out, results = report
+    fit_dirs = sorted((out / "fits").glob("*.fit"))
+    assert len(fit_dirs) == 3
+    code = main(["report", *map(str, fit_dirs[:2]), "-o", str(tmp_path / "two")])
+    printed = capsys.readouterr().out
+    assert code == 0 and "(2 of 3 lab cases)" in printed
+    lines = [line for line in printed.splitlines() if line.startswith(("cart1", "cart2", "both"))]
+    assert [line.split()[0] for line in lines] == ["cart1", "cart2"]
+    assert results[0].report.pem is not None
+    assert results[0].report.pem.tfs[0].text in lines[0]
+    md = (tmp_path / "two" / "report.md").read_text()
+    assert "**Missing lab cases:** both" in md and "No two-cart run was identified" in md
+    assert main(["report", str(tmp_path / "nothing-here"), "-o", str(tmp_path / "x")]) == 2
