@@ -33,7 +33,7 @@ from ident import subspace, varpro
 from ident.data import FloatArray, IdData, make_uniform
 from ident.errors import FitFailed, IdentValueError
 from ident.model import Model, ModeEstimate
-from ident.release import check_motion, estimate_release_time, noise_std
+from ident.release import check_motion, estimate_release_time, moving_outputs, noise_std
 
 #: Orders tried by the order selection.
 CANDIDATE_ORDERS = (2, 4, 6)
@@ -60,6 +60,10 @@ def pem(data: IdData, order: int | None = None, *, relative_degree: int | Sequen
     if order < 2 or order % 2:
         raise IdentValueError("order", "an even order ≥ 2 (2 per oscillatory mode) or None", order)
     check_motion(data.y)
+    still = sorted(set(range(data.n_outputs)) - set(moving_outputs(data.y)))
+    if still:
+        raise IdentValueError("y", "motion in every output (select the moving carts' columns)",
+                              f"no motion in output(s) {still} (a pinned cart?)")
     problem, release0 = _problem(data, _per_output(relative_degree, data.n_outputs, "relative_degree"),
                                  _per_output(dc_gain, data.n_outputs, "dc_gain"), fit_release, fit_offset)
     n_modes = order // 2

@@ -56,6 +56,16 @@ def check_motion(y: FloatArray) -> None:
             f"{float(np.min(sigma)):.3g} m (no motion)")
 
 
+def moving_outputs(y: FloatArray) -> list[int]:
+    """Indices of the outputs that move clearly (≥ 20 noise std and > 3 quanta): a pinned
+    cart's encoder reads a constant and is not one of them."""
+    y2 = np.asarray(y, dtype=np.float64).reshape(len(y), -1)
+    amplitude = motion_amplitude(y2)
+    sigma = noise_std(y2)
+    return [j for j in range(y2.shape[1])
+            if amplitude[j] >= MIN_MOTION_SIGMAS * sigma[j] and amplitude[j] > 3.0 * _quantum(y2[:, [j]])]
+
+
 def _quantum(y: FloatArray) -> float:
     """Smallest non-zero step between consecutive samples (0 when there is none)."""
     steps = np.abs(np.diff(y, axis=0)).ravel()

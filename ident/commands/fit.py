@@ -22,7 +22,7 @@ def add_parser(subparsers: Any) -> None:
                                    description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("path", help="a run file: .mcap from daq, or a CSV/TSV export")
     parser.add_argument("--carts", type=int, choices=(1, 2), default=None,
-                        help="1: one cart (order 2), 2: both carts (order 4); default: from the columns")
+                        help="1: one cart (order 2), 2: both carts (order 4); default: the moving columns")
     parser.add_argument("--method", choices=METHODS, default="all")
     parser.add_argument("--time", dest="time_col", default=None, help="time column name (text exports)")
     parser.add_argument("--pos", dest="pos_cols", nargs="+", default=None,
@@ -54,13 +54,14 @@ def run(args: argparse.Namespace) -> int:
 def fit_file(args: argparse.Namespace) -> dict[str, Any]:
     """Load and fit as the arguments say; a JSON-ready report."""
     from ident.io import load
-    from ident.release import motion_amplitude
+    from ident.release import motion_amplitude, moving_outputs
 
     data = load(args.path, args.time_col, args.pos_cols, args.scale, args.release, args.step_m,
                 args.input_col)
-    carts = args.carts or min(data.n_outputs, 2)
+    moving = moving_outputs(data.y)
+    carts = args.carts or max(1, min(len(moving), 2))
     if carts == 1 and data.n_outputs > 1:
-        column = (data.pulled_cart - 1 if data.pulled_cart in (1, 2)
+        column = (data.pulled_cart - 1 if data.pulled_cart in (1, 2) and data.pulled_cart - 1 in moving
                   else int(np.argmax(motion_amplitude(data.y))))
         data = data.select_outputs([column])
     elif carts == 2 and data.n_outputs < 2:

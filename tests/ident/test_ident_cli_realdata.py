@@ -76,3 +76,14 @@ def test_real_ecp_motor_input_runs_fit_with_the_recorded_input(realdata_dir: Pat
     assert data.n_outputs == 2 and np.ptp(data.u) > 0
     model = pem(data, 4)
     assert min(model.fit_percent) > 85.0 and model.order == 4
+
+
+def test_fit_picks_the_moving_cart_when_the_other_is_pinned(tmp_path: Path,
+                                                            capsys: pytest.CaptureFixture[str]) -> None:
+    run = cart1_run(50.0, seed=43)
+    y = np.column_stack([np.zeros(run.t.size), run.y[:, 0]])  # cart 1 pinned, cart 2 released
+    path = _csv(tmp_path / "pinned.csv", run.t, y)
+    assert main(["fit", str(path), "--method", "pem", "--json"]) == 0
+    (fit,) = json.loads(capsys.readouterr().out)["fits"]
+    assert fit["method"] == "pem order 2"
+    assert fit["modes"][0]["wn"] == pytest.approx(run.wn[0], rel=1e-3)

@@ -131,3 +131,10 @@ def test_non_uniform_time_stamps_are_fitted_where_they_are() -> None:
     model = pem(data, 2)
     thinned = Run(run.t[keep], run.y[keep], run.y_clean[keep], run.release_time_s, run.wn, run.zeta)
     _check(thinned, model.modes, model.release_time_s, compare(model, data))
+
+
+def test_a_pinned_cart_output_is_named_not_fitted() -> None:
+    run = cart1_run(50.0, seed=10)
+    y = np.column_stack([run.y[:, 0], np.zeros(run.t.size)])  # cart 2 pinned: a constant reading
+    with pytest.raises(IdentValueError, match=r"no motion in output\(s\) \[1\]"):
+        pem(IdData(run.t, step(run.t, 0.5), y), 4)
