@@ -469,3 +469,55 @@ def test_mutual_tls_lets_in_only_clients_with_a_certificate_of_the_lab_ca(tmp_pa
                 _put_until_received(sender, inbox, keys.samples("bench1"), "over-tls")
             finally:
                 sub.undeclare()
+
+
+def _client_file(template: Path, dest: Path, endpoint: str, user: str) -> Path:
+    text = template.read_text().replace("tcp/127.0.0.1:7447", endpoint)
+    dest.write_text(text.replace(f"change-me-{user.removeprefix('daq-')}", PASSWORDS[user]))
+    return dest
+
+
+def test_real_daq_and_worker_processes_run_a_bench_through_the_secure_router(router: Router, tmp_path: Path) -> None:
+    """`daq run` and `ident worker` with the shipped client configs: the run is announced,
+    fetched over Zenoh by the worker (its runs directory is empty) and its fit published."""
+    repo = Path(__file__).resolve().parents[1]
+    daq_conf = _client_file(DAQ_CLIENT, tmp_path / "daq.json5", router.endpoint, "daq-bench1")
+    ident_conf = _client_file(IDENT_CLIENT, tmp_path / "ident.json5", router.endpoint, "ident")
+    viewer = router.client("viewer")
+    fits = Inbox()
+    router.keep(zenoh.ext.declare_advanced_subscriber(
+        viewer, keys.ALL_FITS, fits, history=zenoh.ext.HistoryConfig(detect_late_publishers=True, max_samples=8)))
+    sim = "sim://?realtime=0&rate_hz=100&cases=cart1&seed=3&rest_s=0.3&pull_s=0.5&hold_s=0.8&c1=3&tail_s=0.3"
+    logs = [(tmp_path / name).open("wb") for name in ("worker.log", "daq.log")]
+    worker = subprocess.Popen([sys.executable, "-m", "ident.cli", "worker", "--name", "w-secure", "--runs-dir",
+                               str(tmp_path / "worker-runs"), "--zenoh-config", str(ident_conf),
+                               "--fitter", "tests.ident.test_worker_abuse:stand_in_fit"],
+                              cwd=repo, stdout=logs[0], stderr=subprocess.STDOUT)
+    daq = subprocess.Popen([sys.executable, "-m", "daq.cli", "run", "--port", sim, "--bench", "bench1",
+                            "--runs-dir", str(tmp_path / "daq-runs"), "--zenoh-config", str(daq_conf)],
+                           cwd=repo, stdout=logs[1], stderr=subprocess.STDOUT)
+    try:
+        deadline = time.monotonic() + 60
+        report = None
+        while report is None:
+            for proc, name in ((worker, "worker"), (daq, "daq")):
+                assert proc.poll() is None, f"{name} exited: {(tmp_path / f'{name}.log').read_text()[-2000:]}"
+            assert time.monotonic() < deadline, "no fit report through the secure router within 60 s"
+            try:
+                key, payload = fits.queue.get(timeout=0.2)
+            except queue.Empty:
+                continue
+            candidate = FitReport.model_validate_json(payload)
+            report = candidate if candidate.final else None
+        run_file = next((tmp_path / "daq-runs").glob("*.mcap"))
+        assert key == keys.run_fit("bench1", report.run_id) and report.status == "ok"
+        assert report.worker == "w-secure" and report.extra == {"bytes": run_file.stat().st_size}
+    finally:
+        for proc in (daq, worker):
+            proc.terminate()
+            try:
+                proc.wait(timeout=15)
+            except subprocess.TimeoutExpired:
+                proc.kill()
+        for log in logs:
+            log.close()
