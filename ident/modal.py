@@ -58,28 +58,46 @@ def section_matrices(sigma: float, omega: float) -> tuple[FloatArray, FloatArray
     return np.array([[0.0, 1.0], [-wn2, -2.0 * sigma]]), np.array([0.0, 1.0])
 
 
-def input_basis(u: FloatArray, ts: float, sigma: FloatArray, omega: FloatArray) -> FloatArray:
-    """Responses to an arbitrary input `u` (N,), held constant over each sample (zoh), from rest.
+def _phi_gamma(a_sec: FloatArray, b_sec: FloatArray, h: float) -> tuple[FloatArray, FloatArray]:
+    """Φ(h) = e^{A h}, Γ(h) = ∫_0^h e^{Aσ} dσ B, from the expm of [[A, B], [0, 0]] h."""
+    aug = np.zeros((3, 3))
+    aug[:2, :2] = a_sec * h
+    aug[:2, 2] = b_sec * h
+    e = expm(aug)
+    return e[:2, :2], e[:2, 2]
 
-    Column 0 is `u - u[0]` (direct term), then the two states of each section, exact zoh:
-    x[k+1] = Φ x[k] + Γ (u[k] - u[0]), Φ = e^{A Ts}, Γ = ∫_0^Ts e^{Aσ} dσ B (an augmented expm).
-    Shape (N, 1 + 2m).
+
+def section_states(sigma: float, omega: float, ts: float, frac: float, v: FloatArray) -> list[FloatArray]:
+    """Both states of one section, from rest, for input v (N,) held over each sample and
+    delayed by frac·Ts (0 ≤ frac < 1), exactly.
+
+    Over [t_k, t_k+1) the input is v[k-1] for frac·Ts, then v[k]:
+    x[k+1] = Φ x[k] + Γ1 v[k-1] + Γ2 v[k], Φ = Φ(Ts), Γ1 = Φ((1-f)Ts) Γ(f Ts), Γ2 = Γ((1-f)Ts).
+    State r is row r of adj(zI - Φ) (Γ1 z⁻¹ + Γ2) / det(zI - Φ), run by `lfilter`.
     """
+    a_sec, b_sec = section_matrices(sigma, omega)
+    phi, _ = _phi_gamma(a_sec, b_sec, ts)
+    phi_rest, gamma2 = _phi_gamma(a_sec, b_sec, (1.0 - frac) * ts)
+    gamma1 = phi_rest @ _phi_gamma(a_sec, b_sec, frac * ts)[1] if frac > 0 else np.zeros(2)
+    den = np.array([1.0, -np.trace(phi), np.linalg.det(phi)])
+    # adj(zI - Φ) = [[z - Φ11, Φ01], [Φ10, z - Φ00]]; row r times g, as coefficients of (z, 1)
+    rows = (lambda g: np.array([g[0], phi[0, 1] * g[1] - phi[1, 1] * g[0]]),
+            lambda g: np.array([g[1], phi[1, 0] * g[0] - phi[0, 0] * g[1]]))
+    states = []
+    for row in rows:
+        num = np.concatenate([[0.0], row(gamma2), [0.0]]) + np.concatenate([[0.0, 0.0], row(gamma1)])
+        states.append(lfilter(num, den, v))
+    return states
+
+
+def input_basis(u: FloatArray, ts: float, sigma: FloatArray, omega: FloatArray) -> FloatArray:
+    """Responses to an arbitrary input `u` (N,), held constant over each sample (zoh), from rest
+    at u[0]: column 0 is `u - u[0]` (direct term), then the two states of each section
+    (`section_states` with no delay). Shape (N, 1 + 2m)."""
     du = u - u[0]
     columns = [du]
     for s, w in zip(sigma, omega, strict=True):
-        a_sec, b_sec = section_matrices(float(s), float(w))
-        aug = np.zeros((3, 3))
-        aug[:2, :2] = a_sec * ts
-        aug[:2, 2] = b_sec * ts
-        e = expm(aug)
-        phi, gamma = e[:2, :2], e[:2, 2]
-        den = np.array([1.0, -np.trace(phi), np.linalg.det(phi)])
-        # state k of (zI - Φ)⁻¹ Γ: adj(zI - Φ) Γ / det(zI - Φ), written out for 2×2
-        adj0 = np.array([gamma[0], phi[0, 1] * gamma[1] - phi[1, 1] * gamma[0]])
-        adj1 = np.array([gamma[1], phi[1, 0] * gamma[0] - phi[0, 0] * gamma[1]])
-        for numerator in (adj0, adj1):
-            columns.append(lfilter(np.concatenate([[0.0], numerator]), den, du))
+        columns.extend(section_states(float(s), float(w), ts, 0.0, du))
     return np.column_stack(columns)
 
 

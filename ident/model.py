@@ -16,7 +16,6 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.linalg import expm
-from scipy.signal import lfilter
 
 from ident import modal
 from ident.errors import IdentDimensionError, IdentValueError
@@ -162,7 +161,7 @@ class Model:
         shifted = _shift(u - u[0], whole)
         columns = [_shift(shifted, 1) if frac > 0 else shifted]
         for s, w in zip(self.sigma, self.omega, strict=True):
-            columns.extend(_section_states(float(s), float(w), ts, frac, shifted))
+            columns.extend(modal.section_states(float(s), float(w), ts, frac, shifted))
         return np.asarray(self.offset + np.column_stack(columns) @ self.theta.T)
 
 
@@ -174,36 +173,3 @@ def _shift(x: FloatArray, samples: int) -> FloatArray:
         return np.concatenate([np.full(min(samples, len(x)), x[0]), x[:-samples] if samples < len(x) else []])
     k = -samples
     return np.concatenate([x[k:], np.full(min(k, len(x)), x[-1])])
-
-
-def _section_states(sigma: float, omega: float, ts: float, frac: float,
-                    v: FloatArray) -> list[FloatArray]:
-    """Both states of one section for input v held over samples and delayed by frac·Ts.
-
-    Over [t_k, t_k+1) the input is v[k-1] for frac·Ts, then v[k]:
-    x[k+1] = Φ x[k] + Γ1 v[k-1] + Γ2 v[k], Γ1 = e^{A(1-f)Ts} Γ(f Ts), Γ2 = Γ((1-f) Ts),
-    Γ(h) = ∫_0^h e^{Aσ} dσ B.
-    """
-    a_sec, b_sec = modal.section_matrices(sigma, omega)
-
-    def phi_gamma(h: float) -> tuple[FloatArray, FloatArray]:
-        aug = np.zeros((3, 3))
-        aug[:2, :2] = a_sec * h
-        aug[:2, 2] = b_sec * h
-        e = expm(aug)
-        return e[:2, :2], e[:2, 2]
-
-    phi, _ = phi_gamma(ts)
-    phi_rest, gamma2 = phi_gamma((1.0 - frac) * ts)
-    gamma1 = phi_rest @ phi_gamma(frac * ts)[1] if frac > 0 else np.zeros(2)
-    den = np.array([1.0, -np.trace(phi), np.linalg.det(phi)])
-    states = []
-    for row in range(2):
-        # row of adj(zI - Φ) applied to Γ: adj = [[z - Φ11, Φ01], [Φ10, z - Φ00]]
-        def numerator(g: FloatArray, r: int = row) -> FloatArray:
-            if r == 0:
-                return np.array([g[0], phi[0, 1] * g[1] - phi[1, 1] * g[0]])
-            return np.array([g[1], phi[1, 0] * g[0] - phi[0, 0] * g[1]])
-        num = np.concatenate([[0.0], numerator(gamma2), [0.0]]) + np.concatenate([[0.0, 0.0], numerator(gamma1)])
-        states.append(lfilter(num, den, v))
-    return states
