@@ -1,6 +1,6 @@
 """Benchmark of the identification engine on the lab's synthetic cases.
 
-    .venv/bin/python tools/bench_ident.py [--seeds 200] [--repeats 5] [--mc-cases a,b]
+    .venv/bin/python tools/bench_ident.py [--seeds 500] [--repeats 5] [--mc-cases a,b]
 
 Part 1 (accuracy and speed): one cart at 50/200/1000 Hz; two carts (case 3, release input)
 with output y1, y2 or both at 50/200 Hz, both at 1000 Hz; the release unknown (the step in u 0.12 s early, release
@@ -220,7 +220,9 @@ def monte_carlo(seeds: int, names: list[str]) -> None:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--seeds", type=int, default=200, help="Monte-Carlo noise seeds (0: skip)")
+    parser.add_argument("--seeds", type=int, default=500,
+                        help="Monte-Carlo noise seeds (0: skip); at 200 the sample variance alone "
+                             "scatters the efficiency by ±20 %% (95 %%), at 500 by ±12 %%")
     parser.add_argument("--repeats", type=int, default=5, help="timed repeats per fit")
     parser.add_argument("--mc-cases", default="cart1_50hz,cart1_200hz,cart2_y12_50hz,cart2_y12_200hz",
                         help="comma-separated case names for the Monte-Carlo part")
