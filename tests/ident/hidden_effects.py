@@ -49,6 +49,7 @@ class HiddenCase:
     truth: dict[str, float] = field(default_factory=dict)
     rate_hz: float = 0.0
     noise_m: float = 0.0
+    release_s: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -105,7 +106,7 @@ def _coulomb(chain: Chain, z0: FloatArray, tau: FloatArray, f: FloatArray) -> Fl
 
     for i in range(n):
         mode[i] = classify(state, i) if state[n + i] == 0 else np.sign(state[n + i])
-    for _ in range(100000):
+    for _ in range(20000):
         m = mode.copy()
 
         def rhs(_: float, s: FloatArray) -> FloatArray:
@@ -115,17 +116,20 @@ def _coulomb(chain: Chain, z0: FloatArray, tau: FloatArray, f: FloatArray) -> Fl
             v[m == 0] = 0.0
             return np.concatenate([v, a])
 
-        events = []
+        events, owners = [], []
         for i in range(n):
             if m[i] != 0:
-                ev = (lambda _t, s, i=i: s[n + i] * m[i])
+                # fires just past the velocity zero (scipy may report a zero at the start point)
+                ev = (lambda _t, s, i=i: s[n + i] * m[i] + 1e-12)
                 ev.terminal, ev.direction = True, -1          # type: ignore[attr-defined]
                 events.append(ev)
-            else:
+                owners.append((i, 0.0))
+            elif f[i] > 0:
                 for sgn in (1.0, -1.0):
                     ev = (lambda _t, s, i=i, sgn=sgn: sgn * spring(s)[i] - f[i])
                     ev.terminal, ev.direction = True, 1       # type: ignore[attr-defined]
                     events.append(ev)
+                    owners.append((i, sgn))
         todo = tau >= t0
         if np.all(m == 0):
             out[todo] = state[:n]
@@ -139,12 +143,13 @@ def _coulomb(chain: Chain, z0: FloatArray, tau: FloatArray, f: FloatArray) -> Fl
         if sol.status == 0:
             return out
         state = sol.y[:, -1].copy()
-        for i in range(n):
-            if m[i] != 0 and abs(state[n + i]) < 1e-9:
-                state[n + i] = 0.0
-                mode[i] = classify(state, i)
-            elif m[i] == 0:
-                mode[i] = classify(state, i)
+        fired = [k for k, te in enumerate(sol.t_events) if te.size]
+        i, sgn = owners[fired[0]]
+        if sgn == 0.0:                  # a slipping cart came to rest: stick or reverse
+            state[n + i] = 0.0
+            mode[i] = classify(state, i)
+        else:                           # a stuck cart breaks away in the direction of the force
+            mode[i] = sgn
         t0 = t1
     raise RuntimeError("too many friction events")
 
@@ -209,7 +214,7 @@ def make_case(seed: int, effect: str | None = None, carts: int | None = None) ->
         noise = 0.0
     else:
         y = y + rng.normal(0.0, noise, y.shape)
-    return HiddenCase(seed, effect, carts, t, y, truth, rate, noise)
+    return HiddenCase(seed, effect, carts, t, y, truth, rate, noise, float(t_r))
 
 
 def _add_mode(rng: np.random.Generator, masses: FloatArray, springs: FloatArray, dampers: FloatArray,

@@ -1,0 +1,84 @@
+"""Small parts of `ident.diagnose` against exact answers."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from ident.diagnose.chain import linear_free_response
+from ident.diagnose.freesim import NonlinearTerms, simulate_free
+from ident.diagnose.lattice import find_lattice
+from ident.diagnose.select import fit_percent, thresholds
+from ident.errors import IdentValueError
+from schemas.diagnosis import DiagnosisReport
+
+
+def _analytic(wn: float, zeta: float, x0: float, tau: np.ndarray) -> np.ndarray:
+    wd = wn * np.sqrt(1 - zeta ** 2)
+    return x0 * np.exp(-zeta * wn * tau) * (np.cos(wd * tau) + zeta * wn / wd * np.sin(wd * tau))
+
+
+def test_linear_free_response_is_the_analytic_one() -> None:
+    tau = np.linspace(0.0, 5.0, 501)
+    z = linear_free_response(np.array([[7.3, 0.05]]), np.array([[-0.15, 0.0]]), tau, 1)
+    assert np.max(np.abs(z[0, :, 0] - _analytic(7.3, 0.05, -0.15, tau))) < 1e-12
+
+
+def test_zero_nonlinear_terms_reproduce_the_linear_model_through_the_stepping_scheme() -> None:
+    terms = NonlinearTerms(cubic_per_m2_s2=np.array([[1e-30]]))
+    z = simulate_free(np.array([[7.3, 0.05]]), np.array([[-0.15, 0.0]]), 0.01, 500, 1, terms)
+    assert np.max(np.abs(z[0, :, 0] - _analytic(7.3, 0.05, -0.15, 0.01 * np.arange(500)))) < 1e-10
+
+
+def test_friction_stops_the_cart_where_the_envelope_law_says() -> None:
+    # undamped Coulomb oscillator: each half cycle the peak drops by 2f/wn²; it sticks once
+    # the spring can no longer overcome friction (|x| ≤ f/wn²)
+    wn, f, x0 = 10.0, 0.5, 0.1
+    z = simulate_free(np.array([[wn, 0.0]]), np.array([[-x0, 0.0]]), 0.002, 3000, 1,
+                      NonlinearTerms(friction_m_s2=np.array([[f]])))[0, :, 0]
+    step = 2 * f / wn ** 2
+    half_cycles = int(np.ceil((x0 - f / wn ** 2) / step))
+    expected_rest = (-1) ** (half_cycles + 1) * (x0 - half_cycles * step)
+    assert z[-1] == pytest.approx(expected_rest, abs=2e-5)
+    assert np.all(z[-200:] == z[-1])
+
+
+def test_lattice_finds_the_encoder_count_and_rejects_continuous_data() -> None:
+    rng = np.random.default_rng(3)
+    x = 0.1 * np.sin(np.linspace(0, 20, 2000)) + 0.02
+    q = 1.0 / 56000
+    lattice, coherence = find_lattice(np.round(x / q) * q)
+    assert lattice is not None and lattice.quantum_m == pytest.approx(q, rel=1e-9)
+    assert coherence > 0.999
+    none, _ = find_lattice(x + rng.normal(0, 1e-5, x.size))
+    assert none is None
+
+
+def test_fit_percent_and_noise_bounds() -> None:
+    y = np.column_stack([np.sin(np.linspace(0, 10, 100))])
+    assert fit_percent(y, y) == [100.0]
+    assert fit_percent(y, np.full_like(y, y.mean())) == [pytest.approx(0.0)]
+    train, val = thresholds(1, False, 500)
+    assert train == pytest.approx(15.137, abs=1e-3) and val == pytest.approx(10.828, abs=1e-3)
+    assert thresholds(4, True, 500)[0] > thresholds(4, False, 500)[0]
+
+
+def test_bad_input_is_named() -> None:
+    from ident.diagnose import diagnose
+
+    t = np.arange(100) * 0.01
+    with pytest.raises(IdentValueError, match="motion"):
+        diagnose(t, np.zeros(100))
+    with pytest.raises(IdentValueError, match="uniform"):
+        diagnose(np.sort(np.random.default_rng(0).uniform(0, 1, 100)), np.sin(t))
+    with pytest.raises(IdentValueError, match="finite"):
+        diagnose(t, np.full(100, np.nan))
+
+
+def test_the_record_round_trips_and_has_a_schema() -> None:
+    schema = DiagnosisReport.model_json_schema()
+    for key in ("release_time_s", "baseline", "candidates", "cause", "extended", "gain_points",
+                "validation", "explanation"):
+        assert key in schema["properties"]
+    assert set(schema["$defs"]["Candidate"]["properties"]["effect"]["enum"]) == {
+        "coulomb_friction", "quadratic_drag", "cubic_stiffness", "quantization", "coupled_mode", "none"}
