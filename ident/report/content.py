@@ -212,8 +212,23 @@ def diagnosis_blocks(results: list[CaseResult]) -> list[Block]:
     return blocks
 
 
-def report_blocks(results: list[CaseResult], generated: str) -> list[Block]:
-    """The whole report, in the handout's order."""
+def notes_blocks(results: list[CaseResult], unused: list[FitReport]) -> list[Block]:
+    """Stages that failed in the runs used, and the runs left out (failed or repeated)."""
+    lines = []
+    for r in results:
+        errors = r.report.extra.get("stage_errors", {})
+        for stage, message in errors.items() if isinstance(errors, dict) else []:
+            lines.append(f"`{r.report.run_id}` ({r.case}): the {stage} stage failed: {message}")
+    for rep in unused:
+        why = f"could not be fitted: {rep.reason}" if rep.status == "failed" else \
+            f"not used (another {rep.case} run was)"
+        lines.append(f"`{rep.run_id}`: {why}")
+    return [Para("**Notes.** " + " ".join(f"{line}." for line in lines))] if lines else []
+
+
+def report_blocks(results: list[CaseResult], generated: str,
+                  unused: list[FitReport] | None = None) -> list[Block]:
+    """The whole report, in the handout's order; `unused` are the runs not in it."""
     missing = [c for c in LAB_CASES if c not in {r.case for r in results}]
     blocks: list[Block] = [
         Heading(1, "Spring-cart system identification: lab report"),
@@ -225,6 +240,7 @@ def report_blocks(results: list[CaseResult], generated: str) -> list[Block]:
     if missing:
         blocks.append(Para(f"**Missing lab cases:** {', '.join(missing)}: the sections that "
                            "need them say so."))
+    blocks += notes_blocks(results, unused or [])
     blocks += derivation_blocks()
     blocks += simple_blocks(results)
     blocks += pem_blocks(results)
@@ -253,4 +269,5 @@ def summary_rows(results: list[CaseResult]) -> list[tuple[str, ...]]:
     return rows
 
 
-__all__ = ["CASE_TITLES", "CaseResult", "derivation_blocks", "report_blocks", "summary_rows"]
+__all__ = ["CASE_TITLES", "CaseResult", "derivation_blocks", "notes_blocks", "report_blocks",
+           "summary_rows"]

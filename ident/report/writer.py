@@ -109,7 +109,8 @@ def write_report_dir(runs: list[FittedRun], out_dir: Path) -> list[CaseResult]:
     results = [CaseResult(r.report.case, r.report, copy_figures(r, out_dir))  # type: ignore[arg-type]
                for r in chosen]
     stamp = f"{ident.__version__} on {datetime.now(UTC):%Y-%m-%d %H:%M} UTC"
-    blocks = report_blocks(results, stamp)
+    unused = [r.report for r in runs if r not in chosen]
+    blocks = report_blocks(results, stamp, unused)
     font_family, font_size = style()
     (out_dir / "report.md").write_text(to_markdown(blocks))
     (out_dir / "index.html").write_text(

@@ -50,3 +50,17 @@ def test_nothing_fitted_says_why() -> None:
     failed = FitReport(bench="b", run_id="r", worker="w", status="failed", reason="too short")
     (only,) = reflection([failed])
     assert "too short" in only and "None of the 1 run(s)" in only
+
+
+def test_notes_name_failed_stages_and_runs_left_out() -> None:
+    from ident.report.content import CaseResult, notes_blocks
+    from ident.report.document import Para
+
+    used = _single("cart1", 11.1, 0.046, 0.071).model_copy(
+        update={"extra": {"stage_errors": {"simple": "number of samples: expected at least 20"}}})
+    failed = FitReport(bench="b", run_id="r-bad", worker="w", status="failed", reason="no motion")
+    (para,) = notes_blocks([CaseResult("cart1", used, {})], [failed])
+    assert isinstance(para, Para)
+    assert "the simple stage failed: number of samples" in para.text
+    assert "`r-bad`: could not be fitted: no motion" in para.text
+    assert notes_blocks([CaseResult("cart1", _single("cart1", 11.1, 0.046, 0.07), {})], []) == []
