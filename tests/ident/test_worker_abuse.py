@@ -12,6 +12,7 @@ import json
 import logging
 import os
 import queue
+import random
 import threading
 import time
 from collections.abc import Iterator
@@ -51,12 +52,13 @@ class Setup:
 
 
 @pytest.fixture
-def worker(tmp_path: Path) -> Iterator[Setup]:
+def worker(tmp_path: Path, request: pytest.FixtureRequest) -> Iterator[Setup]:
     runs_dir = tmp_path / "deep" / "runs"
     runs_dir.mkdir(parents=True)
     endpoint = f"tcp/127.0.0.1:{pick_free_port()}"
+    fitter = getattr(request, "param", f"{__name__}:stand_in_fit")
     options = WorkerOptions(name="w-abuse", runs_dir=runs_dir, bus=BusConfig.listener(endpoint),
-                            fitter=f"{__name__}:stand_in_fit", settle_s=0.05, sync_s=0.1)
+                            fitter=fitter, settle_s=0.05, sync_s=0.1)
     stop = threading.Event()
     errors: list[BaseException] = []
 
@@ -158,3 +160,72 @@ def test_the_worker_survives_a_flood_of_oversized_messages(worker: Setup) -> Non
         worker.session.put(keys.run_finished(BENCH, f"flood{i}"), blob)
     report = _announce_genuine_and_wait(worker, "r7")
     assert report.status == "ok"
+
+
+# --- bad runs through the real fitting pipeline ------------------------------------------------
+
+
+def _write_run(path: Path, t_ns: list[int], pos1: list[float]) -> None:
+    """A `daq`-style run file (SampleBatch messages, RunMetadata) with the given samples."""
+    from mcap.writer import Writer
+
+    from schemas import topics
+    from schemas.daq import RunMetadata, SampleBatch
+
+    with path.open("wb") as stream:
+        writer = Writer(stream)
+        writer.start(profile=topics.MCAP_PROFILE, library="test")
+        schema = writer.register_schema(SampleBatch.schema_name(), "jsonschema", SampleBatch.json_schema_bytes())
+        channel = writer.register_channel(topics.SAMPLES, "json", schema)
+        for seq, start in enumerate(range(0, len(t_ns), 50)):
+            batch = SampleBatch(bench=BENCH, run_id=path.stem, batch_seq=seq, t_ns=t_ns[start:start + 50],
+                                pos1_m=pos1[start:start + 50], raw1=pos1[start:start + 50], raw_unit="m")
+            writer.add_message(channel, t_ns[start], batch.to_json_bytes(), t_ns[start])
+        meta = RunMetadata(bench=BENCH, run_id=path.stem, dialect="csv", port="sim://", counts_per_m=1.0,
+                           signs=[1], zero_offsets_raw=[0.0], n_channels=1, detector_settings={},
+                           detector_method="test", release_time_s=None, release_t_ns=None, first_t_ns=t_ns[0],
+                           pre_trigger_s=0.5, software_version="0", started_utc="2026-01-01T00:00:00Z")
+        writer.add_metadata(topics.METADATA_RUN, {topics.METADATA_JSON_KEY: meta.to_json_bytes().decode()})
+        writer.finish()
+
+
+def _bad_runs(runs_dir: Path) -> list[str]:
+    """Run files that cannot be fitted, each named for what is wrong with it."""
+    t = [i * 10_000_000 for i in range(500)]                      # 100 Hz, 5 s
+    _write_run(runs_dir / "one-sample.mcap", t[:1], [0.0])
+    _write_run(runs_dir / "no-release.mcap", t, [0.0] * 500)
+    _write_run(runs_dir / "absurd.mcap", t, [1e11 * ((i > 100) - 0.0) for i in range(500)])
+    genuine = runs_dir / "template.mcap"
+    _write_run(genuine, t, [0.15 * (1 - 0.9 ** max(i - 100, 0)) for i in range(500)])
+    data = genuine.read_bytes()
+    genuine.unlink()
+    (runs_dir / "cut-header.mcap").write_bytes(data[:10])
+    (runs_dir / "cut-half.mcap").write_bytes(data[: len(data) // 2])
+    (runs_dir / "random.mcap").write_bytes(bytes(random.Random(2).randrange(256) for _ in range(4000)))
+    (runs_dir / "empty.mcap").write_bytes(b"")
+    return sorted(p.stem for p in runs_dir.glob("*.mcap"))
+
+
+@pytest.mark.timeout(180)
+@pytest.mark.parametrize("worker", ["ident.worker.pipeline:fit_run"], indirect=True, ids=["real-pipeline"])
+def test_runs_that_cannot_be_fitted_get_a_failed_report_with_a_reason_and_the_worker_goes_on(
+        worker: Setup) -> None:
+    names = _bad_runs(worker.runs_dir)
+    for name in names:
+        worker.session.put(keys.run_finished(BENCH, name), json.dumps(_finished(name)))
+    reports: dict[str, FitReport] = {}
+    deadline = time.monotonic() + 150
+    while set(reports) != set(names):
+        assert worker.thread.is_alive(), f"the worker died: {worker.errors}"
+        assert time.monotonic() < deadline, f"reports for {sorted(reports)} only, expected {names}"
+        try:
+            report = worker.fits.get(timeout=0.2)
+        except queue.Empty:
+            continue
+        if report.final:
+            reports[report.run_id] = report
+    for name in ("one-sample", "no-release", "cut-header", "random", "empty"):
+        assert reports[name].status == "failed" and reports[name].reason, (name, reports[name])
+    for name, report in reports.items():
+        assert report.status == "failed" or name in ("cut-half", "absurd"), (name, report.status)
+        assert (worker.runs_dir / f"{name}.fit" / "report.json").is_file(), name
