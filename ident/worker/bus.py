@@ -11,7 +11,10 @@ scheduling happen on the worker's own thread (`ident.worker.service`). Subscript
 | liveliness `keys.ALL_DAQ_ALIVE` | history | `daq` PUT/DELETE |
 
 Published: liveliness token `keys.ident_alive(name)`, and per run an advanced publisher with
-a cache on `keys.run_fit(bench, run_id)` (claim first, then the report).
+a cache on `keys.run_fit(bench, run_id)` (claim first, then the report). A queryable on
+`keys.ALL_FITS` answers with every complete report this worker has seen (its own and the
+others'), from an immutable snapshot the loop replaces: a worker that starts after the one
+that fitted a run is gone still learns that the run is done, from any survivor.
 """
 
 from __future__ import annotations
@@ -66,6 +69,7 @@ class WorkerBus:
         self._session: zenoh.Session | None = None
         self._handles: list[Any] = []
         self._fit_publishers: dict[str, Any] = {}
+        self._fit_snapshot: tuple[tuple[str, bytes], ...] = ()
 
     # -- lifecycle ----------------------------------------------------------------------
     def __enter__(self) -> WorkerBus:
@@ -94,6 +98,7 @@ class WorkerBus:
                                                   history=history),
             live.declare_subscriber(keys.ALL_IDENT_ALIVE, self._on_worker, history=True),
             live.declare_subscriber(keys.ALL_DAQ_ALIVE, self._on_daq, history=True),
+            session.declare_queryable(keys.ALL_FITS, self._on_fit_query),
             live.declare_token(keys.ident_alive(self.name)),
         ]
 
@@ -123,6 +128,17 @@ class WorkerBus:
     def _on_daq(self, sample: zenoh.Sample) -> None:
         self._events.put(BusEvent("daq", str(sample.key_expr),
                                   up=sample.kind == zenoh.SampleKind.PUT))
+
+    def _on_fit_query(self, query: zenoh.Query) -> None:
+        # Answered from an immutable snapshot: no lock, no Zenoh call but the replies.
+        asked = query.key_expr
+        for key, payload in self._fit_snapshot:
+            if asked.intersects(zenoh.KeyExpr(key)):
+                query.reply(key, payload, encoding=zenoh.Encoding.APPLICATION_JSON)
+
+    def set_fit_snapshot(self, reports: dict[str, bytes]) -> None:
+        """Replace what the fit queryable answers: key -> complete report JSON."""
+        self._fit_snapshot = tuple(reports.items())
 
     # -- publishing ---------------------------------------------------------------------
     def publish_fit(self, report: FitReport) -> None:
@@ -157,6 +173,12 @@ class WorkerBus:
             if reply.ok is not None:
                 benches.add(keys.bench_of(str(reply.ok.key_expr)))
         return benches
+
+    def known_fits(self, timeout_s: float = 2.0) -> list[bytes]:
+        """Complete reports the other alive workers remember (their fit queryables)."""
+        return [reply.ok.payload.to_bytes()
+                for reply in self.session.get(keys.ALL_FITS, timeout=timeout_s)
+                if reply.ok is not None]
 
     def list_runs(self, bench: str, timeout_s: float = 2.0) -> RunList | None:
         """The `runs` queryable of one bench's daq, or None when it does not answer."""

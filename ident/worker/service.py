@@ -94,6 +94,7 @@ class Worker:
         self.finisher = finisher if finisher is not None else Finisher(events)
         self.sched = Scheduler(options.name)
         self.fitted: list[FitReport] = []
+        self._complete_reports: dict[str, bytes] = {}
 
     # -- events -------------------------------------------------------------------------
     def pump(self, duration_s: float) -> None:
@@ -121,13 +122,20 @@ class Worker:
                 keys.check_name("run_id", finished.run_id)
                 self.sched.run_announced(finished)
             elif event.kind == "fit":
-                self.sched.fit_seen(FitReport.from_json_bytes(event.payload))
+                self._fit_seen(FitReport.from_json_bytes(event.payload))
             elif event.kind == "worker":
                 self._worker_event(event.key.rsplit("/", 1)[-1], event.up)
             elif event.kind == "daq" and event.up:
                 self.catch_up_bench(keys.bench_of(event.key))
         except SchemaError as exc:
             log.warning("ignored a message on %s: %s", event.key, exc)
+
+    def _fit_seen(self, report: FitReport) -> None:
+        self.sched.fit_seen(report)
+        key = keys.run_fit(report.bench, report.run_id)
+        if report.final and key not in self._complete_reports:
+            self._complete_reports[key] = report.to_json_bytes()
+            self.bus.set_fit_snapshot(self._complete_reports)
 
     def _worker_event(self, name: str, up: bool) -> None:
         if up:
@@ -149,9 +157,12 @@ class Worker:
                                  finished.to_json_bytes()))
 
     def start(self) -> None:
-        """Learn who is alive, scan the runs directory, ask each daq, gather history."""
+        """Learn who is alive and which runs the others know are done, scan the runs
+        directory, ask each daq, gather history."""
         for name in self.bus.alive_workers():
             self.sched.worker_up(name)
+        for payload in self.bus.known_fits():
+            self.handle(BusEvent("fit", keys.ALL_FITS, payload))
         for _, finished in scan_runs(self.options.runs_dir):
             self.sched.run_announced(finished)
         for bench in sorted(self.bus.alive_benches()):
@@ -177,7 +188,7 @@ class Worker:
         stored = read_report(fit_dir)
         if stored is not None:
             log.info("%s: already fitted (%s); republishing the stored report", run, fit_dir)
-            self.sched.fit_seen(stored)
+            self._fit_seen(stored)
             self.bus.publish_fit(stored)
             return False
         if not self._claim(run, finished):
@@ -203,7 +214,7 @@ class Worker:
             report = self._checked(finished, report)
         write_report(fit_dir, report)
         self.bus.publish_fit(report)
-        self.sched.fit_seen(report)
+        self._fit_seen(report)
         self.fitted.append(report)
         log.info("%s/%s: %s in %.2f s%s", report.bench, report.run_id, report.status,
                  report.timings.total_s, f" ({report.reason})" if report.reason else "")

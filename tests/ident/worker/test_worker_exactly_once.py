@@ -14,6 +14,7 @@ from pathlib import Path
 import pytest
 
 from schemas.bus import BusConfig
+from ident.worker.schedule import RunRef, owner
 from worker_harness import (FakeDaq, FitCollector, alive_workers, fit_log_counts, open_session,
                             record_sim_run, start_worker, stop, wait_for)
 
@@ -196,3 +197,49 @@ def test_kill_9_during_the_diagnosis_the_other_worker_completes_the_run(router, 
     assert finals[runs[0]][0].worker == survivor                      # taken over
     assert finals[runs[0]][0].diagnosis is not None and finals[runs[0]][0].case == "cart2"
     assert (runs_dir / f"{runs[0].run_id}.fit" / "report.json").is_file()
+
+
+def test_a_new_worker_learns_from_a_survivor_what_a_dead_worker_fitted(router, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
+    """Separate runs directories (nothing shared on disk): wa and wb fit, wa is killed, then
+    wc starts with an empty history of wa's publications and must refit nothing."""
+    endpoint, session = router
+    dirs = {n: tmp_path / f"runs-{n}" for n in ("wa", "wb", "wc")}
+    for d in dirs.values():
+        d.mkdir()
+    log = tmp_path / "fits.log"
+    env = {"FAKE_FIT_LOG": str(log)}
+    daqs = [FakeDaq(session, "bench1", d) for d in dirs.values()]   # the same runs, three copies
+    # runs wa fits while wa and wb are up, and that wc would own once wa is gone: wc would
+    # refit them if it did not learn that they are done
+    ids = [f"r{i}" for i in range(400)]
+    ids_a = [i for i in ids if owner(RunRef("bench1", i), {"wa", "wb"}) == "wa"
+             and owner(RunRef("bench1", i), {"wb", "wc"}) == "wc"][:4]
+    ids_b = [i for i in ids if owner(RunRef("bench1", i), {"wa", "wb"}) == "wb"][:4]
+    workers = {n: start_worker(n, _client(endpoint), dirs[n], tmp_path, "fake_fitters:instant_fit", env)
+               for n in ("wa", "wb")}
+    try:
+        wait_for(lambda: alive_workers(session) == {"wa", "wb"}, 20, "wa and wb alive")
+        runs = [[daq.announce(i) for daq in daqs][0] for i in ids_a + ids_b]
+        FitCollector(session).wait_finals(runs, timeout_s=30)
+        assert all(fit_log_counts(log)["done"][f"bench1/{i}"] == ["wa"] for i in ids_a)
+        workers["wa"].send_signal(signal.SIGKILL)
+        workers["wa"].wait(timeout=10)
+        wait_for(lambda: alive_workers(session) == {"wb"}, 20, "wa gone")
+        late = FitCollector(session)
+        workers["wc"] = start_worker("wc", _client(endpoint), dirs["wc"], tmp_path,
+                                     "fake_fitters:instant_fit", env)
+        wait_for(lambda: alive_workers(session) == {"wb", "wc"}, 20, "wc alive")
+        # a new run that wc owns: wc fits pending runs oldest first, so once this one is
+        # fitted, wc has had its chance to (wrongly) refit wa's older runs
+        new_id = next(f"r-new{i}" for i in range(200)
+                      if owner(RunRef("bench1", f"r-new{i}"), {"wb", "wc"}) == "wc")
+        for daq in daqs[1:]:
+            (daq.runs_dir / f"{new_id}.mcap").write_bytes(b"fake-run")
+        extra = daqs[0].announce(new_id)
+        assert late.wait_finals([extra], timeout_s=30)[extra][0].worker == "wc"
+    finally:
+        for proc in workers.values():
+            stop(proc)
+    done = fit_log_counts(log)["done"]
+    assert sorted(done) == sorted([str(r) for r in runs] + [str(extra)])
+    assert all(len(ws) == 1 for ws in done.values()), done   # wa's runs were not fitted again
