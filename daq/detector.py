@@ -26,8 +26,16 @@ A release is told from slow hand motion by the fitted initial acceleration `a = 
 1 m/s²) and by the cart still being away from its hold at the end of the fit window; from
 a fast pull (a yank) by its direction: a released cart moves toward its rest (where the
 carts settled after the last run, or were first still after start-up), a pulled one leaves it.
-Consequence: a daq started while a cart is held away from rest takes that hold for the
-rest and misses the first release; every run after the first settle is judged correctly.
+
+Start-up. Until the carts have settled once, the rest is only where they were first still,
+which may be a hold: a daq started while a student holds the cart pulled. A fast departure
+from that provisional rest is then rejected ("pulled from rest") but followed: a released
+cart swings through its rest and comes back (it reverses by ≥ `confirm_reversal` of an
+excursion ≥ `confirm_min_excursion_m`) without ever being still, a yanked cart is held
+still at its new place. A reversal within `first_release_confirm_s` of the trigger turns
+the departure into the release (back-dated as usual, `t_confirmed_s` later); being still
+(arming) or the deadline forgets it. Releases whose half period exceeds that deadline
+(springs softer than ~0.4 Hz) are still missed when daq starts during the hold.
 
 Positions may be zeroed or not: only motion relative to the hold matters. Pure: no clocks,
 no I/O; time comes with the samples (float seconds, continuous).
@@ -37,7 +45,7 @@ from __future__ import annotations
 
 from collections import deque
 from collections.abc import Sequence
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from typing import Literal
 
 import numpy as np
@@ -68,10 +76,14 @@ class DetectorSettings:
     max_run_s: float = 60.0
     pre_trigger_s: float = 0.5
     max_hole_s: float = 0.05
+    first_release_confirm_s: float = 1.2
+    confirm_reversal: float = 0.25
+    confirm_min_excursion_m: float = 0.02
 
     def __post_init__(self) -> None:
         for name in ("still_band_m", "still_s", "fire_m", "fit_post_s", "fit_lookback_s", "rest_margin_m",
-                     "min_accel_m_s2", "settle_band_m", "settle_s", "max_run_s", "max_hole_s"):
+                     "min_accel_m_s2", "settle_band_m", "settle_s", "max_run_s", "max_hole_s",
+                     "first_release_confirm_s", "confirm_reversal", "confirm_min_excursion_m"):
             if not getattr(self, name) > 0:
                 raise DaqValueError(f"detector {name}", "> 0", getattr(self, name))
         if self.pre_trigger_s < 0.5:
@@ -127,6 +139,16 @@ class Disarmed:
 Event = Armed | Released | Rejected | Settled | Disarmed
 
 
+@dataclass(slots=True)
+class _Pending:
+    """A fast departure from the provisional rest, followed until it proves a release."""
+
+    release: Released        # what it is if confirmed (t_confirmed_s set then)
+    direction: float         # +1 or -1: the sign of the departure on `release.channel`
+    hold_m: float            # the channel's position at the hold
+    excursion_m: float = 0.0
+
+
 @dataclass(frozen=True, slots=True)
 class OnsetFit:
     t0_s: float
@@ -146,6 +168,8 @@ class ReleaseDetector:
         self._anchor: tuple[float, ...] | None = None
         self._anchor_t = 0.0
         self._rest: tuple[float, ...] | None = None
+        self._rest_settled = False     # the rest was seen settled (not only first still)
+        self._pending: _Pending | None = None
         self._hold: tuple[float, ...] = ()
         self._trigger_t: float | None = None
         self._trigger_channel = 0
@@ -162,6 +186,10 @@ class ReleaseDetector:
         while history[0][0] < horizon:
             history.popleft()
         if self.state == "idle":
+            if self._pending is not None:
+                confirmed = self._follow_pending(t_s, sample)
+                if confirmed:
+                    return confirmed
             return self._feed_idle(t_s, sample)
         if self.state == "armed":
             return self._feed_armed(t_s, sample)
@@ -177,6 +205,7 @@ class ReleaseDetector:
             return []
         self.state = "armed"
         self._trigger_t = None
+        self._pending = None
         self._hold = tuple(pos)
         return [Armed(t_s, self._hold)]
 
@@ -194,6 +223,7 @@ class ReleaseDetector:
         if self.state == "released":
             return []
         self._trigger_t = None
+        self._pending = None
         if self.state in ("armed", "settled"):
             self.state = "idle"
             self._anchor = None
@@ -224,6 +254,7 @@ class ReleaseDetector:
         self._hold = self._mean_since(self._anchor_t)
         if self._rest is None:
             self._rest = self._hold
+        self._pending = None   # still: whatever left the provisional rest was held, not released
         self.state = "armed"
         return [Armed(t_s, self._hold)]
 
@@ -266,12 +297,37 @@ class ReleaseDetector:
         if reason:
             self.state = "idle"
             self._restart_anchor(t_s, sample)
+            if reason == "pulled from rest" and not self._rest_settled and fit is not None:
+                release = Released(fit.t0_s, trigger_t, t_s, channel, abs(fit.accel_m_s2), hold)
+                self._pending = _Pending(release, direction, hold[channel])
             return Rejected(t_s, accel, reason)
         assert fit is not None
+        return self._release(Released(fit.t0_s, trigger_t, t_s, channel, abs(fit.accel_m_s2), hold))
+
+    def _release(self, release: Released) -> Released:
         self.state = "released"
-        self._release_t = fit.t0_s
+        self._release_t = release.t_release_s
         self._anchor = None
-        return Released(fit.t0_s, trigger_t, t_s, channel, abs(fit.accel_m_s2), hold)
+        return release
+
+    def _follow_pending(self, t_s: float, sample: tuple[float, ...]) -> list[Event]:
+        """Confirm a departure from the provisional rest once the cart swings back (see module)."""
+        pending = self._pending
+        assert pending is not None
+        settings = self.settings
+        if t_s - pending.release.t_trigger_s > settings.first_release_confirm_s:
+            self._pending = None
+            return []
+        moved = pending.direction * (sample[pending.release.channel] - pending.hold_m)
+        if moved > pending.excursion_m:
+            pending.excursion_m = moved
+            return []
+        if (pending.excursion_m < settings.confirm_min_excursion_m
+                or pending.excursion_m - moved < settings.confirm_reversal * pending.excursion_m):
+            return []
+        self._pending = None
+        self._rest = None   # it was a hold: the rest is where this run settles
+        return [self._release(replace(pending.release, t_confirmed_s=t_s))]
 
     def _away_from_rest(self, channel: int, direction: float) -> str:
         """Why a fast departure cannot be a release, judged against the rest position, or ''.
@@ -297,6 +353,7 @@ class ReleaseDetector:
         if self._still(t_s, sample, self.settings.settle_band_m, self.settings.settle_s):
             self.state = "settled"
             self._rest = self._mean_since(self._anchor_t)
+            self._rest_settled = True
             return [Settled(t_s, "still")]
         return []
 

@@ -142,7 +142,8 @@ class Acquisition:
         self.run: _Run | None = None
         self._unit: RawUnit = "m" if config.dialect == "csv" else "counts"
         self._ring: deque[tuple[int, tuple[float, ...]]] = deque()
-        self._ring_ns = int((config.detector.pre_trigger_s + 1.5) * 1e9)
+        # a release is known up to first_release_confirm_s after its trigger (see daq.detector)
+        self._ring_ns = int((config.detector.pre_trigger_s + config.detector.first_release_confirm_s + 1.0) * 1e9)
         self._live_seq = 0
         self._batch_start_ns = 0
         self._disconnected_at: int | None = None

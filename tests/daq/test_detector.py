@@ -184,3 +184,21 @@ def test_a_lost_line_during_the_hold_keeps_the_detector_armed_and_a_long_hole_di
     assert detector.state == "armed"
     assert detector.hole(DetectorSettings().max_hole_s) == []
     assert [type(e) for e in detector.hole(0.25)] == [Disarmed] and detector.state == "idle"
+
+
+@pytest.mark.parametrize("rate_hz", [100, 1000])
+@pytest.mark.parametrize("case", LAB_CASES)
+def test_a_daq_started_during_the_hold_records_the_first_release(case: str, rate_hz: int) -> None:
+    trace = lab_run(case, rate_hz, seed=31 + LAB_CASES.index(case) + rate_hz)
+    assert trace.release_t_s is not None
+    start = int(np.searchsorted(trace.t_s, trace.release_t_s - 1.0))   # the cart is held still from here
+    held = Trace(trace.t_s[start:], trace.counts[start:], trace.counts_per_m, trace.release_t_s)
+    events = _events(held)
+    releases = [e for e in events if isinstance(e, Released)]
+    assert len(releases) == 1
+    assert abs(releases[0].t_release_s - trace.release_t_s) < 1.0 / rate_hz
+    assert releases[0].channel == (1 if case == LAB_CASES[1] else 0)
+    # confirmed once the cart swung back, well within the pre-trigger ring of the pipeline
+    settings = DetectorSettings()
+    assert releases[0].t_confirmed_s - releases[0].t_trigger_s <= settings.first_release_confirm_s
+    assert len([e for e in events if isinstance(e, Settled)]) == 1

@@ -99,3 +99,21 @@ def test_stream_cut_mid_run_finishes_it_as_aborted() -> None:
     (meta, done), = out.finished
     assert done.status == "aborted" and done.reason == "end of stream"
     assert done.n_samples == pytest.approx(150, abs=3)
+
+
+def test_a_daq_started_during_the_hold_records_the_first_release_from_its_pre_trigger() -> None:
+    trace = lab_run(LAB_CASES[0], 200, seed=9, after_s=14.0)
+    assert trace.release_t_s is not None
+    start = int(np.searchsorted(trace.t_s, trace.release_t_s - 0.9))   # held still from the first sample
+    held = Trace(trace.t_s[start:], trace.counts[start:], trace.counts_per_m, trace.release_t_s)
+    out = _acquire(_stream(held))
+    (meta, done), = out.finished
+    assert done.status == "complete" and meta.pulled_cart == 1 and meta.lab_case == "cart1"
+    assert meta.release_time_s is not None and 0.5 <= meta.release_time_s < 0.5 + 1 / 200
+    t_ns = np.array([t for b in out.run_batches for t in b.t_ns])
+    # every sample from 0.5 s before the release on, none missing around the (late) confirmation
+    assert done.n_samples == t_ns.size and np.all(np.diff(t_ns) == np.diff(t_ns).min())
+    release_ns = t_ns_of_first(out) + round((trace.release_t_s - held.t_s[0]) * 1e9)
+    assert abs(meta.release_t_ns - release_ns) < 1e9 / 200
+    pos1 = np.array([p for b in out.run_batches for p in b.pos1_m])
+    assert abs(pos1[t_ns < meta.release_t_ns][-1]) < 1e-3 and pos1[-1] == pytest.approx(0.15, abs=2e-3)
