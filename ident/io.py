@@ -16,7 +16,7 @@ is estimated from the data (`ident.release`), which the fitters refine anyway.
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -41,10 +41,15 @@ class Table:
 
 
 def read_table(text: str) -> Table:
-    """Parse a delimited export into named columns (see the module docstring)."""
+    """Parse a delimited export into named columns (see the module docstring).
+
+    Non-numeric lines before the first data row are headers (the last one names the
+    columns); after it, a row that is not all numbers (text, nan, inf) is a `DataFileError`
+    naming the line, never skipped.
+    """
     names: list[str] = []
     rows: list[list[float]] = []
-    for raw in text.splitlines():
+    for number, raw in enumerate(text.splitlines(), start=1):
         line = raw.replace("[", " ").replace("]", " ").replace(";", " ").strip()
         if not line or line.startswith("#"):
             continue
@@ -53,6 +58,9 @@ def read_table(text: str) -> Table:
             rows.append([float(f) for f in fields])
         elif not rows:
             names = [f.strip().strip('"').strip() for f in _split_header(raw)]
+        else:
+            raise DataFileError(f"expected numbers in every data row, got {raw.strip()[:60]!r} "
+                                f"in line {number}")
     if not rows:
         raise DataFileError("expected numeric rows after the header, got none")
     width = len(rows[0])
@@ -144,11 +152,23 @@ def load_text(path: str | Path, time_col: str | None = None, pos_cols: list[str]
     y = np.column_stack([table.values[:, i] * _position_scale(table.names[i], scale)
                          for i in y_indices])
     t, _, y = check_arrays(t, None, y)
+    _check_plausible(y)
     if input_col is not None:
         u = table.values[:, _find_column(table.names, input_col)]
         return IdData(t, u, y, release_time_s, pulled_cart, file.name,
                       (f"input: column {table.names[_find_column(table.names, input_col)]!r} as recorded",))
     return from_release(t, y, release_time_s, step_m, pulled_cart, file.name)
+
+
+#: Largest |position| a lab track allows (m): anything beyond is a wrong scale or a broken file.
+MAX_POSITION_M = 10.0
+
+
+def _check_plausible(y: FloatArray) -> None:
+    largest = float(np.max(np.abs(y))) if y.size else 0.0
+    if largest > MAX_POSITION_M:
+        raise IdentValueError("position amplitude", f"|position| ≤ {MAX_POSITION_M:g} m on a lab track "
+                              "(check the scale, metres per unit)", f"{largest:.3g} m")
 
 
 def _position_scale(name: str, scale: float | None) -> float:
@@ -163,6 +183,17 @@ def _position_scale(name: str, scale: float | None) -> float:
     return found
 
 
+def _damage_errors() -> tuple[type[BaseException], ...]:
+    """What reading a truncated or corrupted MCAP stream raises at the damage."""
+    import struct
+
+    import zstandard
+    from mcap.exceptions import EndOfFile, McapError
+
+    return (McapError, EndOfFile, EOFError, ValueError, KeyError, struct.error, zstandard.ZstdError,
+            MemoryError)
+
+
 def load_mcap(path: str | Path, step_m: float = DEFAULT_STEP_M,
               release_time_s: float | None = None) -> IdData:
     """Load a `daq` run file: samples, release time and pulled cart from its metadata.
@@ -170,7 +201,6 @@ def load_mcap(path: str | Path, step_m: float = DEFAULT_STEP_M,
     Read sequentially (`StreamReader`), so a truncated file (a killed writer) yields every
     complete chunk; the last `cartlab.run` metadata record wins.
     """
-    from mcap.exceptions import EndOfFile, McapError
     from mcap.records import Channel, Message, Metadata
     from mcap.stream_reader import StreamReader
 
@@ -181,23 +211,27 @@ def load_mcap(path: str | Path, step_m: float = DEFAULT_STEP_M,
     sample_channels: set[int] = set()
     batches: list[SampleBatch] = []
     metadata: RunMetadata | None = None
+    damage: str | None = None
     try:
         with file.open("rb") as stream:
+            # a record can never be longer than the file: a corrupted length must not allocate
+            reader = StreamReader(stream, record_size_limit=max(file.stat().st_size, 1 << 16))
             try:
-                for record in StreamReader(stream).records:
+                for record in reader.records:
                     if isinstance(record, Channel) and record.topic == topics.SAMPLES:
                         sample_channels.add(record.id)
                     elif isinstance(record, Message) and record.channel_id in sample_channels:
                         batches.append(SampleBatch.from_json_bytes(record.data))
                     elif isinstance(record, Metadata) and record.name == topics.METADATA_RUN:
                         metadata = RunMetadata.from_json_bytes(record.metadata[topics.METADATA_JSON_KEY])
-            except EndOfFile:
-                pass  # truncated run file: keep every complete record read so far
-    except (OSError, McapError, KeyError, ValueError) as exc:
+            except _damage_errors() as exc:  # truncated or damaged: keep every complete record before it
+                damage = f"{type(exc).__name__}: {exc}"[:120]
+    except OSError as exc:
         raise DataFileError(f"cannot read the run file {file}: {exc}") from exc
     t_ns = [v for b in batches for v in b.t_ns]
     if not t_ns:
-        raise DataFileError(f"expected {topics.SAMPLES} samples in {file}, got none")
+        raise DataFileError(f"expected {topics.SAMPLES} samples in {file}, got none"
+                            + (f" (unreadable: {damage})" if damage else ""))
     columns = [np.concatenate([b.pos1_m for b in batches])]
     if all(b.pos2_m is not None for b in batches):
         columns.append(np.concatenate([b.pos2_m or [] for b in batches]))
@@ -207,7 +241,13 @@ def load_mcap(path: str | Path, step_m: float = DEFAULT_STEP_M,
     if release is None and metadata is not None:
         release = metadata.release_time_s
     pulled = metadata.pulled_cart if metadata is not None else None
-    return from_release(t, np.column_stack(columns), release, step_m, pulled, file.name)
+    y = np.column_stack(columns)
+    t, _, y = check_arrays(t, None, y)
+    _check_plausible(y)
+    data = from_release(t, y, release, step_m, pulled, file.name)
+    if damage is None:
+        return data
+    return replace(data, notes=(*data.notes, f"run file damaged after {len(t)} samples ({damage})"))
 
 
 def load(path: str | Path, time_col: str | None = None, pos_cols: list[str] | None = None,

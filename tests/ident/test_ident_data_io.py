@@ -164,3 +164,41 @@ def test_mcap_run_gives_release_time_and_pulled_cart_from_metadata(tmp_path: Pat
     truncated.write_bytes(path.read_bytes()[: len(path.read_bytes()) // 2])
     partial = load(truncated, release_time_s=run.release_time_s)
     assert 0 < partial.n_samples < data.n_samples
+
+
+@pytest.mark.parametrize("bad", ["nan", "inf", "abc", "0.1.2"])
+def test_a_non_numeric_data_row_is_named_not_skipped(tmp_path: Path, bad: str) -> None:
+    rows = [f"{t:.2f},{np.sin(t):.5f}" for t in T]
+    rows[30] = f"0.60,{bad}"
+    path = tmp_path / "bad.csv"
+    path.write_text("time_s,pos1_m\n" + "\n".join(rows) + "\n")
+    with pytest.raises(DataFileError, match=f"expected numbers in every data row, got '0.60,{bad}' in line 32"):
+        load(path)
+
+
+def test_positions_beyond_a_lab_track_are_a_scale_error(tmp_path: Path) -> None:
+    run = cart1_run(50.0)
+    path = tmp_path / "counts.csv"
+    rows = "\n".join(f"{t:.3f},{y * 1e6:.1f}" for t, y in zip(run.t, run.y[:, 0], strict=True))
+    path.write_text("time_s,pos1_m\n" + rows + "\n")  # counts written as if they were metres
+    with pytest.raises(IdentValueError, match=r"position amplitude: expected \|position\| ≤ 10 m .*got \d.\d+e\+05 m"):
+        load(path)
+
+
+def test_a_damaged_run_file_loads_up_to_the_damage_and_says_so(tmp_path: Path) -> None:
+    run = cart1_run(200.0)
+    t_ns = [int(round(x * 1e9)) for x in run.t]
+    path = tmp_path / "r1.mcap"
+    _write_mcap(path, t_ns, [float(v) for v in run.y[:, 0]], run.release_time_s)
+    blob = bytearray(path.read_bytes())
+    blob[len(blob) // 2: len(blob) // 2 + 64] = bytes(64)  # zero a stretch inside a chunk
+    damaged = tmp_path / "damaged.mcap"
+    damaged.write_bytes(bytes(blob))
+    data = load(damaged, release_time_s=run.release_time_s)
+    assert 0 < data.n_samples < run.t.size
+    assert "damaged after" in data.notes[-1]
+    for size in (1, 9, 20):
+        cut = tmp_path / f"cut{size}.mcap"
+        cut.write_bytes(bytes(blob[:size]))
+        with pytest.raises(DataFileError, match="expected /samples samples"):
+            load(cut)
