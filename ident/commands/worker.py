@@ -7,6 +7,7 @@ import logging
 import os
 import signal
 import socket
+import sys
 import threading
 from pathlib import Path
 from typing import Any
@@ -73,7 +74,13 @@ def run(args: argparse.Namespace) -> int:
 
     signal.signal(signal.SIGTERM, _stop)
     signal.signal(signal.SIGINT, _stop)
+    from ident.errors import IdentError
+
     logging.getLogger("ident.worker").info("worker %s serving %s", options.name,
                                            options.runs_dir)
-    run_worker(options, stop)
+    try:
+        run_worker(options, stop)
+    except IdentError as exc:
+        print(f"ident worker: {exc}", file=sys.stderr)
+        return 2
     return 0

@@ -28,6 +28,7 @@ from typing import Any, Literal
 import zenoh
 import zenoh.ext
 
+from ident.errors import IdentValueError
 from schemas import keys
 from schemas.bus import BusConfig
 from schemas.daq import RunList
@@ -88,6 +89,12 @@ class WorkerBus:
     def open(self) -> None:
         zenoh.init_log_from_env_or("error")
         session = self._session = zenoh.open(zenoh_config(self._bus))
+        token = keys.ident_alive(self.name)
+        if any(reply.ok is not None for reply in session.liveliness().get(token, timeout=1.0)):
+            self.close()
+            # two workers of one name would both own the same runs
+            raise IdentValueError("worker name", "a name no alive worker uses",
+                                  f"{self.name!r}, already alive on the bus")
         history = zenoh.ext.HistoryConfig(detect_late_publishers=True, max_samples=HISTORY_SAMPLES)
         recovery = zenoh.ext.RecoveryConfig(periodic_queries=None, heartbeat=True)
         live = session.liveliness()

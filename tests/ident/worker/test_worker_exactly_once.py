@@ -243,3 +243,19 @@ def test_a_new_worker_learns_from_a_survivor_what_a_dead_worker_fitted(router, t
     done = fit_log_counts(log)["done"]
     assert sorted(done) == sorted([str(r) for r in runs] + [str(extra)])
     assert all(len(ws) == 1 for ws in done.values()), done   # wa's runs were not fitted again
+
+
+def test_a_second_worker_with_a_name_in_use_refuses_to_start(router, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
+    endpoint, session = router
+    first = start_worker("wa", _client(endpoint), tmp_path / "runs", tmp_path, "fake_fitters:instant_fit")
+    try:
+        wait_for(lambda: alive_workers(session) == {"wa"}, 20, "wa alive")
+        (tmp_path / "dup").mkdir()
+        twin = start_worker("wa", _client(endpoint), tmp_path / "runs2", tmp_path / "dup",
+                            "fake_fitters:instant_fit")
+        assert twin.wait(timeout=30) == 2
+        assert "expected a name no alive worker uses, got 'wa', already alive" in \
+            (tmp_path / "dup" / "wa.log").read_text()
+        assert first.poll() is None and alive_workers(session) == {"wa"}
+    finally:
+        assert stop(first) == 0
