@@ -156,10 +156,7 @@ def warm_up() -> None:
 
     for name in ("ident.pem", "ident.simple", "ident.diagnose", "ident.report.figures",
                  "matplotlib.figure", "control"):
-        try:
-            importlib.import_module(name)
-        except ImportError:
-            pass
+        importlib.import_module(name)
 
 
 def _pem(data: IdData, order: int) -> Model:
