@@ -78,6 +78,16 @@ def fit_modes(tau: FloatArray, y: FloatArray, freq_starts: FloatArray,
     return best
 
 
+def modal_prediction(fit: ModalFit, tau: FloatArray) -> FloatArray:
+    """The fitted free response (N, n_out) at `tau` (N,) s (any τ, also before the fit data)."""
+    out = np.repeat(fit.rest[None, :], tau.size, axis=0)
+    for j, (w, s) in enumerate(zip(fit.freqs, fit.decays)):
+        env = np.exp(-s * tau)[:, None]
+        a, b = fit.amplitudes[:, j].real, -fit.amplitudes[:, j].imag
+        out = out + env * (np.cos(w * tau)[:, None] * a[None, :] + np.sin(w * tau)[:, None] * b[None, :])
+    return np.asarray(out, dtype=np.float64)
+
+
 def spectrum(y: FloatArray, dt: float, pad: int = 8) -> tuple[FloatArray, FloatArray]:
     """One-sided Hann-windowed power spectrum summed over outputs: (ω rad/s, power)."""
     y2 = y.reshape(y.shape[0], -1)

@@ -3,15 +3,18 @@
 A release is not always clean (DESIGN.md): the hand may let go while the cart moves. The
 free response is therefore fitted from a window start `t_w` with the state at `t_w` as
 parameters. `t_w` is the earliest candidate start, from the motion onset on, whose
-short-window modal fit is as good as the best one (the hand no longer acts after it):
+first quarter period is predicted by the free response fitted after it (the hand no longer
+acts from there on):
 
     onset: first sample with |y - hold| > max(8 σ_hold, 3 % of the excursion);
-    candidates t_w = onset + j·T/16, j = 0..8 (T the oscillation period);
-    rms_j of a one-mode-per-cart fit on [t_w, t_w + 2.5 T];
-    t_w = first j with rms_j ≤ max(2 min rms, min rms + 3 σ_hold).
+    candidates t_w = onset + j·T/24, j = 0..16 (T the oscillation period);
+    a one-mode-per-cart fit on [t_w + T/4, t_w + 2.5 T] (rms_fit), extrapolated back over
+    [t_w, t_w + T/4] (rms_head);
+    t_w = first j with rms_head ≤ 2 rms_fit + 2 σ_hold (else the smallest ratio).
 
 The reported release time is the last zero of the fitted velocity before `t_w` (within half
-a period): the instant a clean release starts from rest, the extreme of a flick. Long runs
+a period) when the fitted position there is the held level (a clean release from rest);
+otherwise the hand let go while the cart moved and the release is `t_w` itself. Long runs
 are decimated for fitting (`MAX_WORK_SAMPLES`). No I/O here.
 """
 
@@ -22,13 +25,13 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from ident.diagnose.modal import fit_modes, spectral_peaks
+from ident.diagnose.modal import ModalFit, fit_modes, modal_prediction, spectral_peaks
 from ident.errors import IdentValueError
 
 FloatArray = NDArray[np.float64]
 
 MAX_WORK_SAMPLES = 500
-SCAN_STEPS = 9
+SCAN_STEPS = 17
 
 
 @dataclass(frozen=True)
@@ -77,41 +80,50 @@ def find_window(t: FloatArray, y: FloatArray, carts: int) -> Window:
     peaks = spectral_peaks(after - after.mean(axis=0), dt, carts)
     period = 2 * np.pi / float(peaks[0])
     span = int(round(2.5 * period / dt))
-    step = max(1, int(round(period / 16 / dt)))
+    head = max(2, int(round(0.25 * period / dt)))
+    step = max(1, int(round(period / 24 / dt)))
     dec = max(1, int(np.ceil(span / 150)))
-    rms: list[float] = []
+    scores: list[float] = []
     fits = []
     for j in range(SCAN_STEPS):
         a = onset + j * step
         b = min(a + span, t.shape[0])
-        if b - a < 20:
+        if b - a - head < 20:
             break
-        tau = t[a:b:dec] - t[a]
-        fit = fit_modes(tau, y[a:b:dec], peaks)
+        fit = fit_modes(t[a + head:b:dec] - t[a], y[a + head:b:dec], peaks)
+        rms_fit = float(np.sqrt(fit.sse / fit.residual.size))
+        head_err = y[a:a + head] - modal_prediction(fit, t[a:a + head] - t[a])
+        rms_head = float(np.sqrt(np.mean(head_err ** 2)))
         fits.append((a, fit))
-        rms.append(float(np.sqrt(fit.sse / fit.residual.size)))
-    best = min(rms)
-    ok = [j for j, r in enumerate(rms) if r <= max(2.0 * best, best + 3.0 * noise)]
-    start, fit = fits[ok[0]]
-    release = _last_rest_before(t[start], fit.freqs, fit.decays, fit.amplitudes, period)
+        scores.append(rms_head / (2.0 * rms_fit + 2.0 * noise + 1e-15))
+    ok = [j for j, score in enumerate(scores) if score <= 1.0]
+    start, fit = fits[ok[0] if ok else int(np.argmin(scores))]
+    main = int(np.argmax(np.ptp(y, axis=0)))
+    tolerance = max(8.0 * noise, 0.05 * float(np.ptp(y[:, main])))
+    release = _last_rest_before(t[start], fit, period, hold, tolerance)
     n_win = t.shape[0] - start
     decimation = max(1, int(np.ceil(n_win / MAX_WORK_SAMPLES)))
     return Window(start, decimation, hold, noise, max(release, float(t[0])), period)
 
 
-def _last_rest_before(t_start: float, freqs: FloatArray, decays: FloatArray,
-                      amps: NDArray[np.complex128], period: float) -> float:
-    """Latest τ ∈ [-T/2, 0] where the main output's modal velocity is zero, as t_start + τ."""
+def _last_rest_before(t_start: float, fit: ModalFit, period: float, hold: FloatArray, tolerance: float) -> float:
+    """The release: the latest τ ∈ [-T/2, 0] where the main output's fitted velocity is zero,
+    as t_start + τ, when the fitted position there is the held level (a clean release from
+    rest, within `tolerance` m); otherwise `t_start` (the hand let go while the cart moved)."""
     tau = np.linspace(-0.5 * period, 0.0, 400)
-    main = int(np.argmax(np.abs(amps).sum(axis=1)))
+    main = int(np.argmax(np.abs(fit.amplitudes).sum(axis=1)))
+    pos = np.full_like(tau, fit.rest[main])
     vel = np.zeros_like(tau)
-    for j, (w, s) in enumerate(zip(freqs, decays)):
-        a, b = amps[main, j].real, -amps[main, j].imag
+    for j, (w, s) in enumerate(zip(fit.freqs, fit.decays)):
+        a, b = fit.amplitudes[main, j].real, -fit.amplitudes[main, j].imag
         env = np.exp(-s * tau)
+        pos += env * (a * np.cos(w * tau) + b * np.sin(w * tau))
         vel += env * ((-s * a + w * b) * np.cos(w * tau) + (-s * b - w * a) * np.sin(w * tau))
     change = np.flatnonzero(np.sign(vel[1:]) != np.sign(vel[:-1]))
     if change.size == 0:
         return t_start
     i = int(change[-1])
     frac = vel[i] / (vel[i] - vel[i + 1])
+    if abs(pos[i] + frac * (pos[i + 1] - pos[i]) - hold[main]) > tolerance:
+        return t_start
     return float(t_start + tau[i] + frac * (tau[i + 1] - tau[i]))

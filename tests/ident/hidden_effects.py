@@ -166,8 +166,14 @@ def _draw_chain(rng: np.random.Generator, carts: int) -> tuple[FloatArray, Float
     return masses, springs, dampers
 
 
-def make_case(seed: int, effect: str | None = None, carts: int | None = None) -> HiddenCase:
-    """One run with a hidden effect; effect and carts drawn by the seed unless given."""
+def make_case(seed: int, effect: str | None = None, carts: int | None = None,
+              flick: bool = False) -> HiddenCase:
+    """One run with a hidden effect; effect and carts drawn by the seed unless given.
+
+    `flick`: the hand does not let go from rest but moves cart 1 for 0.1–0.2 s (a smooth
+    cubic from the held position) and lets go while it moves (velocity 0.2–0.6 wn·step
+    towards rest, position up to ±30 % of the step from the held one).
+    """
     rng = np.random.default_rng(seed)
     effect = effect or str(rng.choice(EFFECTS))
     carts = carts or int(rng.integers(1, 3))
@@ -187,6 +193,12 @@ def make_case(seed: int, effect: str | None = None, carts: int | None = None) ->
     tau = t[t >= t_r] - t_r
     z0 = np.zeros(2 * n)
     z0[0] = -step
+    hand = None
+    if flick:
+        duration = rng.uniform(0.1, 0.2)
+        x_rel, v_rel = rng.uniform(-0.3, 0.3) * step, rng.uniform(0.2, 0.6) * wn * step
+        z0[0], z0[n] = x_rel - step, v_rel
+        hand = (duration, x_rel, v_rel)
     if effect == "coulomb_friction":
         f = np.zeros(n)
         f[:carts] = rng.uniform(0.02, 0.15, carts) * wn * wn * step / 4
@@ -206,6 +218,12 @@ def make_case(seed: int, effect: str | None = None, carts: int | None = None) ->
     rest[0] = step
     y = np.zeros((t.size, carts))
     y[t >= t_r] = rest + z[:, :carts]
+    if hand is not None:
+        duration, x_rel, v_rel = hand
+        moving = (t >= t_r - duration) & (t < t_r)
+        s_ = (t[moving] - (t_r - duration)) / duration
+        # cubic Hermite from (0, 0) to (x_rel, v_rel·duration) in normalised time
+        y[moving, 0] = (3 * s_ ** 2 - 2 * s_ ** 3) * x_rel + (s_ ** 3 - s_ ** 2) * v_rel * duration
     if effect == "quantization":
         q = float(np.exp(rng.uniform(np.log(1e-5), np.log(3e-4))))
         jitter = rng.uniform(0.0, 0.1) * q

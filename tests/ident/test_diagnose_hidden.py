@@ -24,7 +24,7 @@ from schemas.diagnosis import DiagnosisReport
 
 REL_TOL = 0.15
 SET_SEED = 20261122
-API_CASES = 30
+API_CASES = 24
 CLI_CASES = 6
 
 
@@ -119,3 +119,18 @@ def test_friction_corrects_the_damping_ratio_and_writes_figures(tmp_path: Path,
     # the linear model hides friction in viscous damping: its zeta is well above the corrected one
     assert report.baseline.parameters["zeta"] > 1.3 * report.corrected_linear["zeta"]
     assert report.extended.parameter_std["coulomb_accel_m_s2"] < 0.05 * report.extended.parameters["coulomb_accel_m_s2"]
+
+
+@pytest.mark.slow
+def test_hidden_effects_are_found_when_the_hand_lets_go_while_the_cart_moves(tmp_path: Path) -> None:
+    results = []
+    for seed, effect in _plan(len(EFFECTS), 2):
+        case = make_case(seed, effect, flick=True)
+        data = load(write_csv(case, tmp_path / f"flick_{seed}.csv"))
+        report = diagnose(data.t, data.y, carts=case.carts).report
+        # the free response is fitted from where the hand no longer acts, not from the onset
+        assert report.window_start_s > case.release_s - 0.1
+        results.append((case, report))
+    wrong, false_pos = _summarise(results)
+    assert false_pos == 0, wrong
+    assert len(wrong) <= 1, wrong
