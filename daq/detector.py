@@ -416,9 +416,10 @@ def _solve_at(t: npt.NDArray[np.float64], y: npt.NDArray[np.float64], powers: Se
     tau = np.maximum(t[None, :] - candidates[:, None], 0.0) / span      # (G, N)
     columns = [np.ones_like(tau)] + [tau ** p for p in powers]
     design = np.stack(columns, axis=2)                                  # (G, N, 1+P)
-    normal = np.einsum("gnk,gnl->gkl", design, design)
-    rhs = np.einsum("gnk,n->gk", design, y)
+    design_t = design.transpose(0, 2, 1)                                # (G, 1+P, N)
+    normal = design_t @ design                                          # batched BLAS, not einsum
+    rhs = design_t @ y                                                  # (G, 1+P)
     ridge = 1e-12 * np.eye(normal.shape[1])
     coefs = np.linalg.solve(normal + ridge, rhs[..., None])[..., 0]     # (G, 1+P)
-    residual = y[None, :] - np.einsum("gnk,gk->gn", design, coefs)
+    residual = y[None, :] - (design @ coefs[..., None])[..., 0]
     return coefs, np.sqrt(np.mean(residual ** 2, axis=1))
