@@ -420,6 +420,7 @@ def _solve_at(t: npt.NDArray[np.float64], y: npt.NDArray[np.float64], powers: Se
     normal = design_t @ design                                          # batched BLAS, not einsum
     rhs = design_t @ y                                                  # (G, 1+P)
     ridge = 1e-12 * np.eye(normal.shape[1])
-    coefs = np.linalg.solve(normal + ridge, rhs[..., None])[..., 0]     # (G, 1+P)
+    coefs = np.asarray(np.linalg.solve(normal + ridge, rhs[..., None])[..., 0], dtype=np.float64)   # (G, 1+P)
     residual = y[None, :] - (design @ coefs[..., None])[..., 0]
-    return coefs, np.sqrt(np.mean(residual ** 2, axis=1))
+    rms: npt.NDArray[np.float64] = np.sqrt(np.mean(residual ** 2, axis=1))
+    return coefs, rms
