@@ -12,15 +12,32 @@ from schemas.diagnosis import DiagnosisReport
 FloatArray = NDArray[np.float64]
 
 _WHAT = {
-    "coulomb_friction": ("dry (Coulomb) friction", "the peaks shrink by a nearly constant amount per "
-                         "cycle and the cart stops dead off-centre, which no viscous damping can do"),
-    "quadratic_drag": ("quadratic (velocity-squared) drag", "large swings lose a larger fraction of their "
-                       "amplitude than small ones"),
-    "cubic_stiffness": ("a hardening (cubic) spring", "the oscillation frequency changes with the amplitude"),
-    "quantization": ("encoder quantization", "the measured positions lie on a staircase of equal steps"),
-    "coupled_mode": ("a second resonance (an imperfectly pinned cart or a track mode)",
-                     "the residual rings at a second frequency"),
+    "coulomb_friction": "dry (Coulomb) friction",
+    "quadratic_drag": "quadratic (velocity-squared) drag",
+    "cubic_stiffness": "a hardening (cubic) spring",
+    "quantization": "encoder quantization",
+    "coupled_mode": "a second resonance (an imperfectly pinned cart or a track mode)",
 }
+
+
+def _signs(report: DiagnosisReport) -> str:
+    """The evidence behind the named cause, in words, from the measured run."""
+    ev = report.evidence
+    shape = ev.envelope_shape.replace("_", " ")
+    if report.cause == "coulomb_friction":
+        return (f"the cart stops dead {1e3 * abs(ev.rest_offset_m):.2f} mm from the linear model's rest "
+                f"and stays there for the last {ev.stuck_for_s:.2f} s while the linear model keeps "
+                f"ringing, which no viscous damping can do (peak envelope: {shape})")
+    if report.cause == "quadratic_drag":
+        return f"large swings lose a larger fraction of their amplitude than small ones (peak envelope: {shape})"
+    if report.cause == "cubic_stiffness":
+        return ("the oscillation frequency changes with the amplitude "
+                f"(relative drift {ev.frequency_drift_per_m2:.3g} per m² of amplitude²)")
+    if report.cause == "quantization":
+        q = ev.lattice_quantum_m or 0.0
+        return f"every measured position lies on a staircase of {1e6 * q:.3g} µm steps"
+    hz = ev.second_frequency_hz or ev.residual_peak_hz
+    return f"the residual of the linear model rings at a second frequency (near {hz:.3g} Hz)"
 
 
 def linear_summary(lin: FloatArray, carts: int) -> dict[str, float]:
@@ -35,7 +52,7 @@ def linear_summary(lin: FloatArray, carts: int) -> dict[str, float]:
 
 
 def validation_text(decimation: int, n_work: int) -> str:
-    which = "every sample" if decimation == 1 else f"every {decimation}-th sample"
+    which = "every sample" if decimation == 1 else f"one sample in {decimation}"
     return (f"Window from the end of the hand's influence to the end of the run, {which} "
             f"({n_work} work samples). Every model was fitted (simulated output error) on the even "
             "work samples only; fit % (MATLAB compare, simulated output) is measured on the odd work "
@@ -54,7 +71,7 @@ def explanation(report: DiagnosisReport, base_lin: FloatArray) -> str:
                 f"{report.baseline.fit_percent:.2f} % and no physical extension (dry friction, quadratic "
                 f"drag, cubic spring, encoder quantization, second mode) improved it by more than noise "
                 f"explains. Damping ratio {base[key]:.4f}.")
-    what, sign = _WHAT[report.cause]
+    what, sign = _WHAT[report.cause], _signs(report)
     chosen = next(c for c in report.candidates if c.effect == report.cause)
     params = ", ".join(f"{k} = {v:.4g}" for k, v in chosen.parameters.items()
                        if not k.startswith(("mode_cos", "mode_sin", "lattice_offset")))

@@ -79,6 +79,8 @@ def diagnose(t: FloatArray, y: FloatArray, carts: int | None = None, step_m: flo
     ev = collect(prob.tau, prob.y, base.prediction, rest, wn_modes, lattice)
     fits = _fit_candidates(prob, base, ev, fixed, wn_modes)
     candidates = [_candidate(prob, base, f, effect) for effect, f in fits.items()]
+    if "quantization" not in fits:
+        candidates.insert(3, _no_lattice(prob, base))
     chosen = _choose(candidates)
     ext = fits[chosen] if chosen != "none" else base
     report = _report(prob, win, t_arr, base, ext, candidates, chosen, ev, coherence, step_m,
@@ -276,6 +278,16 @@ def _candidate(prob: _Problem, base: FitResult, cand: FitResult, effect: str) ->
                      gain_points=fit_c - fit_b, extra_parameters=extra, lr_train=lr_tr,
                      lr_validation=lr_val, threshold_train=th_tr, threshold_validation=th_val,
                      significant=bool(lr_tr > th_tr and lr_val > th_val))
+
+
+def _no_lattice(prob: _Problem, base: FitResult) -> Candidate:
+    """The quantization candidate when the samples lie on no lattice: nothing to model."""
+    fit_b = float(np.mean(fit_percent(prob.y[~prob.train], base.prediction[~prob.train])))
+    th_tr, th_val = thresholds(len(effect_names("quantization", prob.carts)), False, base.n_train)
+    return Candidate(effect="quantization", parameters={}, fit_percent=fit_b, gain_points=0.0,
+                     extra_parameters=len(effect_names("quantization", prob.carts)), lr_train=0.0,
+                     lr_validation=0.0, threshold_train=th_tr, threshold_validation=th_val,
+                     significant=False, note="the measured positions lie on no lattice (no encoder steps)")
 
 
 def _choose(candidates: list[Candidate]) -> str:

@@ -38,8 +38,8 @@ def test_hand_release_runs_name_a_cause_with_a_positive_gain(realdata_dir: Path,
     assert report.gain_points > 0.0
     # the encoder's count is seen as the measurement lattice
     assert report.evidence.lattice_quantum_m == pytest.approx(M_PER_COUNT, rel=1e-6)
-    # the cart ends motionless off the linear model's rest for the last second or more
-    assert report.evidence.stuck_for_s > 1.0
+    # the cart ends motionless (test4 is bumped near the end: half a second is asked)
+    assert report.evidence.stuck_for_s > 0.5
     assert report.cause == "coulomb_friction"
     assert 0.02 < report.extended.parameters["coulomb_accel_m_s2"] < 1.0
     assert report.corrected_linear["zeta"] < 0.75 * report.baseline.parameters["zeta"]
