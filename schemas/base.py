@@ -21,7 +21,9 @@ MAX_PAYLOAD_BYTES = 4 * 1024 * 1024
 class Record(BaseModel):
     """A frozen, strict, versioned message."""
 
-    model_config = ConfigDict(frozen=True, extra="forbid")
+    # NaN and infinities are refused: JSON has no spelling for them, and a record that
+    # validated must survive its own round trip (producers send None for "unknown").
+    model_config = ConfigDict(frozen=True, extra="forbid", allow_inf_nan=False)
     SCHEMA_VERSION: ClassVar[int] = 1
 
     schema_version: int = 1

@@ -15,6 +15,7 @@ from typing import Literal
 from pydantic import Field, model_validator
 
 from schemas.base import Record
+from schemas.keys import BenchName, FileName, RunId
 
 DetectorState = Literal["idle", "armed", "released", "settled"]
 RunStatus = Literal["complete", "recovered", "aborted"]
@@ -32,8 +33,8 @@ class SampleBatch(Record):
     `batch_seq` counts batches per stream (live) or per file (MCAP), from 0.
     """
 
-    bench: str
-    run_id: str | None = None
+    bench: BenchName
+    run_id: RunId | None = None
     batch_seq: int = Field(ge=0)
     t_ns: list[int]
     pos1_m: list[float]
@@ -57,10 +58,10 @@ class SampleBatch(Record):
 class DetectorStateMsg(Record):
     """A change of the release detector's state, stamped with the device time of the sample."""
 
-    bench: str
+    bench: BenchName
     state: DetectorState
     t_ns: int
-    run_id: str | None = None
+    run_id: RunId | None = None
 
 
 class GapInterval(Record):
@@ -101,8 +102,8 @@ class RunMetadata(Record):
     (csv: `counts_per_m` is 1 and raw is already metres).
     """
 
-    bench: str
-    run_id: str
+    bench: BenchName
+    run_id: RunId
     dialect: str
     port: str
     counts_per_m: float
@@ -133,10 +134,10 @@ class RunFinished(Record):
     to the last sample; `release_time_s` is on the exported time base.
     """
 
-    bench: str
-    run_id: str
+    bench: BenchName
+    run_id: RunId
     status: RunStatus
-    file: str
+    file: FileName
     n_samples: int = Field(ge=0)
     release_time_s: float | None
     duration_s: float
@@ -147,9 +148,9 @@ class RunFinished(Record):
 class DaqStatus(Record):
     """Reply of the `status` (and `arm`) queryable: a snapshot of the service."""
 
-    bench: str
+    bench: BenchName
     state: DetectorState
-    run_id: str | None
+    run_id: RunId | None
     port: str
     dialect: str
     connected: bool
@@ -165,7 +166,7 @@ class DaqStatus(Record):
 class ZeroReply(Record):
     """Reply of the `zero` queryable: the raw offsets now subtracted, or why not."""
 
-    bench: str
+    bench: BenchName
     ok: bool
     zero_offsets_raw: list[float]
     message: str = ""
@@ -177,7 +178,7 @@ class RunList(Record):
     A worker that starts late (or missed a `finished` put) catches up from this list.
     """
 
-    bench: str
+    bench: BenchName
     runs: list[RunFinished]
 
 

@@ -16,7 +16,10 @@ or `..`, so a name can neither widen a key expression nor walk out of a director
 from __future__ import annotations
 
 import re
-from typing import Final, Literal
+from functools import partial
+from typing import Annotated, Final, Literal
+
+from pydantic import AfterValidator
 
 from schemas.errors import SchemaError
 
@@ -33,6 +36,12 @@ def check_name(kind: str, name: str) -> str:
         raise SchemaError(kind, "1-128 characters of [A-Za-z0-9_.-], not starting with '.' or '-'",
                           repr(name))
     return name
+
+
+#: Record field types for names that become key chunks or file names: validated on parse.
+BenchName = Annotated[str, AfterValidator(partial(check_name, "bench"))]
+RunId = Annotated[str, AfterValidator(partial(check_name, "run_id"))]
+FileName = Annotated[str, AfterValidator(partial(check_name, "file name"))]
 
 
 def samples(bench: str) -> str:

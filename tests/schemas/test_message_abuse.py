@@ -225,8 +225,6 @@ def test_mutated_valid_payloads_never_raise_anything_but_schema_error(model: typ
     _parse_or_schema_error(model, json.dumps(payload).encode())
 
 
-@pytest.mark.xfail(strict=True, reason="BUG schemas/base.py Record: JSON NaN/Infinity are accepted "
-                   "(pydantic allow_inf_nan) but written back as null, which the same model then refuses")
 def test_non_finite_numbers_are_refused_or_survive_the_round_trip() -> None:
     """JSON `NaN`/`Infinity` (Python's json writes them): a record accepting one must still
     parse after its own `to_json_bytes` (pydantic writes them as `null`)."""
@@ -242,8 +240,6 @@ def test_non_finite_numbers_are_refused_or_survive_the_round_trip() -> None:
     assert broken == []
 
 
-@pytest.mark.xfail(strict=True, reason="BUG schemas/daq.py, schemas/fit.py: bench/run_id/worker fields are "
-                   "plain str, not checked with keys.check_name; ident worker builds paths from them")
 def test_names_that_become_keys_or_paths_are_checked_in_the_records() -> None:
     """`bench`, `run_id` and `worker` end up in Zenoh keys and in file paths
     (`<runs>/<bench>/<run_id>.fit/`): a record carrying `..` or `/` must not validate."""
