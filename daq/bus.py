@@ -123,8 +123,16 @@ class DaqBus:
             _, old = self._finished_pubs.popitem(last=False)
             old.undeclare()
 
-    def set_snapshot(self, status: DaqStatus, runs: RunList) -> None:
-        """Replace what the status/runs/finished queryables answer (one atomic assignment)."""
+    def set_snapshot(self, status: DaqStatus, runs: RunList | None = None) -> None:
+        """Replace what the status/runs/finished queryables answer (one atomic assignment).
+
+        `runs=None` keeps the run list and finished records of the last snapshot: they are
+        encoded only when they change (a long-lived runs directory holds hundreds of runs).
+        """
+        old = self._snapshot
+        if runs is None:
+            self._snapshot = _Snapshot(status.to_json_bytes(), old.runs, old.finished)
+            return
         finished = tuple((keys.run_finished(self.bench, r.run_id), r.to_json_bytes()) for r in runs.runs)
         self._snapshot = _Snapshot(status.to_json_bytes(), runs.to_json_bytes(), finished)
 

@@ -113,6 +113,7 @@ class Service:
         self.connected = False
         self._stop = threading.Event()
         self._last_snapshot = -1e9
+        self._runs_changed = True     # the run list must be (re)published with the next snapshot
         self._last_data = 0.0
 
     # --- control ---------------------------------------------------------------------------------
@@ -122,6 +123,7 @@ class Service:
 
     def announce(self, finished: RunFinished) -> None:
         self.finished_runs.append(finished)
+        self._runs_changed = True
         if self.bus is not None:
             self.bus.publish_finished(finished)
         self._publish_snapshot(force=True)
@@ -132,6 +134,7 @@ class Service:
         self.config.runs_dir.mkdir(parents=True, exist_ok=True)
         recovered = recover_all(self.config.runs_dir)
         self.finished_runs = self._scan_runs()
+        self._runs_changed = True
         try:
             self.link.open()
             self.connected = True
@@ -257,7 +260,9 @@ class Service:
         if self.bus is None or (not force and now - self._last_snapshot < SNAPSHOT_EVERY_S):
             return
         self._last_snapshot = now
-        self.bus.set_snapshot(self.status(), RunList(bench=self.config.bench, runs=list(self.finished_runs)))
+        runs = RunList(bench=self.config.bench, runs=list(self.finished_runs)) if self._runs_changed else None
+        self.bus.set_snapshot(self.status(), runs)
+        self._runs_changed = False
 
     # --- runs directory ---------------------------------------------------------------------------------
     def _run_id_taken(self, run_id: str) -> bool:

@@ -36,6 +36,13 @@ def test_bus_from_a_config_file_answers_snapshots_and_queued_requests(tmp_path: 
         (finished,) = client.get(keys.run_finished("u1", "r1"), timeout=5)
         assert finished.ok is not None and RunFinished.from_json_bytes(finished.ok.payload.to_bytes()) == done
         assert list(client.get(keys.run_finished("u1", "other"), timeout=2)) == []
+        bus.set_snapshot(_status(2))   # a new status alone keeps the run list and finished records
+        (status,) = client.get(keys.daq_query("u1", "status"), timeout=5)
+        assert status.ok is not None and DaqStatus.from_json_bytes(status.ok.payload.to_bytes()).n_runs == 2
+        (runs,) = client.get(keys.daq_query("u1", "runs"), timeout=5)
+        assert runs.ok is not None and RunList.from_json_bytes(runs.ok.payload.to_bytes()).runs == [done]
+        (finished,) = client.get(keys.run_finished("u1", "r1"), timeout=5)
+        assert finished.ok is not None and RunFinished.from_json_bytes(finished.ok.payload.to_bytes()) == done
 
         def loop_once() -> None:   # stands in for the service loop: answers one queued request
             request: BusRequest = bus.requests.get(timeout=5)
