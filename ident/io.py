@@ -132,9 +132,11 @@ def unit_scale(name: str) -> float | None:
 def load_text(path: str | Path, time_col: str | None = None, pos_cols: list[str] | None = None,
               scale: float | None = None, release_time_s: float | None = None,
               step_m: float = DEFAULT_STEP_M, pulled_cart: int | None = None,
-              input_col: str | None = None) -> IdData:
+              input_col: str | None = None, rate_hz: float | None = None) -> IdData:
     """Load a delimited export. `scale` (m per unit) overrides a unit found in the names.
-    The time base is the file's (a given `release_time_s` is on it).
+    The time base is the file's (a given `release_time_s` is on it); a file without a time
+    column (columns named col0, col1, … when there is no header) needs `rate_hz`, and its
+    time base is then k / rate_hz.
 
     With `input_col` (e.g. the ECP's 'Control Effort', a motor input) `u` is that column as
     recorded; otherwise `u` is the release step.
@@ -145,10 +147,15 @@ def load_text(path: str | Path, time_col: str | None = None, pos_cols: list[str]
     except OSError as exc:
         raise DataFileError(f"cannot read {file}: {exc}") from exc
     table = read_table(text)
-    t_index = _default_time_column(table.names) if time_col is None else _find_column(table.names, time_col)
     y_indices = (_default_position_columns(table.names) if pos_cols is None
                  else [_find_column(table.names, c) for c in pos_cols])
-    t = table.values[:, t_index] * (unit_scale(table.names[t_index]) or 1.0)
+    if rate_hz is not None and time_col is None:
+        if not np.isfinite(rate_hz) or rate_hz <= 0.0:
+            raise IdentValueError("rate_hz", "a positive sample rate", rate_hz)
+        t = np.arange(table.values.shape[0]) / float(rate_hz)
+    else:
+        t_index = _default_time_column(table.names) if time_col is None else _find_column(table.names, time_col)
+        t = table.values[:, t_index] * (unit_scale(table.names[t_index]) or 1.0)
     y = np.column_stack([table.values[:, i] * _position_scale(table.names[i], scale)
                          for i in y_indices])
     t, _, y = check_arrays(t, None, y)
@@ -252,11 +259,13 @@ def load_mcap(path: str | Path, step_m: float = DEFAULT_STEP_M,
 
 def load(path: str | Path, time_col: str | None = None, pos_cols: list[str] | None = None,
          scale: float | None = None, release_time_s: float | None = None,
-         step_m: float = DEFAULT_STEP_M, input_col: str | None = None) -> IdData:
+         step_m: float = DEFAULT_STEP_M, input_col: str | None = None,
+         rate_hz: float | None = None) -> IdData:
     """Load a run from an MCAP file (`.mcap`) or a delimited text export (anything else)."""
     file = Path(path)
     if not file.exists():
         raise DataFileError(f"expected an existing file, got {str(file)!r}")
     if file.suffix == ".mcap":
         return load_mcap(file, step_m, release_time_s)
-    return load_text(file, time_col, pos_cols, scale, release_time_s, step_m, input_col=input_col)
+    return load_text(file, time_col, pos_cols, scale, release_time_s, step_m, input_col=input_col,
+                     rate_hz=rate_hz)

@@ -29,6 +29,8 @@ def add_parser(subparsers: Any) -> None:
                         help="position column name(s), cart 1 first (text exports)")
     parser.add_argument("--input", dest="input_col", default=None,
                         help="input column (e.g. 'Control Effort' for a motor input); default: the release step")
+    parser.add_argument("--rate", dest="rate_hz", type=float, default=None,
+                        help="sample rate (Hz) of an export without a time column")
     parser.add_argument("--scale", type=float, default=None, help="metres per unit of the position columns")
     parser.add_argument("--release", type=float, default=None, help="release time (s) if known")
     parser.add_argument("--step-m", type=float, default=0.15, help="pull distance (m), default 0.15")
@@ -57,7 +59,7 @@ def fit_file(args: argparse.Namespace) -> dict[str, Any]:
     from ident.release import motion_amplitude, moving_outputs
 
     data = load(args.path, args.time_col, args.pos_cols, args.scale, args.release, args.step_m,
-                args.input_col)
+                args.input_col, args.rate_hz)
     moving = moving_outputs(data.y)
     carts = args.carts or max(1, min(len(moving), 2))
     if carts == 1 and data.n_outputs > 1:

@@ -202,3 +202,13 @@ def test_a_damaged_run_file_loads_up_to_the_damage_and_says_so(tmp_path: Path) -
         cut.write_bytes(bytes(blob[:size]))
         with pytest.raises(DataFileError, match="expected /samples samples"):
             load(cut)
+
+
+def test_an_export_without_header_or_time_column_takes_a_sample_rate(tmp_path: Path) -> None:
+    path = tmp_path / "data0000.txt"  # PoliScope-like: tab-separated numbers only
+    path.write_text("\n".join(f"{0.1 * k:.3f}\t{np.sin(k / 10):.6f}" for k in range(100)) + "\n")
+    with pytest.raises(IdentValueError, match="time column"):
+        load(path, pos_cols=["col1"], scale=0.01)
+    data = load(path, pos_cols=["col1"], scale=0.01, input_col="col0", rate_hz=200.0)
+    assert data.sample_time() == pytest.approx(0.005) and data.t[0] == 0.0
+    assert data.u[10] == pytest.approx(1.0) and data.y[5, 0] == pytest.approx(0.01 * np.sin(0.5), abs=1e-8)
