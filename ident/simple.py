@@ -19,7 +19,6 @@ fitted ζ comes out too large; `substeps` shrinks h.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -128,15 +127,18 @@ def _significant_crossings(e: FloatArray, noise: float) -> NDArray[np.int64]:
 
 
 def fit_simple(data: IdData, method: Method = "rk4", *, friction: bool = False, substeps: int = 1,
-               output: int = 0) -> SimpleFit:
+               output: int = 0, fit_release: bool = True) -> SimpleFit:
     """Fit wn, ζ, gain, release time, offset (and dry friction f, Euler only) of one cart.
 
     `output` picks the column of `data.y`; `data.u` gives the pull amplitude U.
+    `fit_release=False` holds the release at `data.release_time_s` (required then).
     """
     if method not in ("rk4", "euler"):
         raise IdentValueError("method", "'rk4' or 'euler'", method)
     if friction and method != "euler":
         raise IdentValueError("method", "'euler' when friction=True (the Coulomb model)", method)
+    if not fit_release and data.release_time_s is None:
+        raise IdentValueError("release_time_s", "a known release with fit_release=False", None)
     y = np.asarray(data.y[:, output])
     check_motion(y)
     amplitude = data.step_amplitude
@@ -144,29 +146,59 @@ def fit_simple(data: IdData, method: Method = "rk4", *, friction: bool = False, 
     if jumps.size != 1:
         raise IdentValueError("u", "a single step (the release)", f"{jumps.size} changes")
     release0 = data.release_time_s if data.release_time_s is not None else estimate_release_time(data.t, y)
+    fixed = None if fit_release else release0
     start = start_values(data.t, y, amplitude, release0)
-    result = _least_squares(data.t, y, amplitude, method, substeps, False, start)
+    outcome = _least_squares(data.t, y, amplitude, method, substeps, False, start, fixed)
     if friction:
         # the dry-friction fit starts from the linear Euler fit, with f = 0⁺ and with f from
         # the envelope regression |e_{j+1}| = ρ |e_j| - 2 f / wn²; the lower cost wins
-        linear = np.asarray(result.x)
+        linear = outcome.p
         tries = [np.append(linear, 1e-3 * linear[0] ** 2 * abs(linear[2] * amplitude)),
                  np.append(linear, envelope_friction(data.t, y, release0, linear[0]))]
-        results = [_least_squares(data.t, y, amplitude, method, substeps, True, p0) for p0 in tries]
-        result = min(results, key=lambda r: float(r.cost))
-    return _result(result, data, y, method, substeps, friction, float(data.t[jumps[0] + 1]))
+        outcomes = [_least_squares(data.t, y, amplitude, method, substeps, True, p0, fixed) for p0 in tries]
+        outcome = min(outcomes, key=lambda o: o.cost)
+    return _result(outcome, data, y, method, substeps, friction, float(data.t[jumps[0] + 1]))
+
+
+@dataclass(frozen=True)
+class _Outcome:
+    """A least-squares run: all parameters `p` (release included), the Jacobian and the
+    names of the free ones."""
+
+    p: FloatArray
+    jac: FloatArray
+    fun: FloatArray
+    names: tuple[str, ...]
+    cost: float
+    nfev: int
+    success: bool
+    message: str
 
 
 def _least_squares(t: FloatArray, y: FloatArray, amplitude: float, method: Method, substeps: int,
-                   friction: bool, start: FloatArray) -> Any:
+                   friction: bool, start: FloatArray, fixed_release: float | None) -> _Outcome:
     """Unbounded trust-region least squares (bounds stalled the friction fit in local minima)."""
-    def residual(p: FloatArray) -> FloatArray:
-        return np.asarray(_response(p, t, amplitude, method, substeps, friction) - y)
+    free = np.ones(start.size, dtype=bool)
+    if fixed_release is not None:
+        free[3] = False
+        start = start.copy()
+        start[3] = fixed_release
+
+    def full(q: FloatArray) -> FloatArray:
+        p = start.copy()
+        p[free] = q
+        return p
+
+    def residual(q: FloatArray) -> FloatArray:
+        return np.asarray(_response(full(q), t, amplitude, method, substeps, friction) - y)
 
     # stick events make the friction model's output jump with its parameters: difference
     # over a wider step (10⁻³ relative) so the Jacobian sees the trend, not the jumps
-    return least_squares(residual, start, method="trf", x_scale="jac", diff_step=1e-3 if friction else 1e-7,
-                         xtol=1e-12, ftol=1e-12, max_nfev=400)
+    result = least_squares(residual, start[free], method="trf", x_scale="jac",
+                           diff_step=1e-3 if friction else 1e-7, xtol=1e-12, ftol=1e-12, max_nfev=400)
+    names = tuple(n for n, keep in zip(PARAMETER_NAMES[:start.size], free, strict=True) if keep)
+    return _Outcome(full(result.x), np.asarray(result.jac), np.asarray(result.fun), names,
+                    float(result.cost), int(result.nfev), bool(result.success), str(result.message))
 
 
 def envelope_friction(t: FloatArray, y: FloatArray, release0: float, wn: float) -> float:
@@ -182,20 +214,17 @@ def envelope_friction(t: FloatArray, y: FloatArray, release0: float, wn: float) 
     return float(max(-intercept * wn * wn / 2.0, 0.0))
 
 
-def _result(result: object, data: IdData, y: FloatArray, method: Method, substeps: int,
+def _result(outcome: _Outcome, data: IdData, y: FloatArray, method: Method, substeps: int,
             friction: bool, step_time: float) -> SimpleFit:
-    p = np.asarray(getattr(result, "x"))
-    jac = np.asarray(getattr(result, "jac"))
-    residuals = np.asarray(getattr(result, "fun"))
-    names = PARAMETER_NAMES[:len(p)]
-    s2 = float(residuals @ residuals) / max(1, residuals.size - p.size)
+    p, jac, residuals = outcome.p, outcome.jac, outcome.fun
+    s2 = float(residuals @ residuals) / max(1, residuals.size - jac.shape[1])
     covariance = s2 * np.linalg.pinv(jac.T @ jac)
-    std = {name: float(np.sqrt(max(covariance[i, i], 0.0))) for i, name in enumerate(names)}
+    std = {name: float(np.sqrt(max(covariance[i, i], 0.0))) for i, name in enumerate(outcome.names)}
     y_hat = y + residuals
     return SimpleFit(wn=float(p[0]), zeta=float(p[1]), gain=float(p[2]), release_time_s=float(p[3]),
                      offset=float(p[4]), friction=abs(float(p[5])) if friction else None, method=method,
-                     substeps=substeps, names=names, covariance=covariance, std_errors=std,
+                     substeps=substeps, names=outcome.names, covariance=covariance, std_errors=std,
                      fit_percent=tuple(fit_percent(y, y_hat)), residuals=-residuals[:, None],
                      input_delay_s=float(p[3]) - step_time, t=np.asarray(data.t),
-                     y_hat=y_hat[:, None], nfev=int(getattr(result, "nfev")),
-                     success=bool(getattr(result, "success")), message=str(getattr(result, "message")))
+                     y_hat=y_hat[:, None], nfev=outcome.nfev, success=outcome.success,
+                     message=outcome.message)

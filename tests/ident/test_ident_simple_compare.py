@@ -76,3 +76,13 @@ def test_resid_of_a_good_simple_fit_is_white() -> None:
     data = IdData(run.t, step(run.t, 1.0), run.y)
     (test,) = resid(fit_simple(data, "rk4"), data)
     assert test.white and test.auto_bound == pytest.approx(2.5758 / np.sqrt(run.t.size), rel=1e-4)
+
+
+def test_rk4_simple_fit_can_hold_a_known_release() -> None:
+    run = cart1_run(200.0, seed=26)
+    data = IdData(run.t, step(run.t, run.release_time_s), run.y, release_time_s=run.release_time_s)
+    fit = fit_simple(data, "rk4", fit_release=False)
+    assert fit.release_time_s == run.release_time_s and "release_time_s" not in fit.std_errors
+    assert fit.wn == pytest.approx(run.wn[0], rel=1e-3) and fit.covariance.shape == (4, 4)
+    with pytest.raises(IdentValueError, match="known release"):
+        fit_simple(IdData(run.t, step(run.t, 1.0), run.y), "rk4", fit_release=False)
