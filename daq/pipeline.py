@@ -41,6 +41,7 @@ DEFAULT_COUNTS_PER_M: dict[str, float] = {"cartlab": 20000.0, "csv": 1.0, "ecp":
 BATCH_NS = 20_000_000
 PINNED_SPAN_M = 0.002
 MAX_BATCH = 500
+MAX_LIVE_GAPS = 100   # gap intervals kept for the live status (a run keeps all of its own)
 
 
 class Outputs(Protocol):
@@ -107,6 +108,7 @@ class _Run:
     metadata: RunMetadata
     calibration: Calibration
     counters_at_start: DaqCounters
+    gaps: list[GapInterval] = field(default_factory=list)
     batch: _Batch = field(default_factory=_Batch)
     gains: tuple[float, ...] = ()
     offsets_m: tuple[float, ...] = ()
@@ -134,7 +136,7 @@ class Acquisition:
         self.detector = ReleaseDetector(config.detector)
         self.info: InfoFrame | None = None
         self.reconnects = 0
-        self.gaps: list[GapInterval] = []
+        self.gaps: deque[GapInterval] = deque(maxlen=MAX_LIVE_GAPS)   # bounded: a day of lost lines
         self.n_channels: int | None = None
         self.last_t_ns: int | None = None
         self.last_raw: tuple[float, ...] | None = None
@@ -249,7 +251,10 @@ class Acquisition:
         start = self._disconnected_at if self._disconnected_at is not None else (self.last_t_ns or t_ns)
         reason: GapReason = "disconnect" if self._disconnected_at is not None else (
             "clock_jump" if anomaly else "seq_gap")
-        self.gaps.append(GapInterval(start_t_ns=start, end_t_ns=t_ns, reason=reason, lost_frames=lost or None))
+        gap = GapInterval(start_t_ns=start, end_t_ns=t_ns, reason=reason, lost_frames=lost or None)
+        self.gaps.append(gap)
+        if self.run is not None:
+            self.run.gaps.append(gap)
         self._disconnected_at = None
         if self.run is not None:
             return
@@ -287,6 +292,7 @@ class Acquisition:
 
     # --- runs ------------------------------------------------------------------------------------------
     def counters(self) -> DaqCounters:
+        """Totals since start-up; `gap_intervals` only the last `MAX_LIVE_GAPS` (a run keeps all its own)."""
         d, tl = self.decoder.counters, self.timeline.counters
         return DaqCounters(lines=d.lines, frames=d.frames, bad_lines=d.rejected, bad_checksum=d.bad_checksum,
                            torn=d.torn, non_ascii=d.non_ascii, overlong=d.overlong, malformed=d.malformed,
@@ -326,7 +332,7 @@ class Acquisition:
         run = self.run
         assert run is not None
         self._flush_run(run)
-        counters = _delta(self.counters(), run.counters_at_start)
+        counters = _delta(self.counters(), run.counters_at_start, run.gaps)
         meta = run.metadata.model_copy(update={
             "counters": counters, "ended_utc": self._wall_clock().isoformat(timespec="milliseconds"),
             "lab_case": self.config.lab_case or _lab_case(run)})
@@ -382,12 +388,11 @@ def _lab_case(run: _Run) -> str | None:
     return "both" if pulled == 1 else "both_cart2_pulled"
 
 
-def _delta(now: DaqCounters, start: DaqCounters) -> DaqCounters:
-    """Counters accumulated since `start` (gap intervals: those that began after it)."""
+def _delta(now: DaqCounters, start: DaqCounters, gaps: list[GapInterval]) -> DaqCounters:
+    """Counters accumulated since `start`, with the run's own gap intervals `gaps`."""
     fields = {name: getattr(now, name) - getattr(start, name)
               for name, info in DaqCounters.model_fields.items()
               if info.annotation is int and name != "schema_version"}
-    gaps = now.gap_intervals[len(start.gap_intervals):]
     return now.model_copy(update={**fields, "gap_intervals": gaps})
 
 

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from daq.decode import encode_data, encode_info
-from daq.pipeline import Acquisition, AcquisitionConfig
+from daq.pipeline import MAX_LIVE_GAPS, Acquisition, AcquisitionConfig
 from schemas.daq import DetectorStateMsg, RunFinished, RunMetadata, SampleBatch
 from tests.daq.synth_runs import LAB_CASES, Trace, lab_run
 
@@ -117,3 +117,27 @@ def test_a_daq_started_during_the_hold_records_the_first_release_from_its_pre_tr
     assert abs(meta.release_t_ns - release_ns) < 1e9 / 200
     pos1 = np.array([p for b in out.run_batches for p in b.pos1_m])
     assert abs(pos1[t_ns < meta.release_t_ns][-1]) < 1e-3 and pos1[-1] == pytest.approx(0.15, abs=2e-3)
+
+
+def test_lost_lines_all_day_keep_the_live_gap_list_bounded_and_each_run_its_own_gaps() -> None:
+    trace = lab_run(LAB_CASES[0], 200, seed=6, after_s=14.0)
+    assert trace.release_t_s is not None
+    keep = np.ones(trace.t_s.size, dtype=bool)
+    keep[5::10] = False                           # one line in ten lost, before, during and after the run
+    lines = [line for i, line in enumerate(_stream(trace).splitlines(keepends=True)[1:]) if keep[i]]
+    out = FakeOutputs()
+    acq = Acquisition(AcquisitionConfig(bench="b1", port="test://"), out,
+                      wall_clock=lambda: datetime(2026, 11, 22, 1, 2, 3, tzinfo=UTC), existing_run_ids=lambda _: False)
+    acq.data(b"".join(lines))
+    acq.finish("end of stream")
+    lost = int((~keep).sum())
+    status = acq.counters()
+    assert status.seq_gaps == status.lost_frames == lost > MAX_LIVE_GAPS
+    ends_ns = [round(t * 1e6) * 1000 for t in trace.t_s[np.flatnonzero(~keep) + 1].tolist()]
+    assert [g.end_t_ns for g in status.gap_intervals] == ends_ns[-MAX_LIVE_GAPS:]   # the latest ones
+    (meta, done), = out.finished
+    assert done.status == "complete"
+    run_t = [t for b in out.run_batches for t in b.t_ns]
+    gaps = meta.counters.gap_intervals
+    assert meta.counters.seq_gaps == len(gaps) > MAX_LIVE_GAPS   # a run keeps every gap of its own
+    assert all(run_t[0] <= g.start_t_ns < g.end_t_ns <= run_t[-1] for g in gaps)
