@@ -20,6 +20,7 @@ _EXPORTS: dict[str, str] = {
     "from_release": "ident.data",
     "estimate_release_time": "ident.release",
     "noise_std": "ident.release",
+    "moving_outputs": "ident.release",
     "SingleCart": "ident.physics",
     "TwoCartChain": "ident.physics",
     "StateSpace": "ident.physics",
