@@ -19,7 +19,7 @@ demo: $(STAMP)
 	$(PY) tools/demo_bench.py --out demo-report
 
 test: $(STAMP)
-	$(PY) -m pytest
+	OPENBLAS_NUM_THREADS=1 $(PY) -m pytest
 
 # Headless Chromium + chromedriver for the bench page's browser tests (Debian packages).
 # Best effort: without root or apt the browser tests skip and say why.

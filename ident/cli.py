@@ -4,8 +4,13 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import sys
 from collections.abc import Sequence
+
+# The fits here are small dense problems: a multi-threaded BLAS only adds contention
+# (2-5x slower measured on a loaded 2-core bench PC). Must be set before numpy loads.
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 #: Subcommand modules under `ident.commands`, in the order `--help` lists them.
 COMMANDS: tuple[str, ...] = (
