@@ -29,7 +29,8 @@ carts settled after the last run, or were first still after start-up), a pulled 
 
 Start-up. Until the carts have settled once, the rest is only where they were first still,
 which may be a hold: a daq started while a student holds the cart pulled. A fast departure
-from that provisional rest is then rejected ("pulled from rest") but followed: a released
+judged against that provisional rest is then rejected ("pulled from rest", "pulled away from
+rest") but followed: a released
 cart swings through its rest and comes back (it reverses by ≥ `confirm_reversal` of an
 excursion ≥ `confirm_min_excursion_m`) without ever being still, a yanked cart is held
 still at its new place. A reversal within `first_release_confirm_s` of the trigger turns
@@ -297,7 +298,7 @@ class ReleaseDetector:
         if reason:
             self.state = "idle"
             self._restart_anchor(t_s, sample)
-            if reason == "pulled from rest" and not self._rest_settled and fit is not None:
+            if reason.startswith("pulled") and not self._rest_settled and fit is not None:
                 release = Released(fit.t0_s, trigger_t, t_s, channel, abs(fit.accel_m_s2), hold)
                 self._pending = _Pending(release, direction, hold[channel])
             return Rejected(t_s, accel, reason)

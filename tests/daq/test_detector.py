@@ -202,3 +202,25 @@ def test_a_daq_started_during_the_hold_records_the_first_release(case: str, rate
     settings = DetectorSettings()
     assert releases[0].t_confirmed_s - releases[0].t_trigger_s <= settings.first_release_confirm_s
     assert len([e for e in events if isinstance(e, Settled)]) == 1
+
+
+def test_a_hold_moved_after_start_up_still_gives_the_first_release() -> None:
+    # daq starts while the cart is held at -0.15 m (taken for the rest), the hand eases it to
+    # -0.10 m and holds, then lets go: the cart swings toward +0.10 m from the start-up "rest".
+    rng = np.random.default_rng(8)
+    t = np.arange(0.0, 12.0, 1e-3)
+    release = 3.5 + rng.uniform(0, 1e-3)
+    omega, zeta = 8.0, 0.05
+    tau = np.maximum(t - release, 0.0)
+    ease = np.clip((t - 1.0) / 1.5, 0.0, 1.0)
+    held = -0.15 + 0.05 * (10 * ease**3 - 15 * ease**4 + 6 * ease**5)
+    free = -0.10 * np.exp(-zeta * omega * tau) * (np.cos(omega * np.sqrt(1 - zeta**2) * tau)
+                                                  + zeta / np.sqrt(1 - zeta**2) * np.sin(omega * np.sqrt(1 - zeta**2) * tau))
+    x = np.where(t < release, held, free) + rng.normal(0.0, 2e-5, t.size)
+    detector = ReleaseDetector()
+    events = [e for ti, xi in zip(t.tolist(), np.round(x * 20000) / 20000) for e in detector.feed(ti, (float(xi),))]
+    rejected = [e for e in events if isinstance(e, Rejected)]
+    assert {e.reason for e in rejected[:-1]} <= {"slow motion"}        # the hand easing the cart
+    assert rejected[-1].reason == "pulled away from rest"                 # judged against the start-up hold ...
+    releases = [e for e in events if isinstance(e, Released)]
+    assert len(releases) == 1 and abs(releases[0].t_release_s - release) < 1e-3   # ... and still recorded
