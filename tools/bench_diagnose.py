@@ -1,6 +1,6 @@
 """Benchmark of `ident diagnose`: confusion matrix over generated runs with a hidden effect.
 
-    .venv/bin/python tools/bench_diagnose.py [--cases 120] [--seed 7] [--json out.json]
+    .venv/bin/python tools/bench_diagnose.py [--cases 120] [--seed 7] [--flick-every K] [--json out.json]
 
 Runs are made by the independent generator `tests/ident/hidden_effects.py` (effects in a
 seeded shuffle of a balanced list; everything else drawn by the seed), then `diagnose`
@@ -37,13 +37,14 @@ REALDATA = ROOT.parent / "shared" / "realdata" / "ECP210_UCSD_2023_Parker-Knopf"
 M_PER_COUNT = 1.0 / 560 / 100
 
 
-def run_generated(n: int, seed: int) -> list[dict[str, Any]]:
+def run_generated(n: int, seed: int, flick_every: int = 0) -> list[dict[str, Any]]:
     rng = np.random.default_rng(seed)
     effects = [EFFECTS[i % len(EFFECTS)] for i in range(n)]
     rows = []
     for k, i in enumerate(rng.permutation(n)):
         case_seed = int(rng.integers(0, 2**31))
-        case = make_case(case_seed, effects[i])
+        flick = flick_every > 0 and k % flick_every == 0
+        case = make_case(case_seed, effects[i], flick=flick)
         started = time.perf_counter()
         report = diagnose(case.t, case.y, carts=case.carts).report
         elapsed = time.perf_counter() - started
@@ -55,12 +56,13 @@ def run_generated(n: int, seed: int) -> list[dict[str, Any]]:
         right = report.cause == case.effect
         param_ok = all(e <= REL_TOL for e in errors.values())
         gain_ok = report.gain_points == 0.0 if case.effect == "none" else report.gain_points > 0.0
-        rows.append({"seed": case_seed, "effect": case.effect, "carts": case.carts,
+        rows.append({"seed": case_seed, "effect": case.effect, "carts": case.carts, "flick": flick,
                      "rate_hz": case.rate_hz, "noise_m": case.noise_m, "cause": report.cause,
                      "right": right, "param_ok": param_ok, "gain_ok": gain_ok, "errors": errors,
                      "gain_points": report.gain_points, "time_s": elapsed})
         mark = "ok " if right and param_ok and gain_ok else "BAD"
         print(f"{k + 1:4d} {mark} {case.effect:17s} -> {report.cause:17s} carts={case.carts} "
+              f"{'flick ' if flick else ''}"
               f"{case.rate_hz:6.0f} Hz gain {report.gain_points:7.3f} "
               + " ".join(f"{n}={100 * e:.1f}%" for n, e in errors.items()) + f"  {elapsed:.2f} s",
               flush=True)
@@ -132,9 +134,11 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--cases", type=int, default=120)
     parser.add_argument("--seed", type=int, default=7)
+    parser.add_argument("--flick-every", type=int, default=0,
+                        help="every k-th run is released while moving (a flick); 0: none")
     parser.add_argument("--json", type=Path, default=None, help="also write the results here")
     args = parser.parse_args(argv)
-    rows = run_generated(args.cases, args.seed)
+    rows = run_generated(args.cases, args.seed, args.flick_every)
     summary = print_summary(rows)
     real = run_realdata()
     if args.json is not None:

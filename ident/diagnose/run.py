@@ -211,17 +211,32 @@ BLURS = (0.01, 0.03, 0.06, 0.1, 0.15, 0.2, 0.25, 0.3, 0.35, 0.45)
 
 
 def _fit_staircase(spec: ModelSpec, prob: _Problem, base: FitResult, ev: EvidenceResult) -> FitResult:
-    """The baseline read through the measured lattice; the blur b by a grid on training SSE."""
+    """The linear model read through the measured lattice (q and offset from the data).
+
+    The linear parameters are refitted through the smoothed staircase at decreasing blur
+    (0.3, 0.15, 0.08 quanta; each from the previous), so that they are not the baseline's,
+    tuned to the training samples' rounding errors; then the blur is chosen on a grid.
+    """
     assert ev.lattice is not None
     q, off = ev.lattice.quantum_m, ev.lattice.offset_m
     q_std = q * 1e-3 / max(ev.lattice.levels, 1)
+    n = base.theta.size
+    lower, upper = starts.linear_bounds(base.theta, prob.carts)
+    typical = starts.linear_typical(base.theta, prob.carts, prob.amplitude)
+    lower, upper = np.concatenate([lower, np.full(3, -np.inf)]), np.concatenate([upper, np.full(3, np.inf)])
+    typical = np.concatenate([typical, [q, q, 0.1]])
+    theta = np.concatenate([base.theta, [q, off, 0.3]])
+    for blur in (0.3, 0.15, 0.08):
+        fixed = {**spec.fixed, n: q, n + 1: off, n + 2: blur}
+        staged = ModelSpec(spec.effect, spec.carts, fixed)
+        theta = fit(staged, theta, lower, upper, typical, prob.dt, prob.y, prob.train, max_nfev=20).theta
     best: FitResult | None = None
-    for blur in BLURS:
-        theta = np.concatenate([base.theta, [q, off, blur]])
-        std = np.concatenate([base.std, [q_std, 0.0, 0.0]])
-        result = evaluate(spec, theta, prob.dt, prob.y, prob.train, std)
-        if best is None or result.sse_train < best.sse_train:
-            best = result
+    for lin in (theta[:n], base.theta):
+        for blur in BLURS:
+            std = np.concatenate([base.std, [q_std, 0.0, 0.0]])
+            result = evaluate(spec, np.concatenate([lin, [q, off, blur]]), prob.dt, prob.y, prob.train, std)
+            if best is None or result.sse_train < best.sse_train:
+                best = result
     assert best is not None
     return best
 
@@ -256,9 +271,11 @@ def _effect_start(effect: str, prob: _Problem, base: FitResult, ev: EvidenceResu
     f_lo, f_hi = float(np.min(wn_modes)) / (2 * np.pi), float(np.max(wn_modes)) / (2 * np.pi)
     above = w3 / (2 * np.pi) > f_hi
     band = (1.25 * f_hi, 0.98 * nyq_hz) if above else (0.05, 0.8 * f_lo)
-    start = np.concatenate([[float(np.clip(w3 / (2 * np.pi), *band)), s3], a3, b3])
+    start = np.concatenate([[float(np.clip(w3 / (2 * np.pi), *band)),
+                             min(s3, 0.15 * 2 * np.pi * band[0])], a3, b3])
+    # a resonance, not a transient: damping ratio at most 0.3 (σ ≤ 0.3·2π f at the lowest f)
     lower = np.concatenate([[band[0], 0.0], np.full(2 * c, -np.inf)])
-    upper = np.concatenate([[band[1], np.inf], np.full(2 * c, np.inf)])
+    upper = np.concatenate([[band[1], 0.3 * 2 * np.pi * band[0]], np.full(2 * c, np.inf)])
     typical = np.concatenate([[w3 / (2 * np.pi), 0.1 * w3], np.full(2 * c, 0.01 * amp)])
     return start, lower, upper, typical
 
