@@ -98,14 +98,13 @@ class ModelSpec:
         return x
 
     def _terms(self, extra: FloatArray) -> NonlinearTerms:
-        p, c = extra.shape[0], self.carts
+        c = self.carts
         if self.effect == "coulomb_friction":
             return NonlinearTerms(friction_m_s2=np.abs(extra[:, :c]))
         if self.effect == "quadratic_drag":
             return NonlinearTerms(drag_per_m=np.repeat(extra[:, :1], c, axis=1))
         if self.effect == "cubic_stiffness":
             return NonlinearTerms(cubic_per_m2_s2=np.repeat(extra[:, :1], c, axis=1))
-        del p
         return NonlinearTerms()
 
 
