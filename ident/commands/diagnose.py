@@ -73,7 +73,7 @@ def summary(report: Any) -> str:
              + (f"; second frequency {ev.second_frequency_hz:.2f} Hz" if ev.second_frequency_hz else ""),
              "candidates (held-out fit %, gain, likelihood ratio train/validation vs bound):"]
     for c in report.candidates:
-        params = ", ".join(f"{k}={v:.4g}" for k, v in c.parameters.items())
+        params = ", ".join(f"{k}={v:.4g}" for k, v in c.parameters.items()) or c.note
         lines.append(f"  {'*' if c.effect == report.cause else ' '} {c.effect:17s} {c.fit_percent:8.3f} %"
                      f" {c.gain_points:+8.3f}  LR {c.lr_train:9.1f}/{c.lr_validation:9.1f}"
                      f" vs {c.threshold_train:.1f}/{c.threshold_validation:.1f}  {params}")
