@@ -10,7 +10,9 @@ acts from there on):
     candidates t_w = onset + j·T/24, j = 0..16 (T the oscillation period);
     a one-mode-per-cart fit on [t_w + T/4, t_w + 2.5 T] (rms_fit), extrapolated back over
     [t_w, t_w + T/4] (rms_head);
-    t_w = first j with rms_head ≤ 2 rms_fit + 2 σ_hold (else the smallest ratio).
+    t_w = first j with rms_head ≤ 2 rms_fit + 2 σ_hold and rms_head ≤ 3 min_j rms_head + 2 σ_hold
+    (else the smallest ratio): the second bound keeps a poor linear fit (strong friction)
+    from excusing the hand's push.
 
 The reported release time is the last zero of the fitted velocity before `t_w` (within half
 a period) when the fitted position there is the held level (a clean release from rest);
@@ -61,7 +63,9 @@ def hold_level(y: FloatArray) -> tuple[FloatArray, float, int]:
     first = int(moved[0]) if moved.size else 1
     quiet = y[:max(first - 1, 3)]
     hold = np.median(quiet, axis=0)
-    mad = float(np.median(np.abs(quiet[:, main] - hold[main]))) * 1.4826
+    # noise from sample-to-sample differences: a slow drift of the hand does not count
+    diffs = np.diff(quiet[:, main])
+    mad = float(np.median(np.abs(diffs - np.median(diffs)))) * 1.4826 / np.sqrt(2.0) if diffs.size else 0.0
     noise = mad if quiet.shape[0] >= 8 else 0.0
     dev = np.abs(y[:, main] - hold[main])
     threshold = max(8.0 * noise, 0.03 * float(np.max(dev)))
@@ -84,6 +88,7 @@ def find_window(t: FloatArray, y: FloatArray, carts: int) -> Window:
     step = max(1, int(round(period / 24 / dt)))
     dec = max(1, int(np.ceil(span / 150)))
     scores: list[float] = []
+    heads: list[float] = []
     fits = []
     for j in range(SCAN_STEPS):
         a = onset + j * step
@@ -95,8 +100,10 @@ def find_window(t: FloatArray, y: FloatArray, carts: int) -> Window:
         head_err = y[a:a + head] - modal_prediction(fit, t[a:a + head] - t[a])
         rms_head = float(np.sqrt(np.mean(head_err ** 2)))
         fits.append((a, fit))
+        heads.append(rms_head)
         scores.append(rms_head / (2.0 * rms_fit + 2.0 * noise + 1e-15))
-    ok = [j for j, score in enumerate(scores) if score <= 1.0]
+    floor = 3.0 * min(heads) + 2.0 * noise
+    ok = [j for j, score in enumerate(scores) if score <= 1.0 and heads[j] <= floor]
     start, fit = fits[ok[0] if ok else int(np.argmin(scores))]
     main = int(np.argmax(np.ptp(y, axis=0)))
     tolerance = max(8.0 * noise, 0.05 * float(np.ptp(y[:, main])))
