@@ -44,26 +44,29 @@ def _check_grid(t: FloatArray, substeps: int) -> None:
 
 def rk4(f: Derivative, x0: FloatArray, t: FloatArray, substeps: int = 1) -> FloatArray:
     """Classical Runge–Kutta 4 from x(t[0]) = x0; returns x at every t, shape (N, n)."""
-    t = np.asarray(t, dtype=np.float64)
-    _check_grid(t, substeps)
-    x = np.asarray(x0, dtype=np.float64).copy()
-    out = np.empty((t.size, x.size))
-    out[0] = x
-    for k in range(t.size - 1):
-        h = (t[k + 1] - t[k]) / substeps
-        for j in range(substeps):
-            tk = t[k] + j * h
-            k1 = f(tk, x)
-            k2 = f(tk + h / 2, x + h / 2 * k1)
-            k3 = f(tk + h / 2, x + h / 2 * k2)
-            k4 = f(tk + h, x + h * k3)
-            x = x + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
-        out[k + 1] = x
-    return out
+
+    def step(tk: float, x: FloatArray, h: float) -> FloatArray:
+        k1 = f(tk, x)
+        k2 = f(tk + h / 2, x + h / 2 * k1)
+        k3 = f(tk + h / 2, x + h / 2 * k2)
+        k4 = f(tk + h, x + h * k3)
+        return x + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+
+    return _march(step, x0, t, substeps)
 
 
 def euler(f: Derivative, x0: FloatArray, t: FloatArray, substeps: int = 1) -> FloatArray:
     """Explicit (forward) Euler from x(t[0]) = x0; returns x at every t, shape (N, n)."""
+
+    def step(tk: float, x: FloatArray, h: float) -> FloatArray:
+        return x + h * f(tk, x)
+
+    return _march(step, x0, t, substeps)
+
+
+def _march(step: Callable[[float, FloatArray, float], FloatArray], x0: FloatArray, t: FloatArray,
+           substeps: int) -> FloatArray:
+    """Apply `step(t_k, x, h)` `substeps` times per interval of the grid `t`; x at every t, (N, n)."""
     t = np.asarray(t, dtype=np.float64)
     _check_grid(t, substeps)
     x = np.asarray(x0, dtype=np.float64).copy()
@@ -72,7 +75,7 @@ def euler(f: Derivative, x0: FloatArray, t: FloatArray, substeps: int = 1) -> Fl
     for k in range(t.size - 1):
         h = (t[k + 1] - t[k]) / substeps
         for j in range(substeps):
-            x = x + h * f(t[k] + j * h, x)
+            x = step(t[k] + j * h, x, h)
         out[k + 1] = x
     return out
 

@@ -58,7 +58,8 @@ class _LineDecoder:
             if len(line) > self.max_line:
                 self.counters.overlong += 1
                 continue
-            frame = self._decode_line(line)
+            text = self._clean(line)
+            frame = self._decode_line(text) if text is not None else None
             if frame is not None:
                 self.counters.frames += 1
                 out.append(frame)
@@ -70,7 +71,16 @@ class _LineDecoder:
         return out
 
     def _decode_line(self, line: bytes) -> DataFrame | None:
+        """Decode one cleaned line (no `\\r`, not blank, printable ASCII)."""
         raise NotImplementedError
+
+    def _clean(self, line: bytes) -> bytes | None:
+        """Strip a trailing `\\r`; None for a blank line or one with an unprintable byte (counted)."""
+        if line.endswith(b"\r"):
+            line = line[:-1]
+        if not line.strip() or self._reject_unprintable(line):
+            return None
+        return line
 
     def _bump(self, name: str) -> None:
         self.counters.extra[name] = self.counters.extra.get(name, 0) + 1
@@ -93,12 +103,6 @@ class CsvDecoder(_LineDecoder):
     """`time_s,pos1[,pos2]` lines (see the module docstring)."""
 
     def _decode_line(self, line: bytes) -> DataFrame | None:
-        if line.endswith(b"\r"):
-            line = line[:-1]
-        if not line.strip():
-            return None
-        if self._reject_unprintable(line):
-            return None
         if line.lstrip().startswith(b"#"):
             self._bump("comment")
             return None
@@ -121,12 +125,6 @@ class EcpDecoder(_LineDecoder):
     """`cart1pos:cart2pos:target:duty:time_ms` lines (see the module docstring)."""
 
     def _decode_line(self, line: bytes) -> DataFrame | None:
-        if line.endswith(b"\r"):
-            line = line[:-1]
-        if not line.strip():
-            return None
-        if self._reject_unprintable(line):
-            return None
         fields = line.split(b":")
         try:
             values = [_finite(f) for f in fields]
