@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from hidden_effects import EFFECTS, HiddenCase, make_case, write_csv
+from mcap_runs import write_mcap_run
 
 from ident.cli import main
 from ident.diagnose import diagnose
@@ -137,32 +138,8 @@ def test_hidden_effects_are_found_when_the_hand_lets_go_while_the_cart_moves(tmp
 
 
 def _write_run_mcap(case: HiddenCase, path: Path) -> None:
-    """The run as a `daq` MCAP file (samples in batches, run metadata), one cart."""
-    import io
-
-    from mcap.writer import Writer
-
-    from schemas import topics
-    from schemas.daq import RunMetadata, SampleBatch
-
-    t_ns = [int(round(v * 1e9)) for v in case.t]
-    pos = [float(v) for v in case.y[:, 0]]
-    stream = io.BytesIO()
-    writer = Writer(stream, chunk_size=4096)
-    writer.start(profile=topics.MCAP_PROFILE, library="test")
-    schema = writer.register_schema(SampleBatch.schema_name(), "jsonschema", SampleBatch.json_schema_bytes())
-    channel = writer.register_channel(topics.SAMPLES, "json", schema)
-    for seq, start in enumerate(range(0, len(t_ns), 50)):
-        batch = SampleBatch(bench="b", run_id="r1", batch_seq=seq, t_ns=t_ns[start:start + 50],
-                            pos1_m=pos[start:start + 50], raw1=pos[start:start + 50], raw_unit="m")
-        writer.add_message(channel, t_ns[start], batch.to_json_bytes(), t_ns[start])
-    meta = RunMetadata(bench="b", run_id="r1", dialect="csv", port="sim://", counts_per_m=1.0, signs=[1],
-                       zero_offsets_raw=[0.0], n_channels=1, detector_settings={}, detector_method="x",
-                       release_time_s=None, release_t_ns=None, first_t_ns=t_ns[0], pre_trigger_s=1.0,
-                       pulled_cart=1, software_version="0", started_utc="2026-01-01T00:00:00Z")
-    writer.add_metadata(topics.METADATA_RUN, {topics.METADATA_JSON_KEY: meta.to_json_bytes().decode()})
-    writer.finish()
-    path.write_bytes(stream.getvalue())
+    """The run as a `daq` MCAP file (samples in batches, run metadata), one cart, no release time."""
+    write_mcap_run(path, [int(round(v * 1e9)) for v in case.t], [float(v) for v in case.y[:, 0]], None)
 
 
 def test_a_daq_run_file_is_diagnosed_with_its_own_columns(tmp_path: Path,

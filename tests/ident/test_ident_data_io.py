@@ -2,12 +2,12 @@
 
 from __future__ import annotations
 
-import io
 from pathlib import Path
 
 import numpy as np
 import pytest
 from ident_synth import cart1_run, cart2_run
+from mcap_runs import write_mcap_run
 
 from ident.data import IdData, check_arrays, make_uniform, step_input
 from ident.errors import DataFileError, IdentDimensionError, IdentValueError
@@ -125,28 +125,6 @@ def test_unreadable_files_are_data_file_errors(tmp_path: Path) -> None:
         load(empty)
 
 
-def _write_mcap(path: Path, t_ns: list[int], pos1: list[float], release_s: float | None) -> None:
-    from mcap.writer import Writer
-
-    from schemas import topics
-    from schemas.daq import RunMetadata, SampleBatch
-
-    stream = io.BytesIO()
-    writer = Writer(stream, chunk_size=4096)
-    writer.start(profile=topics.MCAP_PROFILE, library="test")
-    schema = writer.register_schema(SampleBatch.schema_name(), "jsonschema", SampleBatch.json_schema_bytes())
-    channel = writer.register_channel(topics.SAMPLES, "json", schema)
-    for seq, start in enumerate(range(0, len(t_ns), 50)):
-        batch = SampleBatch(bench="b", run_id="r1", batch_seq=seq, t_ns=t_ns[start:start + 50],
-                            pos1_m=pos1[start:start + 50], raw1=pos1[start:start + 50], raw_unit="m")
-        writer.add_message(channel, t_ns[start], batch.to_json_bytes(), t_ns[start])
-    meta = RunMetadata(bench="b", run_id="r1", dialect="csv", port="sim://", counts_per_m=1.0, signs=[1],
-                       zero_offsets_raw=[0.0], n_channels=1, detector_settings={}, detector_method="x",
-                       release_time_s=release_s, release_t_ns=None, first_t_ns=t_ns[0], pre_trigger_s=1.0,
-                       pulled_cart=1, software_version="0", started_utc="2026-01-01T00:00:00Z")
-    writer.add_metadata(topics.METADATA_RUN, {topics.METADATA_JSON_KEY: meta.to_json_bytes().decode()})
-    writer.finish()
-    path.write_bytes(stream.getvalue())
 
 
 def test_mcap_run_gives_release_time_and_pulled_cart_from_metadata(tmp_path: Path) -> None:
@@ -154,7 +132,7 @@ def test_mcap_run_gives_release_time_and_pulled_cart_from_metadata(tmp_path: Pat
     first = 5_000_000_000
     t_ns = [first + int(round(x * 1e9)) for x in run.t]
     path = tmp_path / "r1.mcap"
-    _write_mcap(path, t_ns, [float(v) for v in run.y[:, 0]], run.release_time_s)
+    write_mcap_run(path, t_ns, [float(v) for v in run.y[:, 0]], run.release_time_s)
     data = load(path)
     assert data.release_time_s == run.release_time_s and data.pulled_cart == 1
     assert data.t[0] == 0.0 and data.t[-1] == pytest.approx(run.t[-1])
@@ -189,7 +167,7 @@ def test_a_damaged_run_file_loads_up_to_the_damage_and_says_so(tmp_path: Path) -
     run = cart1_run(200.0)
     t_ns = [int(round(x * 1e9)) for x in run.t]
     path = tmp_path / "r1.mcap"
-    _write_mcap(path, t_ns, [float(v) for v in run.y[:, 0]], run.release_time_s)
+    write_mcap_run(path, t_ns, [float(v) for v in run.y[:, 0]], run.release_time_s)
     blob = bytearray(path.read_bytes())
     blob[len(blob) // 2: len(blob) // 2 + 64] = bytes(64)  # zero a stretch inside a chunk
     damaged = tmp_path / "damaged.mcap"
