@@ -13,17 +13,13 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from ident.commands.run_file_options import add_run_file_options
+
 
 def add_parser(subparsers: Any) -> None:
     parser = subparsers.add_parser("diagnose", help="name what the linear model misses and measure the gain",
                                    description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("path", help="a run file: .mcap from daq, or a CSV/TSV export")
-    parser.add_argument("--carts", type=int, choices=(1, 2), default=None,
-                        help="1: one cart, 2: the two-cart chain; default: from the columns")
-    parser.add_argument("--time", dest="time_col", default=None, help="time column name (text exports)")
-    parser.add_argument("--pos", dest="pos_cols", nargs="+", default=None,
-                        help="position column name(s), cart 1 first (text exports)")
-    parser.add_argument("--scale", type=float, default=None, help="metres per unit of the position columns")
+    add_run_file_options(parser, "1: one cart, 2: the two-cart chain; default: from the columns")
     parser.add_argument("--step", dest="step_m", type=float, default=None,
                         help="step size (m); default: estimated with the other parameters")
     parser.add_argument("--json", action="store_true", help="print one JSON object")

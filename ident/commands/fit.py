@@ -14,24 +14,20 @@ from typing import Any
 
 import numpy as np
 
+from ident.commands.run_file_options import add_run_file_options
+
 METHODS = ("pem", "rk4", "euler", "all")
 
 
 def add_parser(subparsers: Any) -> None:
     parser = subparsers.add_parser("fit", help="fit a run file: PEM and/or the physical model",
                                    description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("path", help="a run file: .mcap from daq, or a CSV/TSV export")
-    parser.add_argument("--carts", type=int, choices=(1, 2), default=None,
-                        help="1: one cart (order 2), 2: both carts (order 4); default: the moving columns")
+    add_run_file_options(parser, "1: one cart (order 2), 2: both carts (order 4); default: the moving columns")
     parser.add_argument("--method", choices=METHODS, default="all")
-    parser.add_argument("--time", dest="time_col", default=None, help="time column name (text exports)")
-    parser.add_argument("--pos", dest="pos_cols", nargs="+", default=None,
-                        help="position column name(s), cart 1 first (text exports)")
     parser.add_argument("--input", dest="input_col", default=None,
                         help="input column (e.g. 'Control Effort' for a motor input); default: the release step")
     parser.add_argument("--rate", dest="rate_hz", type=float, default=None,
                         help="sample rate (Hz) of an export without a time column")
-    parser.add_argument("--scale", type=float, default=None, help="metres per unit of the position columns")
     parser.add_argument("--release", type=float, default=None, help="release time (s) if known")
     parser.add_argument("--step-m", type=float, default=0.15, help="pull distance (m), default 0.15")
     parser.add_argument("--order", type=int, default=None, help="PEM order (default: 2 per cart)")
