@@ -83,4 +83,13 @@ def run(args: argparse.Namespace) -> int:
     except IdentError as exc:
         print(f"ident worker: {exc}", file=sys.stderr)
         return 2
+    except SystemExit:
+        pass   # raised by `_stop`; the session was closed on the way out
+    if stop.is_set():
+        # A diagnosis may still run on the finisher's daemon thread. Interpreter shutdown would
+        # race it for the stdio locks and abort (SIGABRT, seen in CI); end the process here.
+        logging.shutdown()
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(0)
     return 0
