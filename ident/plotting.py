@@ -1,4 +1,4 @@
-"""The lab's figure style, set in one place (DESIGN.md "Figures").
+"""The lab's figure style, set in one place (the lab's figure rules, docs/report.md).
 
 - font family and size set once (`apply_style`), matching the report;
 - line width at least 2 (`LINE_WIDTH`);

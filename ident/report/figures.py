@@ -1,6 +1,6 @@
 """Figures of one run's analysis: measured vs estimated outputs, by the lab's plotting rules.
 
-Rules (DESIGN.md "Figures"), through `ident.plotting` (the lab's style, shared with
+Rules (docs/report.md), through `ident.plotting` (the lab's style, shared with
 `ident diagnose`): font family and size set once (the HTML report uses the same), line
 width ≥ 2, x and y labels with units on every axis, no title (the report's caption
 describes each figure: caption or title, never both), measured and estimated traces in
