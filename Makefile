@@ -5,12 +5,14 @@ VENV ?= .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
 
-.PHONY: demo test venv browser clean
+.PHONY: demo test venv browser node constraints clean
 
-$(STAMP): pyproject.toml
+# constraints.txt pins every package (the tested set); pyproject.toml only declares ranges.
+$(STAMP): pyproject.toml constraints.txt
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
-	$(PY) -m pip install --quiet -e '.[test]'
+	$(PY) -m pip install --quiet -c constraints.txt -e '.[test]'
+	$(PY) -m pip check
 	touch $(STAMP)
 
 venv: $(STAMP)
@@ -29,6 +31,11 @@ browser:
 		apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium chromium-driver >/dev/null \
 		|| echo "could not install chromium: browser tests will skip"; \
 	else echo "no root/apt-get: install chromium and chromium-driver yourself, or browser tests will skip"; fi
+
+# Re-pin constraints.txt from the current .venv (after changing a range in pyproject.toml).
+constraints: $(STAMP)
+	{ sed -n '1,2p' constraints.txt; $(PY) -m pip freeze --exclude-editable | grep -v '^cartlab'; } > constraints.txt.new
+	mv constraints.txt.new constraints.txt
 
 clean:
 	rm -rf $(VENV) demo-report .pytest_cache .mypy_cache
