@@ -32,6 +32,14 @@ browser:
 		|| echo "could not install chromium: browser tests will skip"; \
 	else echo "no root/apt-get: install chromium and chromium-driver yourself, or browser tests will skip"; fi
 
+# The independent MCAP reader for tests/daq/test_run_file_viewer.py (TypeScript @mcap/core and
+# fzstd, versions locked by tests/node/package-lock.json). Best effort: without node/npm those
+# tests skip and say why.
+node:
+	@if command -v npm >/dev/null; then npm ci --prefix tests/node --no-audit --no-fund --loglevel=error \
+		|| echo "npm ci failed: the independent-reader tests will skip"; \
+	else echo "no npm: install nodejs and npm, or the independent-reader tests will skip"; fi
+
 # Re-pin constraints.txt from the current .venv (after changing a range in pyproject.toml).
 constraints: $(STAMP)
 	{ sed -n '1,2p' constraints.txt; $(PY) -m pip freeze --exclude-editable | grep -v '^cartlab'; } > constraints.txt.new

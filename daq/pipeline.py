@@ -23,7 +23,7 @@ import math
 from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from datetime import datetime
+from datetime import UTC, datetime
 from typing import Protocol
 
 import daq
@@ -150,6 +150,9 @@ class Acquisition:
         self._batch_start_ns = 0
         self._disconnected_at: int | None = None
         self.state: DetectorState = "idle"
+        # UTC ns minus device ns, fixed at the stream's first sample (host clock then): file
+        # log times are t_ns + utc_offset_ns, so viewers put runs on the real time axis
+        self.utc_offset_ns: int | None = None
 
     # --- link events ------------------------------------------------------------------------------
     def data(self, chunk: bytes) -> None:
@@ -220,6 +223,8 @@ class Acquisition:
         if len(raw) != self.n_channels:
             raw = (tuple(raw) + (0.0, 0.0))[: self.n_channels]
         t_ns = step.t_ns
+        if self.utc_offset_ns is None:
+            self.utc_offset_ns = _utc_ns(self._wall_clock()) - t_ns
         if step.lost or self._disconnected_at is not None or step.anomaly:
             self._gap(t_ns, step.lost, step.anomaly)
         self.last_t_ns, self.last_raw = t_ns, raw
@@ -321,7 +326,7 @@ class Acquisition:
             release_time_s=(release_ns - first_t) / 1e9, release_t_ns=release_ns, first_t_ns=first_t,
             pre_trigger_s=self.config.detector.pre_trigger_s, pulled_cart=event.channel + 1,
             lab_case=self.config.lab_case, counters=self.counters(), software_version=daq.__version__,
-            started_utc=now.isoformat(timespec="milliseconds"))
+            started_utc=now.isoformat(timespec="milliseconds"), utc_offset_ns=self.utc_offset_ns)
         gains, offsets_m = cal.linear_terms()
         self.run = _Run(meta, cal, self.counters(), gains=gains, offsets_m=offsets_m)
         self.outputs.run_started(meta)
@@ -372,6 +377,14 @@ class Acquisition:
                 run.low_m[c] = min(run.low_m[c], min(pos))
                 run.high_m[c] = max(run.high_m[c], max(pos))
         self.outputs.run_samples(batch)
+
+
+def _utc_ns(moment: datetime) -> int:
+    """Integer UTC nanoseconds of an aware datetime (exact: no float seconds in between)."""
+    if moment.tzinfo is None:   # a naive wall clock is taken as UTC
+        moment = moment.replace(tzinfo=UTC)
+    delta = moment - datetime(1970, 1, 1, tzinfo=UTC)
+    return (delta.days * 86_400 + delta.seconds) * 1_000_000_000 + delta.microseconds * 1000
 
 
 def _lab_case(run: _Run) -> str | None:

@@ -3,8 +3,15 @@
 Crash bound: a killed writer loses the open chunk and the Python file buffer. `RunWriter`
 closes the chunk (`Writer.flush()`) and flushes the file at least every `flush_interval_s`
 (the caller passes the time in, from its own clock), so at most that much is lost. The header,
-schemas, channels and the first `RunMetadata` are flushed at open, so even an early kill
-leaves a file that recovery understands.
+schemas, channels and the `RunMetadata` known at the start (`cartlab.run_started`) are
+flushed at open, so even an early kill leaves a file that recovery understands; `finish`
+adds the final `cartlab.run` and `cartlab.run_finished`: one metadata record per name.
+
+Time: message log/publish times are UTC ns, `t_ns + utc_offset_ns` (the offset fixed at the
+stream's start, in the metadata), so viewers place runs on the real time axis; the device
+clock stays in every message. Each sample is also written as its own `PositionSample` on
+`/position`, because a viewer's time-series plot (Foxglove's Plot panel) draws one point per
+message: a batch message would show as one point per 20 ms.
 
 Recovery reads a `.part` with the streaming reader (every complete chunk), rewrites the
 records into a finished `<run_id>.mcap`, adds the final metadata with status `recovered`,
@@ -27,7 +34,7 @@ import daq
 from daq.errors import DaqIOError
 from daq.run_file import RawRun, parse_metadata, read_raw
 from schemas import Record, topics
-from schemas.daq import DaqCounters, DetectorStateMsg, RunFinished, RunMetadata, SampleBatch
+from schemas.daq import DaqCounters, DetectorStateMsg, PositionSample, RunFinished, RunMetadata, SampleBatch
 
 CHUNK_SIZE = 32 * 1024
 LIBRARY = f"cartlab-daq/{daq.__version__}"
@@ -53,6 +60,25 @@ def _metadata_map(record: Record) -> dict[str, str]:
     return flat
 
 
+def utc_offset_ns(metadata: RunMetadata) -> int:
+    """UTC ns minus device ns for this run: the stream's offset, else (older callers) the one
+    implied by `started_utc` at the release (good to the detector's confirmation delay)."""
+    if metadata.utc_offset_ns is not None:
+        return metadata.utc_offset_ns
+    started = datetime.fromisoformat(metadata.started_utc)
+    started = started if started.tzinfo else started.replace(tzinfo=UTC)
+    started_ns = round(started.timestamp() * 1e6) * 1000
+    return started_ns - (metadata.release_t_ns if metadata.release_t_ns is not None else metadata.first_t_ns)
+
+
+def position_json(t_ns: int, pos1_m: float, pos2_m: float | None) -> bytes:
+    """A `PositionSample` as JSON, built directly: one per sample, so pydantic's per-object cost
+    would dominate the recorder (tests validate these bytes against the model)."""
+    second = "null" if pos2_m is None else repr(float(pos2_m))
+    return (f'{{"schema_version":{PositionSample.SCHEMA_VERSION},"t_ns":{int(t_ns)},'
+            f'"pos1_m":{float(pos1_m)!r},"pos2_m":{second}}}').encode()
+
+
 class RunWriter:
     """One open run file. Not thread-safe: owned by the service loop."""
 
@@ -73,9 +99,12 @@ class RunWriter:
         self._writer = Writer(self._file, chunk_size=CHUNK_SIZE, compression=CompressionType.ZSTD)
         self._writer.start(profile=topics.MCAP_PROFILE, library=LIBRARY)
         self._samples_channel = self._channel(topics.SAMPLES, SampleBatch)
+        self._position_channel = self._channel(topics.POSITION, PositionSample)
         self._state_channel = self._channel(topics.STATE, DetectorStateMsg)
-        self._writer.add_metadata(topics.METADATA_RUN, _metadata_map(metadata))
+        self._writer.add_metadata(topics.METADATA_RUN_STARTED, _metadata_map(metadata))
+        self.utc_offset_ns = utc_offset_ns(metadata)
         self._batch_seq = 0
+        self._position_seq = 0
         self._last_flush_s = now_s
         self.flush(now_s)
 
@@ -85,14 +114,25 @@ class RunWriter:
         return self._writer.register_channel(topic=topic, message_encoding=MessageEncoding.JSON,
                                              schema_id=schema_id)
 
+    def _utc(self, t_ns: int) -> int:
+        return max(0, t_ns + self.utc_offset_ns)
+
     def write_samples(self, batch: SampleBatch, now_s: float) -> None:
-        """Append a batch (log time = its first sample's device time)."""
+        """Append a batch (log time = its first sample's UTC time) and each of its samples on
+        `/position` (log time = the sample's UTC time)."""
         if not batch.t_ns:
             return
-        stamp = max(0, batch.t_ns[0])
+        stamp = self._utc(batch.t_ns[0])
         self._writer.add_message(channel_id=self._samples_channel, log_time=stamp, publish_time=stamp,
                                  sequence=self._batch_seq, data=batch.to_json_bytes())
         self._batch_seq += 1
+        second = batch.pos2_m if batch.pos2_m is not None else [None] * len(batch.t_ns)
+        add, channel, seq = self._writer.add_message, self._position_channel, self._position_seq
+        for t, p1, p2 in zip(batch.t_ns, batch.pos1_m, second, strict=True):
+            utc = self._utc(t)
+            add(channel_id=channel, log_time=utc, publish_time=utc, sequence=seq, data=position_json(t, p1, p2))
+            seq += 1
+        self._position_seq = seq
         self.n_samples += len(batch.t_ns)
         if self.first_t_ns is None:
             self.first_t_ns = batch.t_ns[0]
@@ -100,7 +140,7 @@ class RunWriter:
         self.maybe_flush(now_s)
 
     def write_state(self, msg: DetectorStateMsg, now_s: float) -> None:
-        stamp = max(0, msg.t_ns)
+        stamp = self._utc(msg.t_ns)
         self._writer.add_message(channel_id=self._state_channel, log_time=stamp, publish_time=stamp,
                                  sequence=0, data=msg.to_json_bytes())
         self.maybe_flush(now_s)

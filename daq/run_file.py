@@ -113,7 +113,8 @@ def last_metadata(raw: RawRun, name: str) -> dict[str, str] | None:
 
 
 def parse_metadata(raw: RawRun) -> tuple[RunMetadata | None, RunFinished | None]:
-    meta_map = last_metadata(raw, topics.METADATA_RUN)
+    # the final record, else (a crashed .part) the one written when the run opened
+    meta_map = last_metadata(raw, topics.METADATA_RUN) or last_metadata(raw, topics.METADATA_RUN_STARTED)
     done_map = last_metadata(raw, topics.METADATA_FINISHED)
     meta = RunMetadata.from_json_bytes(meta_map[topics.METADATA_JSON_KEY]) if meta_map else None
     done = RunFinished.from_json_bytes(done_map[topics.METADATA_JSON_KEY]) if done_map else None

@@ -206,7 +206,8 @@ def load_mcap(path: str | Path, step_m: float = DEFAULT_STEP_M,
     """Load a `daq` run file: samples, release time and pulled cart from its metadata.
 
     Read sequentially (`StreamReader`), so a truncated file (a killed writer) yields every
-    complete chunk; the last `cartlab.run` metadata record wins.
+    complete chunk; the `cartlab.run` metadata record wins over `cartlab.run_started` (all a
+    crashed `.part` has).
     """
     from mcap.records import Channel, Message, Metadata
     from mcap.stream_reader import StreamReader
@@ -230,6 +231,9 @@ def load_mcap(path: str | Path, step_m: float = DEFAULT_STEP_M,
                     elif isinstance(record, Message) and record.channel_id in sample_channels:
                         batches.append(SampleBatch.from_json_bytes(record.data))
                     elif isinstance(record, Metadata) and record.name == topics.METADATA_RUN:
+                        metadata = RunMetadata.from_json_bytes(record.metadata[topics.METADATA_JSON_KEY])
+                    elif (isinstance(record, Metadata) and record.name == topics.METADATA_RUN_STARTED
+                          and metadata is None):
                         metadata = RunMetadata.from_json_bytes(record.metadata[topics.METADATA_JSON_KEY])
             except _damage_errors() as exc:  # truncated or damaged: keep every complete record before it
                 damage = f"{type(exc).__name__}: {exc}"[:120]

@@ -55,6 +55,18 @@ class SampleBatch(Record):
         return self
 
 
+class PositionSample(Record):
+    """One sample, as its own MCAP message on `/position` (viewers plot one point per message).
+
+    `t_ns` is the device clock (unwrapped) like `SampleBatch.t_ns`; the message's log time is
+    the same instant in UTC. `pos2_m` is None for one-channel streams.
+    """
+
+    t_ns: int
+    pos1_m: float
+    pos2_m: float | None = None
+
+
 class DetectorStateMsg(Record):
     """A change of the release detector's state, stamped with the device time of the sample."""
 
@@ -94,12 +106,14 @@ class DaqCounters(Record):
 class RunMetadata(Record):
     """Everything needed to interpret a run file, written as an MCAP metadata record.
 
-    Written when the run file is opened (counters so far, `ended_utc` None) and again when
-    it is finished; readers take the last one. `release_time_s` is on the exported time base
+    Written when the run file is opened (`cartlab.run_started`: counters so far, `ended_utc`
+    None) and when it is finished (`cartlab.run`); readers prefer the latter. `release_time_s` is on the exported time base
     (seconds from the run's first sample, `first_t_ns`); `release_t_ns` is the same instant
     on the device clock. `zero_offsets_raw` are the raw values subtracted by zeroing and
     `signs` the per-channel sign applied after: `pos_m = sign * (raw - offset) / counts_per_m`
-    (csv: `counts_per_m` is 1 and raw is already metres).
+    (csv: `counts_per_m` is 1 and raw is already metres). `utc_offset_ns` ties the device
+    clock to UTC, `utc_ns = t_ns + utc_offset_ns`, fixed at the start of the stream from the
+    host clock (None in files written before it existed).
     """
 
     bench: BenchName
@@ -125,6 +139,7 @@ class RunMetadata(Record):
     software_version: str
     started_utc: str
     ended_utc: str | None = None
+    utc_offset_ns: int | None = None
 
 
 class RunFinished(Record):
@@ -188,6 +203,7 @@ __all__ = [
     "DetectorState",
     "DetectorStateMsg",
     "GapInterval",
+    "PositionSample",
     "RunFinished",
     "RunList",
     "RunMetadata",

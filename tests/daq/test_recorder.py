@@ -68,10 +68,11 @@ def test_round_trip_keeps_every_sample_and_the_metadata(tmp_path: Path) -> None:
     with open(path, "rb") as stream:  # a finished file has a summary readable by the seeking reader
         summary = make_reader(stream).get_summary()
     assert summary is not None and summary.statistics is not None
-    assert summary.statistics.message_count == 31
+    assert summary.statistics.message_count == 31 + 600   # batches, state, one /position per sample
     schemas = {s.name: s.encoding for s in summary.schemas.values()}
-    assert schemas == {"cartlab.SampleBatch": "jsonschema", "cartlab.DetectorStateMsg": "jsonschema"}
-    assert {c.topic for c in summary.channels.values()} == {topics.SAMPLES, topics.STATE}
+    assert schemas == {"cartlab.SampleBatch": "jsonschema", "cartlab.DetectorStateMsg": "jsonschema",
+                       "cartlab.PositionSample": "jsonschema"}
+    assert {c.topic for c in summary.channels.values()} == {topics.SAMPLES, topics.STATE, topics.POSITION}
     assert finished_of(path) == done
 
 
