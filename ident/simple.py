@@ -4,7 +4,7 @@ Model, in the zeroed frame, released from rest at t_r with pull U (m):
 
     x'' + 2ζ wn x' + wn² (x - g U H(t - t_r)) [+ f sign(x')] = 0,   y = o + x + e,
 
-simulated on the sample grid by RK4 or explicit Euler (`ident.simulate`), parameters
+simulated on the sample grid by RK4 or explicit Euler (`ident.physics.steppers`), parameters
 p = (wn, ζ, g, t_r, o[, f]) fitted by minimising the output error Σ (y - ŷ(p))² with
 `scipy.optimize.least_squares` (finite-difference Jacobian on scaled parameters). Start
 values come from the data: t_r from the onset of the motion, g from the final level, the
@@ -28,7 +28,7 @@ from ident.compare import fit_percent
 from ident.data import IdData
 from ident.errors import FitFailed, IdentValueError
 from ident.release import check_motion, estimate_release_time, noise_std, rest_window
-from ident.simulate import Method, euler_coulomb, linear_step_response
+from ident.physics.steppers import Method, euler_coulomb, linear_step_response
 
 FloatArray = NDArray[np.float64]
 PARAMETER_NAMES = ("wn", "zeta", "gain", "release_time_s", "offset", "friction")

@@ -27,7 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from daq.sim.physics import PositionPath
+from ident.physics.rig import PositionPath
 
 
 @dataclass(frozen=True, slots=True)

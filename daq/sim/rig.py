@@ -31,7 +31,7 @@ from daq.decode.cartlab import encode_data, encode_info, parse_host_command
 from daq.decode.text import encode_csv, encode_csv_header, encode_ecp
 from daq.sim.hand import CaseTiming, Hand, ScriptEvent
 from daq.sim.options import SimOptionError, SimOptions
-from daq.sim.physics import ChainParams, ChainState, advance
+from ident.physics.rig import ChainParams, ChainState, advance
 
 _U32 = 1 << 32
 _CORRUPTIONS = ("bitflip", "truncate", "nul", "non_ascii", "overlong")

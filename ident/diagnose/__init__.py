@@ -2,7 +2,7 @@
 the extended model and the measured gain (issue 4). Pure numerics: arrays in, results out.
 
 Modules: `window` (release, hand's influence), `modal` (variable projection, spectra),
-`chain` (linear free response), `freesim` (nonlinear fixed-step simulation), `models`
+`models`
 (baseline and extensions), `starts` (start values, bounds), `fitting` (output-error fits),
 `lattice` (quantization), `evidence` (residual analysis), `select` (tests against noise),
 `explain` (words), `run` (`diagnose`).

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from ident.diagnose.chain import modes
+from ident.physics.chain import modes
 from schemas.diagnosis import DiagnosisReport
 
 FloatArray = NDArray[np.float64]

@@ -29,8 +29,8 @@ import numpy as np
 import scipy.special
 from numpy.typing import NDArray
 
-from ident.diagnose.chain import LINEAR_NAMES
-from ident.diagnose.freesim import NonlinearTerms, simulate_free
+from ident.physics.chain import LINEAR_NAMES
+from ident.physics.free import NonlinearTerms, simulate_free
 
 FloatArray = NDArray[np.float64]
 
@@ -88,7 +88,7 @@ class ModelSpec:
         rest = theta[:, nl + 2 * c:nl + 3 * c]
         extra = theta[:, nl + 3 * c:]
         z0 = np.concatenate([x0 - rest, v0], axis=1)
-        terms = self._terms(extra)
+        terms = self._terms(extra, lin)
         z = simulate_free(lin, z0, dt, n_samples, c, terms)
         x = z + rest[:, None, :]
         if self.effect == "coupled_mode":
@@ -97,14 +97,16 @@ class ModelSpec:
             x = smoothed_staircase(x, extra[:, 0], extra[:, 1], extra[:, 2])
         return x
 
-    def _terms(self, extra: FloatArray) -> NonlinearTerms:
+    def _terms(self, extra: FloatArray, lin: FloatArray) -> NonlinearTerms:
         c = self.carts
         if self.effect == "coulomb_friction":
             return NonlinearTerms(friction_m_s2=np.abs(extra[:, :c]))
         if self.effect == "quadratic_drag":
             return NonlinearTerms(drag_per_m=np.repeat(extra[:, :1], c, axis=1))
         if self.effect == "cubic_stiffness":
-            return NonlinearTerms(cubic_per_m2_s2=np.repeat(extra[:, :1], c, axis=1))
+            # κ = wn² γ for one cart (per cart deviation); γ relative for the chain
+            kt0 = lin[:, 0] ** 2 if c == 1 else np.ones(lin.shape[0])
+            return NonlinearTerms(cubic_per_m2=extra[:, 0] / kt0)
         return NonlinearTerms()
 
 

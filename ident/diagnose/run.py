@@ -22,7 +22,7 @@ from numpy.typing import NDArray
 
 from ident.diagnose import explain
 from ident.diagnose.candidates import Problem, fit_baseline, fit_candidates
-from ident.diagnose.chain import LINEAR_NAMES, modes
+from ident.physics.chain import LINEAR_NAMES, modes
 from ident.diagnose.evidence import EvidenceResult, collect
 from ident.diagnose.fitting import FitResult
 from ident.diagnose.lattice import find_lattice

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ident.diagnose.chain import linear_free_response
-from ident.diagnose.freesim import NonlinearTerms, simulate_free
+from ident.physics.chain import linear_free_response
+from ident.physics.free import NonlinearTerms, simulate_free
 from ident.diagnose.lattice import find_lattice
 from ident.diagnose.select import fit_percent, thresholds
 from ident.errors import IdentValueError
@@ -25,7 +25,7 @@ def test_linear_free_response_is_the_analytic_one() -> None:
 
 
 def test_zero_nonlinear_terms_reproduce_the_linear_model_through_the_stepping_scheme() -> None:
-    terms = NonlinearTerms(cubic_per_m2_s2=np.array([[1e-30]]))
+    terms = NonlinearTerms(cubic_per_m2=np.array([1e-30]))
     z = simulate_free(np.array([[7.3, 0.05]]), np.array([[-0.15, 0.0]]), 0.01, 500, 1, terms)
     assert np.max(np.abs(z[0, :, 0] - _analytic(7.3, 0.05, -0.15, 0.01 * np.arange(500)))) < 1e-10
 

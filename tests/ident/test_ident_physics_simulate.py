@@ -8,7 +8,7 @@ from scipy import signal
 
 from ident.errors import IdentValueError
 from ident.physics import SingleCart, TwoCartChain
-from ident.simulate import euler, euler_coulomb, linear_step_map, linear_step_response, rk4
+from ident.physics.steppers import euler, euler_coulomb, linear_step_map, linear_step_response, rk4
 
 CHAIN = dict(m1=0.833, m2=1.098, k1=31.2, k2=60.4, k3=76.5, c1=0.150, c2=0.290)
 

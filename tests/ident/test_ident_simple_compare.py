@@ -10,7 +10,7 @@ from ident.compare import compare, fit_percent, resid, residual_test
 from ident.data import IdData, from_release
 from ident.errors import IdentValueError
 from ident.simple import fit_simple
-from ident.simulate import euler_coulomb
+from ident.physics.steppers import euler_coulomb
 
 
 @pytest.mark.parametrize("fs", [50.0, 200.0])
