@@ -60,6 +60,8 @@ class ModeRec(Record):
 
     wn_rad_s: float
     zeta: float
+    wn_std: float | None = Field(default=None, description="standard error of wn_rad_s")
+    zeta_std: float | None = Field(default=None, description="standard error of zeta")
 
 
 class SimpleFitRec(Record):
@@ -73,6 +75,10 @@ class SimpleFitRec(Record):
     gain: float
     fit_percent: float
     coulomb_accel_m_s2: float | None = None
+    wn_std: float | None = None
+    zeta_std: float | None = None
+    release_time_s: float | None = None
+    converged: bool = True
 
 
 class PemFitRec(Record):
@@ -83,6 +89,10 @@ class PemFitRec(Record):
     modes: list[ModeRec]
     fit_percent: list[float]
     outputs: list[int]
+    dc_gain: list[float] = Field(default_factory=list, description="per output, m per m of pull")
+    release_time_s: float | None = None
+    noise_model: Literal["oe", "innovation"] = "oe"
+    converged: bool = True
 
 
 class FitTimings(Record):
@@ -116,6 +126,7 @@ class FitReport(Record):
     timings: FitTimings = Field(default_factory=FitTimings)
     fitted_utc: str | None = None
     software_version: str = ""
+    notes: list[str] = Field(default_factory=list, description="what the loader noticed")
     extra: dict[str, Any] = Field(default_factory=dict)
 
     @field_validator("bench", "run_id", "worker")

@@ -102,7 +102,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     except (ProcessDied, TimeoutError) as exc:
         print(f"\ndemo: FAILED: {exc}\n(logs in {args.out / 'logs'})", file=sys.stderr)
         return 2
-    from ident.report.writer import gather, write_report_dir
+    from ident.commands.report import gather
+    from ident.report.writer import write_report_dir
 
     print("demo: writing the lab report ...", flush=True)
     results = write_report_dir(gather(fit_dirs, args.out / "fits"), args.out)

@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING
 
 from ident import plotting
 from ident.data import FloatArray
-from ident.report.analysis import RunAnalysis
+from ident.fitrun.analysis import RunAnalysis
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -108,6 +108,16 @@ def figures_of(analysis: RunAnalysis) -> dict[str, Figure]:
     return out
 
 
+def write_figures(analysis: RunAnalysis, directory: Path) -> list[str]:
+    """Draw every figure of `analysis` into `directory` (PNG + SVG); the file names."""
+    drawn = figures_of(analysis)
+    names: list[str] = []
+    for stem, fig in drawn.items():
+        names += save(fig, directory, stem)
+    close(drawn)
+    return names
+
+
 def check_figure_rules(fig: Figure) -> list[str]:
     """The lab's rules a figure breaks (empty when it follows them), for tests and CI."""
     problems = []
@@ -134,5 +144,6 @@ def close(figures: dict[str, Figure]) -> None:
         fig.clear()
 
 
-__all__ = ["check_figure_rules", "diagnosis_figure", "envelope_figure", "figures_of", "measured_vs_estimated", "pem_figure", "save",
-           "simple_figure", "style"]
+__all__ = ["check_figure_rules", "close", "diagnosis_figure", "envelope_figure", "figures_of",
+           "measured_vs_estimated", "pem_figure", "save", "simple_figure", "style",
+           "write_figures"]

@@ -1,27 +1,21 @@
-"""`ident report RUN... -o DIR`: gather the fits of the lab cases and write the lab report.
+"""Write the lab report of fitted runs (the runs are gathered by `ident report`,
+`ident/commands/report.py`). Renders only: nothing is fitted here.
 
-A RUN is a `daq` run file (`<run_id>.mcap`; its `<run_id>.fit/` beside it is reused when a
-worker already fitted it, else it is fitted here), a fit directory or its `report.json`,
-or a text export (fitted here). One run per lab case is used (the first given that
-fitted). Written to DIR: `report.md`, `index.html` (self-contained: figures inlined as
-SVG, equations drawn as SVG), the figures as `<case>-<kind>.png|svg`, and `fits.json`.
+One run per lab case is used (the first given that fitted). Written to DIR: `report.md`,
+`index.html` (self-contained: figures inlined as SVG, equations drawn as SVG), the figures
+as `<case>-<kind>.png|svg`, and `fits.json`.
 """
 
 from __future__ import annotations
 
-import re
 import shutil
 from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
 
-from schemas import topics
-from schemas.daq import RunFinished
 from schemas.fit import LAB_CASES, FitReport
-from ident.errors import DataFileError
 from ident.report.content import CaseResult, report_blocks
 from ident.report.document import to_html, to_markdown
-from ident.worker.runs_dir import FIT_SUFFIX, REPORT_NAME, read_finished, read_report, write_report
 
 
 @dataclass(frozen=True)
@@ -31,47 +25,6 @@ class FittedRun:
     report: FitReport
     fit_dir: Path
     source: Path
-
-
-def _safe_id(stem: str) -> str:
-    cleaned = re.sub(r"[^A-Za-z0-9_.-]", "-", stem).lstrip(".-") or "run"
-    return cleaned[:128]
-
-
-def _fit_here(path: Path, fit_dir: Path) -> FitReport:
-    from ident.worker.pipeline import fit_to_completion
-    from ident.worker.service import FitJob
-
-    finished = read_finished(path) if path.suffix == topics.RUN_SUFFIX else None
-    if finished is None:
-        finished = RunFinished(bench="local", run_id=_safe_id(path.stem), status="complete",
-                               file=path.name, n_samples=0, release_time_s=None, duration_s=0.0)
-    report = fit_to_completion(FitJob(finished, path, fit_dir, "ident-report"))
-    write_report(fit_dir, report)
-    return report
-
-
-def gather(paths: list[Path], work_dir: Path) -> list[FittedRun]:
-    """The final report of each RUN, fitting those that have none (into `work_dir`)."""
-    runs = []
-    for path in paths:
-        if path.is_dir() or path.name == REPORT_NAME:
-            fit_dir = path if path.is_dir() else path.parent
-            report = read_report(fit_dir)
-            if report is None:
-                raise DataFileError(f"expected a final {REPORT_NAME} in {fit_dir}, got none")
-            runs.append(FittedRun(report, fit_dir, path))
-            continue
-        if not path.is_file():
-            raise DataFileError(f"expected a run file, fit directory or report, got {str(path)!r}")
-        beside = path.with_name(path.name.removesuffix(topics.RUN_SUFFIX) + FIT_SUFFIX)
-        report = read_report(beside) if path.suffix == topics.RUN_SUFFIX else None
-        if report is not None:
-            runs.append(FittedRun(report, beside, path))
-            continue
-        fit_dir = work_dir / f"{_safe_id(path.stem)}{FIT_SUFFIX}"
-        runs.append(FittedRun(_fit_here(path, fit_dir), fit_dir, path))
-    return runs
 
 
 def pick_cases(runs: list[FittedRun]) -> list[FittedRun]:
@@ -121,11 +74,4 @@ def write_report_dir(runs: list[FittedRun], out_dir: Path) -> list[CaseResult]:
     return results
 
 
-def write_lab_report(paths: list[Path], out_dir: Path) -> list[CaseResult]:
-    """Gather (fitting where needed, into `out_dir/fits/`) and write the report."""
-    runs = gather(paths, out_dir / "fits")
-    return write_report_dir(runs, out_dir)
-
-
-__all__ = ["FittedRun", "copy_figures", "gather", "pick_cases", "write_lab_report",
-           "write_report_dir"]
+__all__ = ["FittedRun", "copy_figures", "pick_cases", "write_report_dir"]

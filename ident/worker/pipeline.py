@@ -1,4 +1,4 @@
-"""The worker's default fitter: load a run file, analyse it, draw its figures, build the report.
+"""The worker's default fitter: the "fit a run" use case (`ident.fitrun`) with its figures.
 
 `fit_run(job)` returns, as soon as PEM is done, `Pending`: an `ok` report with the transfer
 functions and `pending: [diagnosis, figures]`, and the callable that runs those (the worker
@@ -9,78 +9,48 @@ the reason; whatever was computed still goes in. Figures go to `job.fit_dir` (PN
 
 from __future__ import annotations
 
-import time
-from datetime import UTC, datetime
+import importlib
+from functools import partial
 
-import ident
-from ident.errors import IdentError
-from ident.io import load
-from ident.report import figures as figs
-from ident.report.analysis import RunAnalysis, analyse_fits, warm_up, with_diagnosis
-from ident.report.records import to_fit_report
+from ident.fitrun import RunFit, RunIdentity, complete, fit_first, with_pending
+from ident.report.figures import write_figures
 from ident.worker.finisher import FitOutcome, Pending
 from ident.worker.service import FitJob
-from schemas.fit import FitReport, FitTimings
+from schemas.fit import FitReport
 
-# The worker imports this module at start: pay scipy/control/matplotlib's imports (seconds)
-# then, not at the first run's fit.
-warm_up()
+# The worker imports this module at start: pay matplotlib's imports (seconds) then, not at
+# the first run's figures (scipy and control came with ident.fitrun).
+importlib.import_module("matplotlib.backends.backend_agg")
+
+
+def _identity(job: FitJob) -> RunIdentity:
+    return RunIdentity(bench=job.finished.bench, run_id=job.finished.run_id, worker=job.worker)
 
 
 def fit_run(job: FitJob) -> FitOutcome:
     """Load and fit (simple ID, PEM): `Pending` with those results and the rest (diagnosis,
     figures) to run, or a failed report when nothing could be fitted."""
-    started = time.perf_counter()
-    try:
-        data = load(job.run_file)
-        loaded = time.perf_counter()
-        analysis = analyse_fits(data)
-    except (IdentError, ValueError, OSError) as exc:
-        return _failed(job, f"{type(exc).__name__}: {exc}", time.perf_counter() - started)
-    load_s = loaded - started
-    if analysis.failed_reason is not None:
-        return finish_run(job, analysis, load_s, started)
-    partial = _report(job, analysis, [], load_s, 0.0, time.perf_counter() - started,
-                      pending=["diagnosis", "figures"])
-    return Pending(partial, lambda: finish_run(job, analysis, load_s, started))
+    first = fit_first(job.run_file, _identity(job))
+    if first.analysis is None:
+        failed = first.report
+        if failed.release_time_s is None and job.finished.release_time_s is not None:
+            failed = failed.model_copy(update={"release_time_s": job.finished.release_time_s})
+        return failed
+    if first.analysis.failed_reason is not None:
+        return finish_run(job, first)
+    return Pending(with_pending(first, ["diagnosis", "figures"]).report,
+                   partial(finish_run, job, first))
 
 
-def finish_run(job: FitJob, analysis: RunAnalysis, load_s: float, started: float) -> FitReport:
+def finish_run(job: FitJob, first: RunFit) -> FitReport:
     """The second stage: the diagnosis, every figure, the complete report."""
-    analysis = with_diagnosis(analysis)
-    analysed = time.perf_counter()
-    drawn = figs.figures_of(analysis)
-    names: list[str] = []
-    for stem, fig in drawn.items():
-        names += figs.save(fig, job.fit_dir, stem)
-    figs.close(drawn)
-    done = time.perf_counter()
-    return _report(job, analysis, names, load_s, done - analysed, done - started)
+    return complete(first, _identity(job), partial(write_figures, directory=job.fit_dir)).report
 
 
 def fit_to_completion(job: FitJob) -> FitReport:
     """Both stages, here and now (for tools that do not publish early results)."""
     outcome = fit_run(job)
     return outcome.finish() if isinstance(outcome, Pending) else outcome
-
-
-def _report(job: FitJob, analysis: RunAnalysis, figures: list[str], load_s: float,
-            figures_s: float, total_s: float, pending: list[str] | None = None) -> FitReport:
-    stages = analysis.timings_s
-    timings = FitTimings(load_s=load_s, simple_s=stages.get("simple", 0.0),
-                         pem_s=stages.get("pem", 0.0), diagnose_s=stages.get("diagnose", 0.0),
-                         figures_s=figures_s, total_s=total_s)
-    report = to_fit_report(analysis, bench=job.finished.bench, run_id=job.finished.run_id,
-                           worker=job.worker, figures=figures, timings=timings,
-                           software_version=ident.__version__)
-    return report.model_copy(update={"pending": pending}) if pending else report
-
-
-def _failed(job: FitJob, reason: str, elapsed_s: float) -> FitReport:
-    return FitReport(bench=job.finished.bench, run_id=job.finished.run_id, worker=job.worker,
-                     status="failed", reason=reason, release_time_s=job.finished.release_time_s,
-                     timings=FitTimings(total_s=elapsed_s),
-                     fitted_utc=datetime.now(UTC).isoformat(timespec="seconds"))
 
 
 __all__ = ["finish_run", "fit_run", "fit_to_completion"]

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
@@ -13,6 +12,7 @@ from ident.cli import main
 from ident.io import load
 from ident.pem import pem
 from ident.simple import fit_simple
+from schemas.fit import FitReport
 
 COUNTS_TO_M = 1 / 560 / 100  # the students' (unverified) 560 counts per cm
 
@@ -28,12 +28,11 @@ def test_fit_prints_json_with_modes_fit_and_release(tmp_path: Path, capsys: pyte
     run = cart2_run(50.0, seed=41)
     path = _csv(tmp_path / "two.csv", run.t, run.y)
     assert main(["fit", str(path), "--method", "pem", "--json"]) == 0
-    report = json.loads(capsys.readouterr().out)
-    (fit,) = report["fits"]
-    assert fit["method"] == "pem order 4"
-    assert [m["wn"] for m in fit["modes"]] == pytest.approx(run.wn, rel=1e-3)
-    assert abs(fit["release_time_s"] - run.release_time_s) < 1e-3
-    assert all(out["fit_percent"] > 99.5 for out in fit["outputs"])
+    report = FitReport.model_validate_json(capsys.readouterr().out)
+    assert report.simple == [] and report.pem is not None and report.pem.order == 4
+    assert [m.wn_rad_s for m in report.pem.modes] == pytest.approx(run.wn, rel=1e-3)
+    assert abs((report.pem.release_time_s or -1.0) - run.release_time_s) < 1e-3
+    assert all(fit > 99.5 for fit in report.pem.fit_percent)
 
 
 def test_fit_text_report_for_one_cart_all_methods(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
@@ -84,6 +83,7 @@ def test_fit_picks_the_moving_cart_when_the_other_is_pinned(tmp_path: Path,
     y = np.column_stack([np.zeros(run.t.size), run.y[:, 0]])  # cart 1 pinned, cart 2 released
     path = _csv(tmp_path / "pinned.csv", run.t, y)
     assert main(["fit", str(path), "--method", "pem", "--json"]) == 0
-    (fit,) = json.loads(capsys.readouterr().out)["fits"]
-    assert fit["method"] == "pem order 2"
-    assert fit["modes"][0]["wn"] == pytest.approx(run.wn[0], rel=1e-3)
+    report = FitReport.model_validate_json(capsys.readouterr().out)
+    assert report.case == "cart2" and report.pem is not None and report.pem.order == 2
+    assert report.pem.outputs == [2]
+    assert report.pem.modes[0].wn_rad_s == pytest.approx(run.wn[0], rel=1e-3)

@@ -10,7 +10,7 @@ from matplotlib.figure import Figure
 
 from ident.report import figures as figs
 from ident.report.content import CaseResult
-from ident.report.writer import write_lab_report
+from ident.commands.report import write_lab_report
 from report_fixtures import record_lab_runs
 
 FIGURE_STEMS = ("cart1-simple", "cart2-simple", "cart1-pem", "cart2-pem", "both-pem",

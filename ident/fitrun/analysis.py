@@ -6,7 +6,8 @@ For a run of lab case (`analyse_fits`, then `with_diagnosis`)
 - `both` (two free carts): PEM of order 4 on both outputs, the diagnosis of both carts.
 
 The case comes from the data: a cart "moves" when its largest deviation from rest exceeds
-`MOVING_SIGMAS` noise standard deviations and `MOVING_MIN_M`. Each stage that fails is
+`MOVING_SIGMAS` noise standard deviations and `MOVING_MIN_M`; `FitSettings.carts` overrides
+it (one cart: the pulled or most moving column; two: both). Each stage that fails is
 recorded in `errors` (stage -> "expected …, got …" message) and the others still run;
 `RunAnalysis.failed_reason` says whether anything usable is left. No I/O, no plotting.
 """
@@ -17,22 +18,51 @@ import dataclasses
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import Any, Literal
 
 import numpy as np
 
 from ident.data import FloatArray, IdData
+from ident.diagnose import Diagnosis, diagnose
 from ident.errors import IdentError, IdentValueError
+from ident.model import Model
+from ident.pem import pem
+from ident.release import motion_amplitude, noise_std
+from ident.simple import fit_simple
+from schemas.diagnosis import DiagnosisReport
 from schemas.fit import LabCase, SimpleMethod
-
-if TYPE_CHECKING:
-    from ident.diagnose import Diagnosis
-    from ident.model import Model
-    from schemas.diagnosis import DiagnosisReport
 
 #: A cart moves when its largest deviation exceeds this many noise std and this many metres.
 MOVING_SIGMAS = 30.0
 MOVING_MIN_M = 0.005
+
+Method = Literal["rk4", "euler", "pem"]
+NoiseModel = Literal["oe", "innovation"]
+
+
+@dataclass(frozen=True)
+class FitSettings:
+    """What to fit. The defaults are the lab's: RK4, Euler and PEM, order 2 per cart.
+
+    `carts` 1 or 2 overrides the case found from the motion; `order` overrides 2 per cart;
+    the simple identification (RK4/Euler) runs for one cart driven by the release step only
+    (`step_input` False: the input is a recorded column, e.g. a motor's control effort).
+    """
+
+    methods: tuple[Method, ...] = ("rk4", "euler", "pem")
+    carts: int | None = None
+    order: int | None = None
+    noise_model: NoiseModel = "oe"
+    step_input: bool = True
+
+    def __post_init__(self) -> None:
+        if self.carts not in (None, 1, 2):
+            raise IdentValueError("carts", "1 or 2", repr(self.carts))
+        if self.order is not None and self.order < 1:
+            raise IdentValueError("order", "a model order >= 1", repr(self.order))
+        unknown = [m for m in self.methods if m not in ("rk4", "euler", "pem")]
+        if unknown or not self.methods:
+            raise IdentValueError("methods", "some of rk4, euler, pem", repr(self.methods))
 
 
 @dataclass(frozen=True)
@@ -47,6 +77,10 @@ class SimpleResult:
     fit_percent: float
     y_hat: FloatArray
     coulomb_accel_m_s2: float | None = None
+    wn_std: float = float("nan")
+    zeta_std: float = float("nan")
+    release_time_s: float | None = None
+    converged: bool = True
 
     @property
     def tf_coefficients(self) -> tuple[list[float], list[float]]:
@@ -88,8 +122,6 @@ class RunAnalysis:
 
 def detect_case(data: IdData) -> tuple[LabCase, tuple[int, ...]]:
     """The lab case and the carts (1-based) that move, from the data alone."""
-    from ident.release import motion_amplitude, noise_std
-
     amplitude = motion_amplitude(data.y)
     sigma = noise_std(data.y)
     moving = tuple(j + 1 for j in range(data.n_outputs)
@@ -114,31 +146,56 @@ def _timed(stage: str, timings: dict[str, float], errors: dict[str, str],
         timings[stage] = timings.get(stage, 0.0) + time.perf_counter() - started
 
 
-def analyse(data: IdData, diagnose: bool = True) -> RunAnalysis:
+def analyse(data: IdData, settings: FitSettings = FitSettings(),
+            diagnose: bool = True) -> RunAnalysis:
     """Detect the case and run every fit the lab asks for on it (the diagnosis last)."""
-    analysis = analyse_fits(data)
+    analysis = analyse_fits(data, settings)
     return with_diagnosis(analysis) if diagnose else analysis
 
 
-def analyse_fits(data: IdData) -> RunAnalysis:
+def choose_case(data: IdData, carts: int | None) -> tuple[LabCase, tuple[int, ...]]:
+    """The case and its carts: from the motion, or `carts` (1: the pulled cart when it
+    moves, else the one that moves most; 2: both) when given."""
+    if carts is None:
+        return detect_case(data)
+    if carts == 2:
+        if data.n_outputs < 2:
+            raise IdentValueError("carts", "two position columns for two carts",
+                                  f"{data.n_outputs} column")
+        return "both", (1, 2)
+    if data.n_outputs == 1:
+        return "cart1", (1,)
+    amplitude = motion_amplitude(data.y)
+    pulled = data.pulled_cart
+    column = pulled - 1 if pulled in (1, 2) and amplitude[pulled - 1] > MOVING_MIN_M \
+        else int(np.argmax(amplitude))
+    return ("cart1" if column == 0 else "cart2"), (column + 1,)
+
+
+def analyse_fits(data: IdData, settings: FitSettings = FitSettings()) -> RunAnalysis:
     """The case, the simple identifications and PEM (fast: well under a second)."""
-    case, moving = detect_case(data)
-    columns = [c - 1 for c in moving] if case != "both" else [0, 1]
+    case, moving = choose_case(data, settings.carts)
+    columns = [c - 1 for c in moving]
     cart_data = data.select_outputs(columns) if data.n_outputs != len(columns) else data
     timings: dict[str, float] = {}
     errors: dict[str, str] = {}
     simple: list[SimpleResult] = []
-    if case != "both":
+    if len(moving) == 1 and settings.step_input:
         for method in ("rk4", "euler"):
+            if method not in settings.methods:
+                continue
             result = _timed("simple", timings, errors,
                             lambda m=method: fit_simple_result(cart_data, m, moving[0]))  # type: ignore[misc]
             if result is not None:
                 simple.append(result)
-    order = 4 if case == "both" else 2
-    model = _timed("pem", timings, errors, lambda: _pem(cart_data, order))
-    y_hat = None if model is None else model.simulate(cart_data.u)
-    return RunAnalysis(case, cart_data, tuple(moving) if case != "both" else (1, 2),
-                       tuple(simple), model, y_hat, timings_s=timings, errors=errors)
+    model = y_hat = None
+    if "pem" in settings.methods:
+        order = settings.order or 2 * len(moving)
+        model = _timed("pem", timings, errors,
+                       lambda: pem(cart_data, order, noise_model=settings.noise_model))
+        y_hat = None if model is None else model.simulate(cart_data.u)
+    return RunAnalysis(case, cart_data, moving, tuple(simple), model, y_hat,
+                       timings_s=timings, errors=errors)
 
 
 def with_diagnosis(analysis: RunAnalysis) -> RunAnalysis:
@@ -150,38 +207,23 @@ def with_diagnosis(analysis: RunAnalysis) -> RunAnalysis:
                                diagnosis_traces=traces, timings_s=timings, errors=errors)
 
 
-def warm_up() -> None:
-    """Import the fitting stack (scipy, control, matplotlib: seconds) ahead of the first fit."""
-    import importlib
-
-    for name in ("ident.pem", "ident.simple", "ident.diagnose", "ident.report.figures",
-                 "matplotlib.figure", "control"):
-        importlib.import_module(name)
-
-
-def _pem(data: IdData, order: int) -> Model:
-    from ident.pem import pem
-
-    return pem(data, order)
-
-
 def _diagnose(data: IdData, carts: int) -> Diagnosis:
-    from ident.diagnose import diagnose
-
     return diagnose(data.t, data.y, carts=carts, source=data.name)
 
 
 def fit_simple_result(data: IdData, method: SimpleMethod, output: int) -> SimpleResult:
     """The simple identification (`ident.simple.fit_simple`) as a `SimpleResult`."""
-    from ident.simple import fit_simple
-
     fit = fit_simple(data, method=method)
     y_hat = np.asarray(fit.simulate(data.u, data.t))
     return SimpleResult(method=method, output=output, wn_rad_s=float(fit.wn),
                         zeta=float(fit.zeta), gain=float(fit.gain),
                         fit_percent=float(fit.fit_percent[0]),
-                        y_hat=y_hat.reshape(len(data.t), -1), coulomb_accel_m_s2=fit.friction)
+                        y_hat=y_hat.reshape(len(data.t), -1), coulomb_accel_m_s2=fit.friction,
+                        wn_std=float(fit.std_errors.get("wn", float("nan"))),
+                        zeta_std=float(fit.std_errors.get("zeta", float("nan"))),
+                        release_time_s=float(fit.release_time_s), converged=bool(fit.success))
 
 
-__all__ = ["MOVING_MIN_M", "MOVING_SIGMAS", "RunAnalysis", "SimpleResult", "analyse",
-           "analyse_fits", "detect_case", "fit_simple_result", "warm_up", "with_diagnosis"]
+__all__ = ["MOVING_MIN_M", "MOVING_SIGMAS", "FitSettings", "Method", "NoiseModel", "RunAnalysis",
+           "SimpleResult", "analyse", "analyse_fits", "choose_case", "detect_case",
+           "fit_simple_result", "with_diagnosis"]

@@ -8,7 +8,7 @@ import numpy as np
 
 from schemas.fit import (FitReport, FitTimings, ModeRec, PemFitRec, SimpleFitRec,
                          TransferFunctionRec)
-from ident.report.analysis import RunAnalysis
+from ident.fitrun.analysis import RunAnalysis
 
 
 def tf_text(num: list[float], den: list[float]) -> str:
@@ -35,6 +35,11 @@ def poly_text(coefficients: list[float], digits: int = 4) -> str:
     return " ".join(terms) or "0"
 
 
+def finite_or_none(value: float | None) -> float | None:
+    """`value`, or None when unknown (records refuse NaN and infinities)."""
+    return None if value is None or not np.isfinite(value) else float(value)
+
+
 def _tf_rec(output: int, num: list[float], den: list[float]) -> TransferFunctionRec:
     num_f = [float(x) for x in num]
     den_f = [float(x) for x in den]
@@ -48,7 +53,11 @@ def simple_records(analysis: RunAnalysis) -> list[SimpleFitRec]:
         records.append(SimpleFitRec(method=r.method, output=r.output, tf=_tf_rec(r.output, num, den),
                                     wn_rad_s=r.wn_rad_s, zeta=r.zeta, gain=r.gain,
                                     fit_percent=r.fit_percent,
-                                    coulomb_accel_m_s2=r.coulomb_accel_m_s2))
+                                    coulomb_accel_m_s2=finite_or_none(r.coulomb_accel_m_s2),
+                                    wn_std=finite_or_none(r.wn_std),
+                                    zeta_std=finite_or_none(r.zeta_std),
+                                    release_time_s=finite_or_none(r.release_time_s),
+                                    converged=r.converged))
     return records
 
 
@@ -58,10 +67,16 @@ def pem_record(analysis: RunAnalysis) -> PemFitRec | None:
         return None
     tfs = [_tf_rec(cart, list(num), list(den))
            for cart, (num, den) in zip(analysis.outputs, model.tf_coefficients())]
-    modes = [ModeRec(wn_rad_s=float(m.wn), zeta=float(m.zeta)) for m in model.modes]
+    modes = [ModeRec(wn_rad_s=float(m.wn), zeta=float(m.zeta), wn_std=finite_or_none(m.wn_std),
+                     zeta_std=finite_or_none(m.zeta_std)) for m in model.modes]
+    release = model.release_time_s
     return PemFitRec(order=model.order, tfs=tfs, modes=modes,
                      fit_percent=[float(f) for f in model.fit_percent],
-                     outputs=list(analysis.outputs))
+                     outputs=list(analysis.outputs),
+                     dc_gain=[float(g) for g in np.atleast_1d(model.dc_gain)],
+                     release_time_s=None if release is None else finite_or_none(release),
+                     noise_model="innovation" if "innovation" in model.method else "oe",
+                     converged=bool(model.success))
 
 
 def to_fit_report(analysis: RunAnalysis, *, bench: str, run_id: str, worker: str,
@@ -75,8 +90,8 @@ def to_fit_report(analysis: RunAnalysis, *, bench: str, run_id: str, worker: str
         duration_s=float(t[-1] - t[0]), simple=simple_records(analysis),
         pem=pem_record(analysis), diagnosis=analysis.diagnosis, figures=figures,
         timings=timings, fitted_utc=datetime.now(UTC).isoformat(timespec="seconds"),
-        software_version=software_version,
+        software_version=software_version, notes=list(analysis.data.notes),
         extra={"stage_errors": dict(analysis.errors)} if analysis.errors else {})
 
 
-__all__ = ["pem_record", "poly_text", "simple_records", "tf_text", "to_fit_report"]
+__all__ = ["finite_or_none", "pem_record", "poly_text", "simple_records", "tf_text", "to_fit_report"]
