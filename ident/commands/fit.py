@@ -56,12 +56,13 @@ def run(args: argparse.Namespace) -> int:
 def fit_path(args: argparse.Namespace) -> Any:
     """The use case on `args.path` as the options say: a `ident.fitrun.RunFit`."""
     from ident.fitrun import FitSettings, RunFileOptions, RunIdentity, fit_file
+    from ident.fitrun.analysis import Method
 
     options = RunFileOptions(time_col=args.time_col,
                              pos_cols=None if args.pos_cols is None else tuple(args.pos_cols),
                              scale=args.scale, release_time_s=args.release, step_m=args.step_m,
                              input_col=args.input_col, rate_hz=args.rate_hz)
-    methods = ("rk4", "euler", "pem") if args.method == "all" else (args.method,)
+    methods: tuple[Method, ...] = ("rk4", "euler", "pem") if args.method == "all" else (args.method,)
     settings = FitSettings(methods=methods, carts=args.carts, order=args.order,
                            noise_model=args.noise_model, step_input=args.input_col is None)
     who = RunIdentity(run_id=run_id_of(Path(args.path)), worker="ident-fit")
