@@ -17,10 +17,16 @@ from typing import Any
 from ident.commands.fit import run_id_of
 from ident.errors import DataFileError
 from ident.fitrun import RunIdentity, fit_file
-from ident.report.figures import write_figures
 from ident.report.content import CaseResult
+from ident.report.figures import write_figures
 from ident.report.writer import FittedRun, write_report_dir
-from ident.worker.runs_dir import FIT_SUFFIX, REPORT_NAME, read_finished, read_report, write_report
+from ident.worker.runs_dir import (
+    FIT_SUFFIX,
+    REPORT_NAME,
+    read_finished,
+    read_report,
+    write_report,
+)
 from schemas import topics
 
 

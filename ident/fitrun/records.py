@@ -6,9 +6,15 @@ from datetime import UTC, datetime
 
 import numpy as np
 
-from schemas.fit import (FitReport, FitTimings, ModeRec, PemFitRec, SimpleFitRec,
-                         TransferFunctionRec)
 from ident.fitrun.analysis import RunAnalysis
+from schemas.fit import (
+    FitReport,
+    FitTimings,
+    ModeRec,
+    PemFitRec,
+    SimpleFitRec,
+    TransferFunctionRec,
+)
 
 
 def tf_text(num: list[float], den: list[float]) -> str:

@@ -166,6 +166,18 @@ def _reason(exc: BaseException) -> str:
     return f"{type(exc).__name__}: {exc}"
 
 
-__all__ = ["Renderer", "ReleaseSelector", "RunFileOptions", "RunFit", "RunIdentity",
-           "complete", "failed_report", "fit_file", "fit_first", "load_run", "only_release",
-           "report_of", "with_pending"]
+__all__ = [
+    "ReleaseSelector",
+    "Renderer",
+    "RunFileOptions",
+    "RunFit",
+    "RunIdentity",
+    "complete",
+    "failed_report",
+    "fit_file",
+    "fit_first",
+    "load_run",
+    "only_release",
+    "report_of",
+    "with_pending",
+]

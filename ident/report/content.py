@@ -11,9 +11,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from schemas.fit import LAB_CASES, FitReport, LabCase
 from ident.report.document import Block, Equation, Figure, Heading, Para, Table
 from ident.report.reflection import reflection
+from schemas.fit import LAB_CASES, FitReport, LabCase
 
 CASE_TITLES: dict[str, str] = {
     "cart1": "cart 1 pulled, cart 2 pinned",

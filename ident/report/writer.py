@@ -13,9 +13,9 @@ from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
 
-from schemas.fit import LAB_CASES, FitReport
 from ident.report.content import CaseResult, report_blocks
 from ident.report.document import to_html, to_markdown
+from schemas.fit import LAB_CASES, FitReport
 
 
 @dataclass(frozen=True)
