@@ -27,7 +27,7 @@ from pydantic import ValidationError
 
 from daq.errors import DaqError
 from daq.frames import DIALECTS
-from schemas import SchemaError
+from schemas import SchemaError, topics
 from schemas.bus import DEFAULT_LISTEN, BusConfig
 
 log = logging.getLogger(__name__)
@@ -165,18 +165,18 @@ def _cmd_export(args: argparse.Namespace) -> int:
 
 
 def _cmd_recover(args: argparse.Namespace) -> int:
-    from daq.recorder import recover_all, recover_part
+    from daq.recorder import recover_dir, recover_one
 
     path: Path = args.path
     if path.is_dir():
-        recovered = recover_all(path)
-    elif path.is_file():
-        recovered = [recover_part(path)]
+        results = recover_dir(path)
+    elif path.name.endswith(topics.PART_SUFFIX) and (path.is_file() or path.is_symlink()):
+        results = [recover_one(path)]
     else:
         raise DaqError(f"recover: expected a .mcap.part file or a runs directory, got {str(path)!r}")
-    for finished in recovered:
-        print(f"{finished.file}: {finished.n_samples} samples recovered")
-    if not recovered:
+    for result in results:
+        print(f"{result.part.name}: {result.outcome}: {result.detail}")
+    if not results:
         print(f"nothing to recover in {path}")
     return 0
 

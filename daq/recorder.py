@@ -13,29 +13,33 @@ clock stays in every message. Each sample is also written as its own `PositionSa
 `/position`, because a viewer's time-series plot (Foxglove's Plot panel) draws one point per
 message: a batch message would show as one point per 20 ms.
 
-Recovery reads a `.part` with the streaming reader (every complete chunk), rewrites the
-records into a finished `<run_id>.mcap`, adds the final metadata with status `recovered`,
-fsyncs, renames, then removes the `.part`.
+Recovery reads a `.part` with `schemas.run_file`'s reader (every complete chunk), rewrites the
+records into a new finished file (`<run_id>.mcap`, or `<run_id>-r<k>.mcap` when that name is
+taken: a finished run is never overwritten), adds the final metadata with status `recovered`,
+fsyncs, links it into place (no replace), then removes the `.part`. A part nothing can be read
+from is moved to `quarantine/`, never deleted; a directory or a symlink named `*.mcap.part` is
+skipped with a warning.
 """
 
 from __future__ import annotations
 
+import logging
 import os
+from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
-from typing import BinaryIO
+from typing import BinaryIO, Literal
 
-from mcap.exceptions import EndOfFile, McapError
-from mcap.reader import make_reader
+from mcap.records import Channel, Message, Metadata, Schema
 from mcap.well_known import MessageEncoding, SchemaEncoding
 from mcap.writer import CompressionType, Writer
 
 import daq
 from daq.errors import DaqIOError
-from daq.run_file import RawRun, parse_metadata, read_raw
-from schemas import Record, topics
-from schemas.daq import DaqCounters, DetectorStateMsg, PositionSample, RunFinished, RunMetadata, SampleBatch
+from schemas import Record, SchemaError, run_file, topics
+from schemas.daq import DetectorStateMsg, PositionSample, RunFinished, RunMetadata, SampleBatch
 
+log = logging.getLogger(__name__)
 CHUNK_SIZE = 32 * 1024
 LIBRARY = f"cartlab-daq/{daq.__version__}"
 
@@ -44,12 +48,8 @@ def utc_now_iso() -> str:
     return datetime.now(UTC).isoformat(timespec="milliseconds")
 
 
-def part_path(runs_dir: Path, run_id: str) -> Path:
-    return runs_dir / f"{run_id}{topics.PART_SUFFIX}"
-
-
-def final_path(runs_dir: Path, run_id: str) -> Path:
-    return runs_dir / f"{run_id}{topics.RUN_SUFFIX}"
+part_path = run_file.part_path
+final_path = run_file.final_path
 
 
 def _metadata_map(record: Record) -> dict[str, str]:
@@ -196,71 +196,143 @@ def _fsync_dir(directory: Path) -> None:
 
 # --- recovery ---------------------------------------------------------------------------------
 
+@dataclass(frozen=True)
+class Recovery:
+    """What became of one `.part`: recovered into `finished.file`, quarantined, or skipped."""
+
+    part: Path
+    outcome: Literal["recovered", "quarantined", "skipped"]
+    detail: str
+    finished: RunFinished | None = None
+
+
 def recover_part(path: Path) -> RunFinished:
-    """Rewrite a crashed `<run_id>.mcap.part` as a finished `<run_id>.mcap` (status recovered)."""
-    path = Path(path)
+    """Rewrite a crashed `<run_id>.mcap.part` as a finished run (status recovered), under a new
+    name: `<run_id>.mcap` if free, else `<run_id>-r<k>.mcap`. Never over a finished file.
+
+    Raises `DaqIOError` for a path that is not a regular `.part` file, and after moving a part
+    nothing could be read from to `quarantine/`.
+    """
+    done = recover_one(Path(path))
+    if done.finished is None:
+        raise DaqIOError(f"cannot recover {path}: {done.detail}")
+    return done.finished
+
+
+def recover_one(path: Path) -> Recovery:
+    """Recover one `.part` (see `recover_part`); odd entries are skipped, never raised on."""
     if not path.name.endswith(topics.PART_SUFFIX):
         raise DaqIOError(f"not a partial run file (expected *{topics.PART_SUFFIX}): {path}")
-    run_id = path.name[: -len(topics.PART_SUFFIX)]
-    raw = read_raw(path)
-    meta, _ = parse_metadata(raw)
-    target = final_path(path.parent, run_id)
-    temp = path.parent / f"{run_id}.mcap.recovering"
+    if path.is_symlink() or not path.is_file():
+        return Recovery(path, "skipped", "not a regular file (a directory, a symlink or gone): left as is")
+    runs_dir = path.parent
+    try:
+        return _recover_readable(path, runs_dir)
+    except (SchemaError, OSError) as exc:
+        return _quarantine(path, runs_dir, f"{type(exc).__name__}: {exc}")
+
+
+def _recover_readable(path: Path, runs_dir: Path) -> Recovery:
+    probe = run_file.ReadOutcome()
+    found: dict[str, Metadata] = {}
+    for record in run_file.iter_records(path, probe, messages=False):
+        if isinstance(record, Metadata):
+            found[record.name] = record
+    meta = run_file.run_metadata(found)
+    if meta is None:
+        return _quarantine(path, runs_dir, "no run metadata readable"
+                           + (f" ({probe.stop_reason})" if probe.stop_reason else ""))
+    run_id = run_file.recovered_run_id(runs_dir, run_file.run_id_of(path))
+    temp = runs_dir / f"{run_id}{run_file.RECOVERING_SUFFIX}"
     with open(temp, "wb") as stream:
-        finished = _rewrite(raw, meta, run_id, stream)
-        _seal(stream, temp, target)
+        finished = _rewrite(path, meta, run_id, stream)
+        stream.flush()
+        os.fsync(stream.fileno())
+    target = run_file.final_path(runs_dir, run_id)
+    try:
+        os.link(temp, target)   # fails if the name was taken meanwhile: never replaces a file
+    finally:
+        temp.unlink(missing_ok=True)
     path.unlink()
-    _fsync_dir(path.parent)
-    return finished
+    _fsync_dir(runs_dir)
+    return Recovery(path, "recovered", f"{finished.n_samples} samples into {target.name}", finished)
 
 
-def _rewrite(raw: RawRun, meta: RunMetadata | None, run_id: str, stream: BinaryIO) -> RunFinished:
+def _quarantine(path: Path, runs_dir: Path, reason: str) -> Recovery:
+    """Move an unreadable part aside (never delete it): `quarantine/<name>`."""
+    dest = run_file.quarantine_path(runs_dir, path.name)
+    dest.parent.mkdir(exist_ok=True)
+    os.rename(path, dest)
+    _fsync_dir(runs_dir)
+    log.warning("%s: nothing recoverable (%s); moved to %s", path.name, reason,
+                dest.relative_to(runs_dir))
+    return Recovery(path, "quarantined", f"{reason}; moved to {dest.relative_to(runs_dir)}")
+
+
+def _rewrite(path: Path, meta: RunMetadata, run_id: str, stream: BinaryIO) -> RunFinished:
+    """Copy every readable record of `path` into a new file, record by record (bounded memory)."""
     writer = Writer(stream, chunk_size=CHUNK_SIZE, compression=CompressionType.ZSTD)
     writer.start(profile=topics.MCAP_PROFILE, library=LIBRARY)
-    schema_ids = {s.id: writer.register_schema(s.name, s.encoding, s.data) for s in raw.schemas}
-    channel_ids = {c.id: writer.register_channel(c.topic, c.message_encoding, schema_ids.get(c.schema_id, 0),
-                                                 dict(c.metadata)) for c in raw.channels}
-    samples_channels = {c.id for c in raw.channels if c.topic == topics.SAMPLES}
+    schema_ids: dict[int, int] = {}
+    channel_ids: dict[int, int] = {}
+    samples_channels: set[int] = set()
     n_samples, first_t, last_t = 0, None, None
-    for message in raw.messages:
-        if message.channel_id not in channel_ids:
-            continue
-        writer.add_message(channel_ids[message.channel_id], message.log_time, message.data,
-                           message.publish_time, message.sequence)
-        if message.channel_id in samples_channels:
-            batch = SampleBatch.from_json_bytes(message.data)
-            n_samples += len(batch.t_ns)
-            first_t = batch.t_ns[0] if first_t is None else min(first_t, batch.t_ns[0])
-            last_t = batch.t_ns[-1] if last_t is None else max(last_t, batch.t_ns[-1])
-    reason = f"recovered after a crash: {raw.stop_reason or 'file ended early'}"
+    outcome = run_file.ReadOutcome()
+    for record in run_file.iter_records(path, outcome):
+        if isinstance(record, Schema):
+            schema_ids[record.id] = writer.register_schema(record.name, record.encoding, record.data)
+        elif isinstance(record, Channel):
+            channel_ids[record.id] = writer.register_channel(
+                record.topic, record.message_encoding, schema_ids.get(record.schema_id, 0),
+                dict(record.metadata))
+            if record.topic == topics.SAMPLES:
+                samples_channels.add(record.id)
+        elif isinstance(record, Message) and record.channel_id in channel_ids:
+            if record.channel_id in samples_channels:
+                try:
+                    batch = SampleBatch.from_json_bytes(record.data)
+                except SchemaError:
+                    continue   # a damaged batch is not copied: every recovered one parses
+                n_samples += len(batch.t_ns)
+                if batch.t_ns:
+                    first_t = batch.t_ns[0] if first_t is None else min(first_t, batch.t_ns[0])
+                    last_t = batch.t_ns[-1] if last_t is None else max(last_t, batch.t_ns[-1])
+            writer.add_message(channel_ids[record.channel_id], record.log_time, record.data,
+                               record.publish_time, record.sequence)
+    reason = f"recovered after a crash: {outcome.stop_reason or 'file ended early'}"
+    original = run_file.run_id_of(path)
+    if run_id != original:
+        reason += f" (from {path.name}; {original}{topics.RUN_SUFFIX} was already finished)"
     finished = RunFinished(
-        bench=meta.bench if meta else "unknown", run_id=run_id, status="recovered",
-        file=f"{run_id}{topics.RUN_SUFFIX}", n_samples=n_samples,
-        release_time_s=meta.release_time_s if meta else None,
+        bench=meta.bench, run_id=run_id, status="recovered",
+        file=run_file.run_file_name(run_id), n_samples=n_samples,
+        release_time_s=meta.release_time_s,
         duration_s=((last_t - first_t) / 1e9) if first_t is not None and last_t is not None else 0.0,
-        counters=meta.counters if meta else DaqCounters(),
-        reason=reason)
-    if meta is not None:
-        final_meta = meta.model_copy(update={"ended_utc": utc_now_iso()})
-        writer.add_metadata(topics.METADATA_RUN, _metadata_map(final_meta))
+        counters=meta.counters, reason=reason[:500])
+    final_meta = meta.model_copy(update={"ended_utc": utc_now_iso(), "run_id": run_id})
+    writer.add_metadata(topics.METADATA_RUN, _metadata_map(final_meta))
     writer.add_metadata(topics.METADATA_FINISHED, _metadata_map(finished))
     writer.finish()
     return finished
 
 
+def recover_dir(runs_dir: Path) -> list[Recovery]:
+    """Recover every `.part` in `runs_dir` (oldest name first); odd entries are skipped with a
+    warning, unreadable parts quarantined; a finished run is never touched."""
+    done = []
+    for path in sorted(Path(runs_dir).glob(f"*{topics.PART_SUFFIX}")):
+        result = recover_one(path)
+        if result.outcome == "skipped":
+            log.warning("%s: %s", path.name, result.detail)
+        done.append(result)
+    return done
+
+
 def recover_all(runs_dir: Path) -> list[RunFinished]:
-    """Recover every `.part` in `runs_dir` (oldest name first)."""
-    return [recover_part(p) for p in sorted(Path(runs_dir).glob(f"*{topics.PART_SUFFIX}"))]
+    """The finished records of every `.part` recovered in `runs_dir` (see `recover_dir`)."""
+    return [r.finished for r in recover_dir(runs_dir) if r.finished is not None]
 
 
 def finished_of(path: Path) -> RunFinished | None:
-    """The `RunFinished` record of a finished run file (read through its summary index)."""
-    try:
-        with open(path, "rb") as stream:
-            for record in make_reader(stream).iter_metadata():
-                if record.name == topics.METADATA_FINISHED:
-                    return RunFinished.from_json_bytes(record.metadata[topics.METADATA_JSON_KEY])
-    except (McapError, EndOfFile, ValueError, OSError):
-        _, finished = parse_metadata(read_raw(path))
-        return finished
-    return None
+    """The `RunFinished` record of a finished run file, or None."""
+    return run_file.read_finished(path)

@@ -23,6 +23,7 @@ import numpy as np
 
 from ident.data import FloatArray, IdData, check_arrays, from_release
 from ident.errors import DataFileError, IdentValueError
+from schemas import SchemaError, run_file, topics
 
 #: Default pull distance of the lab (m): the cart is held 0.15 m from rest.
 DEFAULT_STEP_M = 0.15
@@ -190,74 +191,37 @@ def _position_scale(name: str, scale: float | None) -> float:
     return found
 
 
-def _damage_errors() -> tuple[type[BaseException], ...]:
-    """What reading a truncated or corrupted MCAP stream raises at the damage."""
-    import struct
-
-    import zstandard
-    from mcap.exceptions import EndOfFile, McapError
-
-    return (McapError, EndOfFile, EOFError, ValueError, KeyError, struct.error, zstandard.ZstdError,
-            MemoryError)
-
-
 def load_mcap(path: str | Path, step_m: float = DEFAULT_STEP_M,
               release_time_s: float | None = None) -> IdData:
     """Load a `daq` run file: samples, release time and pulled cart from its metadata.
 
-    Read sequentially (`StreamReader`), so a truncated file (a killed writer) yields every
-    complete chunk; the `cartlab.run` metadata record wins over `cartlab.run_started` (all a
-    crashed `.part` has).
+    Read by `schemas.run_file` (the one damage-tolerant reader, with its limits), so a
+    truncated file (a killed writer) yields every complete chunk, and a file beyond a limit
+    (a decompression bomb) is refused; the last `cartlab.run` metadata record wins.
     """
-    from mcap.records import Channel, Message, Metadata
-    from mcap.stream_reader import StreamReader
-
-    from schemas import topics
-    from schemas.daq import RunMetadata, SampleBatch
-
     file = Path(path)
-    sample_channels: set[int] = set()
-    batches: list[SampleBatch] = []
-    metadata: RunMetadata | None = None
-    damage: str | None = None
     try:
-        with file.open("rb") as stream:
-            # a record can never be longer than the file: a corrupted length must not allocate
-            reader = StreamReader(stream, record_size_limit=max(file.stat().st_size, 1 << 16))
-            try:
-                for record in reader.records:
-                    if isinstance(record, Channel) and record.topic == topics.SAMPLES:
-                        sample_channels.add(record.id)
-                    elif isinstance(record, Message) and record.channel_id in sample_channels:
-                        batches.append(SampleBatch.from_json_bytes(record.data))
-                    elif isinstance(record, Metadata) and record.name == topics.METADATA_RUN:
-                        metadata = RunMetadata.from_json_bytes(record.metadata[topics.METADATA_JSON_KEY])
-                    elif (isinstance(record, Metadata) and record.name == topics.METADATA_RUN_STARTED
-                          and metadata is None):
-                        metadata = RunMetadata.from_json_bytes(record.metadata[topics.METADATA_JSON_KEY])
-            except _damage_errors() as exc:  # truncated or damaged: keep every complete record before it
-                damage = f"{type(exc).__name__}: {exc}"[:120]
+        read = run_file.read_run(file)
+    except SchemaError as exc:
+        raise DataFileError(f"cannot load the run file {file}: {exc}") from exc
     except OSError as exc:
         raise DataFileError(f"cannot read the run file {file}: {exc}") from exc
-    t_ns = [v for b in batches for v in b.t_ns]
-    if not t_ns:
+    if read.t_ns.size == 0:
         raise DataFileError(f"expected {topics.SAMPLES} samples in {file}, got none"
-                            + (f" (unreadable: {damage})" if damage else ""))
-    columns = [np.concatenate([b.pos1_m for b in batches])]
-    if all(b.pos2_m is not None for b in batches):
-        columns.append(np.concatenate([b.pos2_m or [] for b in batches]))
-    first = metadata.first_t_ns if metadata is not None else t_ns[0]
-    t = (np.asarray(t_ns, dtype=np.int64) - first).astype(np.float64) * 1e-9
+                            + (f" (unreadable: {read.stop_reason})" if read.stop_reason else ""))
+    metadata = read.metadata
+    first = metadata.first_t_ns if metadata is not None else int(read.t_ns[0])
+    t = (read.t_ns - first).astype(np.float64) * 1e-9
     release = release_time_s
     if release is None and metadata is not None:
         release = metadata.release_time_s
     pulled = metadata.pulled_cart if metadata is not None else None
-    y = np.column_stack(columns)
-    t, _, y = check_arrays(t, None, y)
+    t, _, y = check_arrays(t, None, read.pos_m)
     _check_plausible(y)
     data = from_release(t, y, release, step_m, pulled, file.name)
-    if damage is None:
+    if read.complete:
         return data
+    damage = (read.stop_reason or "file ended early")[:120]
     return replace(data, notes=(*data.notes, f"run file damaged after {len(t)} samples ({damage})"))
 
 

@@ -14,12 +14,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from schemas import keys, topics
-
-#: Folder of a run's fit report and figures, beside its MCAP file (written by `ident`).
-FIT_DIR_SUFFIX = ".fit"
-#: The fit report's file name inside that folder.
-REPORT_NAME = "report.json"
+from schemas import keys
+from schemas.run_file import FIT_SUFFIX as FIT_DIR_SUFFIX
+from schemas.run_file import REPORT_NAME, run_file_name
 #: File kinds listed as a run's figures and documents.
 LISTED_SUFFIXES = (".png", ".svg", ".pdf", ".json", ".html", ".md", ".csv")
 
@@ -40,7 +37,7 @@ def _inside(runs_dir: Path, path: Path) -> Path:
 
 def mcap_path(runs_dir: Path, run_id: str) -> Path:
     """The finished MCAP file of `run_id` (raises `RunFileError` or `SchemaError`)."""
-    name = keys.check_name("run_id", run_id) + topics.RUN_SUFFIX
+    name = run_file_name(keys.check_name("run_id", run_id))
     return _inside(runs_dir, runs_dir / name)
 
 

@@ -7,8 +7,8 @@ Layout under a runs directory (what `daq run --runs-dir D` writes, one or severa
     D/<run_id>.fit/            report.json and figures, beside the run file
     D/<bench>/<run_id>.fit/    for runs fetched over Zenoh (not on this machine)
 
-This module reads only the `RunFinished` metadata record of a run file; loading samples is
-`ident.io`'s job.
+This module reads only the `RunFinished` metadata record of a run file (through
+`schemas.run_file`, which owns the layout and the reader); loading samples is `ident.io`'s job.
 """
 
 from __future__ import annotations
@@ -18,12 +18,10 @@ import tempfile
 from collections.abc import Iterator
 from pathlib import Path
 
-from schemas import topics
+from schemas import run_file, topics
 from schemas.daq import RunFinished
 from schemas.fit import FitReport
-
-REPORT_NAME = "report.json"
-FIT_SUFFIX = ".fit"
+from schemas.run_file import FIT_SUFFIX, REPORT_NAME
 
 
 def find_run_file(runs_dir: Path | None, bench: str, file_name: str) -> Path | None:
@@ -81,18 +79,10 @@ def write_report(fit_dir: Path, report: FitReport) -> Path:
     return path
 
 
-def read_finished(run_file: Path) -> RunFinished | None:
-    """The `RunFinished` metadata record of an MCAP run file, or None if it has none."""
-    from mcap.reader import make_reader
-
-    try:
-        with run_file.open("rb") as stream:
-            for record in make_reader(stream).iter_metadata():
-                if record.name == topics.METADATA_FINISHED:
-                    return RunFinished.from_json_bytes(record.metadata[topics.METADATA_JSON_KEY])
-    except Exception:  # noqa: BLE001 - a damaged file is reported by the fit, not here
-        return None
-    return None
+def read_finished(run_file_path: Path) -> RunFinished | None:
+    """The `RunFinished` metadata record of an MCAP run file, or None (none, or unreadable:
+    a damaged file is reported by its fit, not here)."""
+    return run_file.read_finished(run_file_path)
 
 
 def scan_runs(runs_dir: Path) -> Iterator[tuple[Path, RunFinished]]:
