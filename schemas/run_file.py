@@ -192,6 +192,8 @@ def iter_records(path: Path, outcome: ReadOutcome, limits: Limits = DEFAULT_LIMI
             if stream.read(len(_MAGIC)) != _MAGIC:
                 raise ValueError("expected the MCAP magic at the start of the file")
             yield from _top_level(path, stream, size - len(_MAGIC), outcome, limits, messages)
+        except RunFileTooLarge:
+            raise   # a refusal, not damage (it is a ValueError too)
         except DAMAGE_ERRORS as exc:
             outcome.stop_reason = f"{type(exc).__name__}: {exc}"[:200]
 
