@@ -1,0 +1,1 @@
+"""Support for tests and tools: seeded generators, harnesses and writers (no test logic)."""

@@ -1,0 +1,341 @@
+"""Seeded draws of lab runs with hidden physical effects, over the issue's physical ranges.
+
+Every run: a release at t_r ∈ [0.3, 1.5] s followed by 4–10 s of free response, sampled at
+50–1000 Hz (log-uniform), white noise 5 µm–0.2 mm (log-uniform) unless the encoder lattice
+is the effect. The release is a pull-hold-release (the cart held still at -d, d ∈ [0.05, 0.2] m
+from rest, the record zeroed there) or a flick (from rest to |x1| ∈ [0.02, 0.06] m in
+0.1–0.2 s, let go with a velocity of up to ±0.5 wn |x1|), half of each unless asked.
+One cart: m ∈ [0.5, 1.5] kg, wn ∈ [5, 20] rad/s, ζ ∈ [0.005, 0.05]. Two carts
+(wall –k1– m1 –k2– m2 –k3– wall): m_i ∈ [0.5, 1.5] kg, k_i ∈ [20, 120] N/m, ζ_i ∈ [0.005, 0.04].
+Amplitudes below: A = √(x_r² + (v_r/wn)²) at the release (x_r from rest), wn the lowest mode.
+
+Families (an effect, `none`, or a pair):
+- coulomb_friction: kinetic f = r wn² A / 4, r ∈ [0.02, 0.2] (a cycle loses 2–20 % of A),
+  static = f·[1, 1.5]; two carts: on cart 1, cart 2 or both, seen through both encoders or
+  (`encoders=1`) cart 1's only;
+- quadratic_drag: q = r·3/(4A), r ∈ [0.03, 0.15], the same per mass on every cart;
+- cubic_stiffness: κ = ±r·8 wn²/(3A²), r ∈ [0.005, 0.05] (hardening and softening: the
+  frequency moves by ±r at A), the same per mass on every cart's displacement;
+- quantization: the encoder reads Q·round(y/Q), Q ∈ [10 µm, 2 mm] (log-uniform), an exact
+  lattice or with white noise of 2–30 % of Q added after it;
+- coupled_mode: an extra mass behind the last cart, m_e/m ∈ [0.05, 1.5] (log-uniform: from a
+  light mass on a stiff spring to a partly pinned second cart of comparable mass), its own
+  frequency 1.6–4× wn, the coupling spring 5–70 % (log-uniform) of its total stiffness, ζ_e ∈
+  [0.003, 0.03]; drawn again until that mode shows in the observed carts with ≥ 5× the noise
+  and decays no faster than 2/s; `mode_hz` is its damped frequency;
+- none: the linear carts;
+- viscous+coulomb: one cart, ζ ∈ [0.02, 0.08] and Coulomb as above (ζ is scored too);
+- coulomb+quantization: one cart, both as above;
+- coulomb+held_cart: cart 2 released (Coulomb, ζ ∈ [0.005, 0.05]), cart 1 held by a loose hand
+  (a hand spring stiff enough that cart 1 follows at 2–5 %, lagging 20–30 ms) that wanders by
+  2–7 mm; both encoders recorded, a one-cart model asked for.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from testkit.effects import hand as hands
+from testkit.effects.case import Case, Observed, Truth
+from testkit.effects.integrate import Phase, simulate
+from testkit.effects.rig import FloatArray, HandSpring, Rig, make_rig
+
+SINGLE = ("none", "coulomb_friction", "quadratic_drag", "cubic_stiffness", "quantization", "coupled_mode")
+PAIRS = ("viscous+coulomb", "coulomb+quantization", "coulomb+held_cart")
+FAMILIES = SINGLE + PAIRS
+NOISE_M = (5e-6, 2e-4)
+
+
+def log_uniform(rng: np.random.Generator, low: float, high: float) -> float:
+    return float(np.exp(rng.uniform(np.log(low), np.log(high))))
+
+
+@dataclass(frozen=True)
+class Layout:
+    """Masses (kg), springs (i, j or None for the wall, N/m) and dampers to ground (N·s/m) of
+    the linear carts; `pulled`: the cart the hand releases; `observed`: the carts read by an
+    encoder; `still`: carts held still at their rest until a pull-hold release."""
+
+    masses: tuple[float, ...]
+    springs: tuple[tuple[int, int | None, float], ...]
+    dampers: tuple[float, ...]
+    pulled: int = 0
+    observed: tuple[int, ...] = (0,)
+    still: tuple[int, ...] = ()
+
+    def rig(self, effects: dict[str, object]) -> Rig:
+        return make_rig(self.masses, self.springs, self.dampers, **effects)  # type: ignore[arg-type]
+
+
+@dataclass(frozen=True)
+class Release:
+    """`hold`: the pulled cart still at x (= -d) until t_r; `flick`: from rest to x with v at t_r."""
+
+    kind: str
+    t_r: float
+    x: float
+    v: float
+    duration: float = 0.0
+
+
+@dataclass
+class Spec:
+    """Everything drawn for one run before it is simulated."""
+
+    layout: Layout
+    release: Release
+    wn: float
+    amplitude: float
+    effects: dict[str, object] = field(default_factory=dict)
+    parameters: dict[str, float] = field(default_factory=dict)
+    details: dict[str, float] = field(default_factory=dict)
+    present: tuple[str, ...] = ()
+    headline: str | None = None
+    quantum: float | None = None
+    model: tuple[int, ...] = (0,)
+
+    @property
+    def carts(self) -> int:
+        return len(self.model)
+
+
+def one_cart(rng: np.random.Generator, zeta: tuple[float, float] = (0.005, 0.05)) -> Layout:
+    m, wn, z = rng.uniform(0.5, 1.5), rng.uniform(5.0, 20.0), rng.uniform(*zeta)
+    return Layout((m,), ((0, None, wn * wn * m),), (2 * z * wn * m,))
+
+
+def two_carts(rng: np.random.Generator, zeta: tuple[float, float] = (0.005, 0.04)) -> Layout:
+    m = rng.uniform(0.5, 1.5, 2)
+    k = rng.uniform(20.0, 120.0, 3)
+    z = rng.uniform(*zeta, 2)
+    c = 2 * z * np.sqrt(np.array([k[0] + k[1], k[1] + k[2]]) * m)
+    return Layout(tuple(float(v) for v in m), ((0, None, float(k[0])), (0, 1, float(k[1])), (1, None, float(k[2]))),
+                  tuple(float(v) for v in c), 0, (0, 1), (1,))
+
+
+def lowest_wn(rig: Rig) -> float:
+    return float(np.min(np.abs(np.linalg.eigvals(rig.linear_matrix()))))
+
+
+def draw_release(rng: np.random.Generator, kind: str | None, wn: float) -> Release:
+    kind = kind or str(rng.choice(["hold", "flick"]))
+    t_r = float(rng.uniform(0.3, 1.5))
+    if kind == "hold":
+        return Release("hold", t_r, -float(rng.uniform(0.05, 0.2)), 0.0)
+    if kind != "flick":
+        raise ValueError(f"release: expected 'hold' or 'flick', got {kind!r}")
+    x1 = float(rng.choice([-1.0, 1.0]) * rng.uniform(0.02, 0.06))
+    return Release("flick", t_r, x1, float(rng.uniform(-0.5, 0.5) * wn * abs(x1)), float(rng.uniform(0.1, 0.2)))
+
+
+def base(rng: np.random.Generator, layout: Layout, kind: str | None) -> Spec:
+    wn = lowest_wn(layout.rig({}))
+    rel = draw_release(rng, kind, wn)
+    return Spec(layout, rel, wn, float(np.hypot(rel.x, rel.v / wn)), model=layout.observed)
+
+
+def layout_for(rng: np.random.Generator, carts: int | None) -> Layout:
+    carts = carts or int(rng.integers(1, 3))
+    if carts not in (1, 2):
+        raise ValueError(f"carts: expected 1 or 2, got {carts}")
+    return one_cart(rng) if carts == 1 else two_carts(rng)
+
+
+# --- the effects -------------------------------------------------------------------------
+
+def add_coulomb(rng: np.random.Generator, spec: Spec, on: tuple[int, ...]) -> None:
+    n = len(spec.layout.masses)
+    kinetic, static = np.zeros(n), np.zeros(n)
+    for i in on:
+        kinetic[i] = rng.uniform(0.02, 0.2) * spec.wn ** 2 * spec.amplitude / 4
+        static[i] = kinetic[i] * rng.uniform(1.0, 1.5)
+    spec.effects.update(kinetic=kinetic, static=static)
+    names = ("coulomb_accel_m_s2", "coulomb_accel_m_s2_cart2")
+    for k, i in enumerate(spec.model):
+        spec.parameters[names[k]] = float(kinetic[i])
+    for i in range(n):
+        spec.details[f"static_accel_m_s2_mass{i + 1}"] = float(static[i])
+    spec.present += ("coulomb_friction",)
+
+
+def add_drag(rng: np.random.Generator, spec: Spec) -> None:
+    q = rng.uniform(0.03, 0.15) * 3 / (4 * spec.amplitude)
+    spec.effects["drag"] = np.full(len(spec.layout.masses), q)
+    spec.parameters["drag_per_m"] = float(q)
+    spec.present += ("quadratic_drag",)
+
+
+def add_cubic(rng: np.random.Generator, spec: Spec) -> None:
+    kappa = rng.choice([-1.0, 1.0]) * rng.uniform(0.005, 0.05) * 8 * spec.wn ** 2 / (3 * spec.amplitude ** 2)
+    spec.effects["cubic"] = np.full(len(spec.layout.masses), kappa)
+    spec.parameters["cubic_per_m2_s2"] = float(kappa)
+    spec.present += ("cubic_stiffness",)
+
+
+def add_lattice(rng: np.random.Generator, spec: Spec) -> None:
+    spec.quantum = log_uniform(rng, 1e-5, 2e-3)
+    spec.parameters["quantum_m"] = spec.quantum
+    spec.present += ("quantization",)
+
+
+def mode_amplitudes(rig: Rig, z: FloatArray, observed: tuple[int, ...]) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Per oscillatory mode of the linear part (sorted by frequency): the largest amplitude (m) it
+    has in the observed carts for the free response from state z (from rest), its damped
+    frequency (Hz) and decay rate (1/s)."""
+    lam, vec = np.linalg.eig(rig.linear_matrix())
+    coef = np.linalg.solve(vec, z.astype(complex))
+    upper = [k for k in range(lam.size) if lam[k].imag > 0]
+    upper.sort(key=lambda k: lam[k].imag)
+    amp = np.array([2 * np.max(np.abs(vec[list(observed), k] * coef[k])) for k in upper])
+    return amp, np.array([lam[k].imag / (2 * np.pi) for k in upper]), np.array([-lam[k].real for k in upper])
+
+
+def release_state(rig: Rig, spec: Spec) -> FloatArray:
+    """The state at the release: the pulled cart where the hand lets go, the others at rest
+    under it (an approximation for a flick, used only to judge which modes show)."""
+    phase = Phase(0.0, 1.0, {spec.layout.pulled: hands.hold(spec.release.x)})
+    z = initial_state(rig, phase)
+    z[rig.n + spec.layout.pulled] = spec.release.v
+    return z
+
+
+def add_mode(rng: np.random.Generator, spec: Spec, noise: float) -> Spec:
+    """An extra mass behind the last cart (see the module docstring), drawn until its mode shows."""
+    lay = spec.layout
+    last, e = spec.model[-1], len(lay.masses)
+    for _ in range(500):
+        m_e = log_uniform(rng, 0.05, 1.5) * lay.masses[last]
+        w_e = rng.uniform(1.6, 4.0) * spec.wn
+        k_total = w_e * w_e * m_e
+        k_c = log_uniform(rng, 0.05, 0.7) * k_total
+        c_e = 2 * rng.uniform(0.003, 0.03) * w_e * m_e
+        new = Layout(lay.masses + (m_e,), lay.springs + ((last, e, k_c), (e, None, k_total - k_c)),
+                     lay.dampers + (c_e,), lay.pulled, lay.observed, lay.still)
+        drawn = Spec(new, spec.release, spec.wn, spec.amplitude, model=spec.model)
+        rig = new.rig({})
+        amp, hz, decay = mode_amplitudes(rig, release_state(rig, drawn), new.observed)
+        weakest = int(np.argmin(amp))
+        if amp[weakest] >= 5 * noise and decay[weakest] <= 2.0:
+            drawn.parameters["mode_hz"] = float(hz[weakest])
+            drawn.details.update(extra_mass_kg=m_e, extra_mode_amplitude_m=float(amp[weakest]),
+                                 extra_mode_decay_1_s=float(decay[weakest]))
+            drawn.present += ("coupled_mode",)
+            return drawn
+    raise RuntimeError("no visible coupled mode in 500 draws")
+
+
+def held_cart(rng: np.random.Generator, kind: str | None) -> Spec:
+    """Cart 2 released, cart 1 held by a loose, wandering hand (both encoders read)."""
+    lay = two_carts(rng, (0.005, 0.05))
+    k2 = lay.springs[1][2]
+    k_h = k2 / rng.uniform(0.02, 0.05)
+    hand = HandSpring(0, k_h, k_h * rng.uniform(0.02, 0.03), hands.wander(rng, rng.uniform(2e-3, 7e-3)))
+    lay = Layout(lay.masses, lay.springs, lay.dampers, pulled=1, observed=(0, 1), still=())
+    effects: dict[str, object] = {"hands": (hand,)}
+    wn = lowest_wn(lay.rig(effects))
+    rel = draw_release(rng, kind, wn)
+    spec = Spec(lay, rel, wn, float(np.hypot(rel.x, rel.v / wn)), effects=effects, model=(1,))
+    spec.details.update(hand_stiffness_n_m=k_h, hand_damping_n_s_m=hand.damping)
+    return spec
+
+
+def draw_spec(rng: np.random.Generator, family: str, carts: int | None, kind: str | None,
+              encoders: int | None, noise: float) -> Spec:
+    if family in ("viscous+coulomb", "coulomb+quantization"):
+        spec = base(rng, one_cart(rng, (0.02, 0.08) if family == "viscous+coulomb" else (0.005, 0.05)), kind)
+        add_coulomb(rng, spec, (0,))
+        if family == "viscous+coulomb":
+            m, c, k = spec.layout.masses[0], spec.layout.dampers[0], spec.layout.springs[0][2]
+            spec.parameters["zeta"] = float(c / (2 * np.sqrt(k * m)))
+        else:
+            add_lattice(rng, spec)
+        return spec
+    if family == "coulomb+held_cart":
+        spec = held_cart(rng, kind)
+        add_coulomb(rng, spec, (1,))
+        spec.present += ("held_cart_motion",)
+        return spec
+    spec = base(rng, layout_for(rng, carts), kind)
+    spec.headline = family
+    if family == "coulomb_friction":
+        on = (0,) if spec.carts == 1 else [(0,), (1,), (0, 1)][int(rng.integers(0, 3))]
+        add_coulomb(rng, spec, on)
+        if encoders == 1 and spec.carts == 2:
+            spec.layout = Layout(spec.layout.masses, spec.layout.springs, spec.layout.dampers,
+                                 0, (0,), spec.layout.still)
+    elif family == "quadratic_drag":
+        add_drag(rng, spec)
+    elif family == "cubic_stiffness":
+        add_cubic(rng, spec)
+    elif family == "quantization":
+        add_lattice(rng, spec)
+    elif family == "coupled_mode":
+        spec = add_mode(rng, spec, noise)
+        spec.headline = family
+    elif family != "none":
+        raise ValueError(f"family: expected one of {', '.join(FAMILIES)}, got {family!r}")
+    return spec
+
+
+def initial_state(rig: Rig, phase: Phase) -> FloatArray:
+    """Prescribed masses where the hand is; the others at their static equilibrium (linear springs)."""
+    n = rig.n
+    k = rig.stiffness.copy()
+    for h in rig.hands:
+        k[h.index, h.index] += h.stiffness
+    x = np.zeros(n)
+    fixed = sorted(phase.prescribed)
+    for i in fixed:
+        x[i] = phase.prescribed[i](phase.start)[0]
+    free = [i for i in range(n) if i not in phase.prescribed]
+    if free and fixed:
+        x[free] = np.linalg.solve(k[np.ix_(free, free)], -k[np.ix_(free, fixed)] @ x[fixed])
+    return np.concatenate([x, np.zeros(n)])
+
+
+def phases(spec: Spec, end: float) -> list[Phase]:
+    rel, lay = spec.release, spec.layout
+    if rel.kind == "hold":
+        held = {lay.pulled: hands.hold(rel.x)} | {i: hands.hold(0.0) for i in lay.still}
+    else:
+        held = {lay.pulled: hands.flick(rel.t_r - rel.duration, rel.t_r, rel.x, rel.v)}
+    return [Phase(0.0, rel.t_r, held), Phase(rel.t_r, end)]
+
+
+def make_case(seed: int, family: str | None = None, *, carts: int | None = None, release: str | None = None,
+              encoders: int | None = None) -> Case:
+    """One run of `family` (drawn by the seed when None). `carts` (1, 2) and `release` ('hold',
+    'flick') are drawn unless given; `encoders=1` reads only cart 1 of two carts with friction."""
+    rng = np.random.default_rng(seed)
+    family = family or str(rng.choice(FAMILIES))
+    if family not in FAMILIES:
+        raise ValueError(f"family: expected one of {', '.join(FAMILIES)}, got {family!r}")
+    rate = log_uniform(rng, 50.0, 1000.0)
+    length = float(rng.uniform(4.0, 10.0))
+    noise = log_uniform(rng, *NOISE_M)
+    spec = draw_spec(rng, family, carts, release, encoders, noise)
+    end = spec.release.t_r + length
+    t = np.arange(round(end * rate)) / rate
+    rig = spec.layout.rig(spec.effects)
+    steps = phases(spec, end)
+    x, _ = simulate(rig, steps, t, initial_state(rig, steps[0]))
+    obs = list(spec.layout.observed)
+    clean = x[:, obs] - x[0, obs]
+    y, noise = sense(rng, clean, spec.quantum, noise)
+    details = dict(spec.details, wn_rad_s=spec.wn, amplitude_m=spec.amplitude, length_s=length,
+                   release_x_m=spec.release.x, release_v_m_s=spec.release.v)
+    truth = Truth(family, spec.headline, spec.present, dict(spec.parameters), spec.release.t_r,
+                  spec.release.kind, rate, noise, clean, details)
+    return Case(seed, Observed(t, y, spec.carts), truth)
+
+
+def sense(rng: np.random.Generator, clean: FloatArray, quantum: float | None,
+          noise: float) -> tuple[FloatArray, float]:
+    """The encoder: white noise, or the lattice Q·round(y/Q) (exact, or noise of 2–30 % of Q after it)."""
+    if quantum is None:
+        return clean + rng.normal(0.0, noise, clean.shape), noise
+    y = quantum * np.round(clean / quantum)
+    after = 0.0 if rng.random() < 0.5 else quantum * rng.uniform(0.02, 0.3)
+    return y + rng.normal(0.0, after, clean.shape) if after else y, after
