@@ -46,4 +46,4 @@ constraints: $(STAMP)
 	mv constraints.txt.new constraints.txt
 
 clean:
-	rm -rf $(VENV) demo-report .pytest_cache .mypy_cache
+	rm -rf $(VENV) demo-report demo-report.old .pytest_cache .mypy_cache

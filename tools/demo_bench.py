@@ -5,9 +5,11 @@
 Starts, on loopback only: an embedded Zenoh peer (this process), an `ident worker`
 process, and `daq run` on a `sim://` rig with dry friction performing the three lab cases
 (cart 1 with cart 2 pinned, cart 2 with cart 1 pinned, both carts) as fast as it can
-compute them. It waits for the three fit reports on Zenoh (showing progress), stops the
-processes, writes the lab report to `<out>/` (`index.html`, `report.md`, figures; the run
-files stay in `<out>/runs/`) and prints a summary table. Exit code 0 when all three
+compute them. Every run records anew: a previous `<out>/` is first moved aside to
+`<out>.old/<UTC time>/` (never republished), and only runs recorded by this `daq` are
+reported. It waits for the three fit reports on Zenoh (showing progress), stops the
+processes, writes the lab report to `<out>/` (`index.html`, `report.md`, `report.ipynb`,
+figures; the run files stay in `<out>/runs/`) and prints a summary table. Exit code 0 when all three
 cases were fitted, 1 otherwise, 2 when a process died or a wait timed out.
 """
 
@@ -16,6 +18,7 @@ from __future__ import annotations
 import argparse
 import sys
 import time
+from datetime import UTC, datetime
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -57,6 +60,17 @@ class Progress:
         self.last = line
 
 
+def move_aside(out: Path) -> Path | None:
+    """Move a previous report directory to `<out>.old/<UTC time>/`; where it went."""
+    if not out.exists():
+        return None
+    stamp = datetime.now(UTC).strftime("%Y%m%dT%H%M%S.%fZ")
+    target = out.with_name(out.name + ".old") / stamp
+    target.parent.mkdir(parents=True, exist_ok=True)
+    out.rename(target)
+    return target
+
+
 def run_bench(out: Path, url: str, timeout_s: float, started: float) -> list[Path]:
     """Run daq + worker until the three fits are published; return the fit directories."""
     runs = out / "runs"
@@ -73,7 +87,10 @@ def run_bench(out: Path, url: str, timeout_s: float, started: float) -> list[Pat
         progress()
         print()
         fits = bench.watcher.final_reports()
-    return [runs / f"{run_id}.fit" for (_, run_id) in sorted(fits)]
+        recorded = set(bench.watcher.finished)
+    # only the runs this daq recorded: a stored fit is never reported as new
+    return [runs / f"{run_id}.fit" for (bench_name, run_id) in sorted(fits)
+            if (bench_name, run_id) in recorded]
 
 
 def print_summary(results: list) -> None:  # type: ignore[type-arg]
@@ -97,6 +114,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parse_args(argv)
     started = time.monotonic()
     url = sim_url(CASES, friction_n=args.friction_n, rate_hz=args.rate_hz, seed=args.seed)
+    previous = move_aside(args.out)
+    if previous is not None:
+        print(f"demo: the previous report moved to {previous}; recording new runs")
     try:
         fit_dirs = run_bench(args.out, url, args.timeout_s, started)
     except (ProcessDied, TimeoutError) as exc:

@@ -11,19 +11,34 @@ import pytest
 REPO = Path(__file__).resolve().parents[3]
 
 
-@pytest.mark.timeout(150)
-def test_demo_bench_writes_the_report_and_prints_the_summary(tmp_path: Path) -> None:
-    out = tmp_path / "demo-report"
+def _demo(out: Path, friction_n: float) -> tuple[list[str], list[str]]:
+    """Run the demo; its printed summary rows (case first) and the run ids it recorded."""
     proc = subprocess.run([sys.executable, "tools/demo_bench.py", "--out", str(out), "--rate-hz", "100",
-                           "--seed", "4"], cwd=REPO, capture_output=True, text=True, timeout=140)
+                           "--seed", "4", "--friction-n", str(friction_n)],
+                          cwd=REPO, capture_output=True, text=True, timeout=140)
     assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
     lines = proc.stdout.splitlines()
     assert any("runs recorded 3/3" in line and "done 3/3" in line for line in lines)   # progress
-    header = next(i for i, line in enumerate(lines) if line.startswith("case "))
-    rows = [line.split()[0] for line in lines[header + 2:header + 5]]
-    assert rows == ["cart1", "cart2", "both"]
-    assert all("coulomb_friction" in line for line in lines[header + 2:header + 5])
     assert "demo: 3/3 lab cases" in proc.stdout
+    header = next(i for i, line in enumerate(lines) if line.startswith("case "))
+    return lines[header + 2:header + 5], sorted(p.stem for p in (out / "runs").glob("*.mcap"))
+
+
+@pytest.mark.timeout(300)
+def test_demo_bench_records_anew_each_time_and_reports_its_own_runs(tmp_path: Path) -> None:
+    out = tmp_path / "demo-report"
+    rows, first_ids = _demo(out, friction_n=0.15)
+    assert [row.split()[0] for row in rows] == ["cart1", "cart2", "both"]
+    assert all("coulomb_friction" in row for row in rows)
+    assert all(run_id in (out / "report.md").read_text() for run_id in first_ids)
+    # a second demo without friction: new runs, the old report moved aside, nothing republished
+    rows, second_ids = _demo(out, friction_n=0.0)
+    assert len(second_ids) == 3 and not set(second_ids) & set(first_ids)
+    assert not any("coulomb_friction" in row for row in rows)
+    report = (out / "report.md").read_text()
+    assert all(r in report for r in second_ids) and not any(r in report for r in first_ids)
+    (old,) = (tmp_path / "demo-report.old").iterdir()
+    assert sorted(p.stem for p in (old / "runs").glob("*.mcap")) == first_ids
     for name in ("index.html", "report.md", "both-pem.svg", "cart1-simple.png"):
         assert (out / name).is_file()
     assert len(list((out / "runs").glob("*.mcap"))) == 3
