@@ -1,1 +1,20 @@
-"""Support for tests and tools: seeded generators, harnesses and writers (no test logic)."""
+"""Support for the tests and the tools: ports, one bounded wait, process harnesses, data writers.
+
+Nothing here is used by `daq`, `ident` or `schemas`; tests and `tools/*.py` import the
+submodules directly (`from testkit.waiting import wait_until`), never each other by path.
+
+- `ports`: free loopback TCP ports and Zenoh endpoints.
+- `waiting`: `wait_until`, the one bounded wait on a condition or an event.
+- `repo`: the checkout's root (the working directory of child processes).
+- process harnesses: `daq_process` (`daq` as a subprocess), `worker_harness` (`ident worker`
+  processes, a stand-in daq, a fit collector), `fake_fitters` (fitters the worker tests
+  plug in), `benchkit` (a whole bench as a service), `faultkit` (kill -9 trials),
+  `web_harness` and `web_support` (the bench page in a process or a thread, headless
+  Chromium), `zenoh_router` (a Zenoh router from Python, also `tools/zenoh_router.py`).
+- generators: `effects` (runs with a hidden effect, written from the physics, for the
+  diagnosis tests and `tools/bench_diagnose.py`).
+- data writers and readers: `mcap_runs` (daq-style MCAP runs), `ident_synth` (synthetic
+  runs for identification), `synth_runs` (bench traces for the release detector),
+  `lab_runs` (the three lab cases recorded by `daq run`), `sim_support` (reading and
+  decoding a finite port), `serialfaults` (serial fault injection and its truth).
+"""

@@ -1,4 +1,4 @@
-"""Suite-wide fixtures and guards (owned by the lead; per-package fixtures go in per-file helpers).
+"""Suite-wide fixtures and guards (owned by the lead; shared helpers live in the `testkit` package).
 
 - `free_port`: an ephemeral TCP port on 127.0.0.1 for a Zenoh listener or a web server.
 - `realdata_dir`: `../shared/realdata` beside the checkout, or a clean skip when absent.
@@ -8,21 +8,15 @@
 
 from __future__ import annotations
 
-import socket
 from pathlib import Path
 
 import pytest
 
+from testkit.ports import free_port as pick_free_port
+
 REPO_ROOT = Path(__file__).resolve().parents[1]
 REALDATA = REPO_ROOT.parent / "shared" / "realdata"
 MIN_TESTS = 50
-
-
-def pick_free_port() -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as sock:
-        sock.bind(("127.0.0.1", 0))
-        port: int = sock.getsockname()[1]
-        return port
 
 
 @pytest.fixture

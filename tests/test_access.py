@@ -1,6 +1,6 @@
 """Access: who may join the bus and who may publish what (issue 6, part 5).
 
-A real Zenoh router (`tools/zenoh_router.py`, router mode in this process) on an ephemeral
+A real Zenoh router (`testkit.zenoh_router`, as `tools/zenoh_router.py` runs it, router mode in this process) on an ephemeral
 loopback port runs the shipped `tools/zenoh/router-secure.json5` with a credentials file
 written here; clients use the shipped `tools/zenoh/*-client.json5` with the endpoint and
 password replaced. Denials are checked with an ordering argument, never a sleep: a client's
@@ -32,10 +32,8 @@ from schemas import keys
 from schemas.bus import BusConfig
 from schemas.daq import DaqCounters, DaqStatus, RunFinished, RunList, ZeroReply
 from schemas.fit import FitReport
-
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tools"))
-import zenoh_router  # noqa: E402
-from zenoh_router import (  # noqa: E402
+from testkit import ports, zenoh_router
+from testkit.zenoh_router import (
     DAQ_CLIENT,
     IDENT_CLIENT,
     SECURE_ROUTER,
@@ -82,11 +80,9 @@ class Router:
 
 @pytest.fixture(scope="module")
 def router(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Router]:
-    from tests.conftest import pick_free_port
-
     credentials = tmp_path_factory.mktemp("zenoh") / "credentials.txt"
     credentials.write_text("".join(f"{user}:{pw}\n" for user, pw in PASSWORDS.items()))
-    hub = Router(f"tcp/127.0.0.1:{pick_free_port()}", credentials)
+    hub = Router(ports.endpoint(), credentials)
     try:
         yield hub
     finally:

@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import argparse
 import os
-import socket
 import subprocess
 import sys
 import tempfile
@@ -28,7 +27,9 @@ import threading
 import time
 from pathlib import Path
 
-REPO = Path(__file__).resolve().parents[1]
+from testkit import ports
+from testkit.repo import REPO
+
 SIM = ("sim://?realtime=0&rate_hz=1000&cases=cart1,cart2,both&repeat={repeat}&seed=1&c1=2&c2=2"
        "&rest_s=1&hold_s=1.5&substep_hz=2000")
 SUBSCRIBER = """
@@ -42,13 +43,6 @@ with zenoh.open(conf) as s:
     sub.undeclare()
     print(count[0])
 """
-
-
-def free_port() -> int:
-    with socket.socket() as sock:
-        sock.bind(("127.0.0.1", 0))
-        port: int = sock.getsockname()[1]
-        return port
 
 
 def make_capture(path: Path, min_lines: int) -> int:
@@ -87,7 +81,7 @@ def throughput(capture: Path, workdir: Path) -> None:
     from schemas.bus import BusConfig
 
     os.sched_setaffinity(0, {sorted(os.sched_getaffinity(0))[0]})   # this thread and Zenoh's: one core
-    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    endpoint = ports.endpoint()
     config = ServiceConfig(port=f"replay://{capture}?speed=max", runs_dir=workdir / "runs_max", bench="bench",
                            bus=BusConfig.listener(endpoint), until_eof=True)
     service = Service(config)
@@ -117,7 +111,7 @@ def cpu_share(capture: Path, workdir: Path, seconds: float) -> None:
     master, slave = os.openpty()
     pty_path = os.ttyname(slave)
     lines = capture.read_bytes().splitlines(keepends=True)
-    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    endpoint = ports.endpoint()
     child = subprocess.Popen([sys.executable, "-m", "daq.cli", "run", "--port", pty_path, "--listen", endpoint,
                               "--runs-dir", str(workdir / "runs_rt"), "--bench", "bench"], cwd=REPO,
                              stderr=subprocess.PIPE, text=True)

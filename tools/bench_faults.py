@@ -10,7 +10,7 @@ Sections (each prints its figures; `--json` writes them all):
 2. unplug/replug — `sim://` disconnects every second during one long run: cycles, gaps marked,
    samples delivered but not recorded.
 3. clock and sequence wrap mid-run — steps in the recorded time, samples lost.
-4. kill -9 — `--kill-trials` trials at seeded random moments (`tools/faultkit.py`): recovered,
+4. kill -9 — `--kill-trials` trials at seeded random moments (`testkit/faultkit.py`): recovered,
    max seconds and samples lost before the kill, holes.
 5. bad input — every damaged file and payload tried against `ident.io.load` and the
    `schemas` records: refused with a clear error, loaded, or leaked another exception.
@@ -27,7 +27,6 @@ import json
 import logging
 import queue
 import random
-import subprocess
 import sys
 import tempfile
 import time
@@ -37,11 +36,8 @@ from typing import Any
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-import faultkit  # noqa: E402
-import serialfaults as sf  # noqa: E402
-
-REPO = Path(__file__).resolve().parents[1]
+from testkit import faultkit
+from testkit import serialfaults as sf
 SIM_1KHZ = ("sim://?realtime=0&rate_hz=1000&cases=both&seed=11&rest_s=1&pull_s=0.8&hold_s=1.2&c1=2&c2=2"
             "&tail_s=0.5")
 SOAK_SIM = ("sim://?realtime=0&rate_hz=1000&carts=2&cases=cart1,idle,cart2,idle,both,idle&idle_s=20"

@@ -26,9 +26,8 @@ import tempfile
 from collections.abc import Sequence
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-
-from benchkit import Bench, sim_url, wait_until  # noqa: E402
+from testkit.benchkit import Bench, sim_url
+from testkit.waiting import wait_until
 
 TARGET_S = 2.0
 

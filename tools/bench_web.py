@@ -21,7 +21,6 @@ from __future__ import annotations
 import argparse
 import http.client
 import json
-import sys
 import tempfile
 import threading
 import time
@@ -29,10 +28,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-
-from benchkit import Bench, endpoint, free_port, sim_url  # noqa: E402
-from web_harness import PageProcess, chromium_driver, cpu_seconds, wait_until  # noqa: E402
+from testkit.benchkit import Bench, sim_url
+from testkit.ports import endpoint, free_port
+from testkit.waiting import wait_until
+from testkit.web_harness import PageProcess, chromium_driver, cpu_seconds
 
 BENCH = "bench1"
 BROWSER_COUNTERS = ("samplesRaw", "pointsReceived", "sampleEvents", "framesDrawn", "drawMs", "handlerMs")

@@ -22,9 +22,8 @@ from datetime import UTC, datetime
 from collections.abc import Sequence
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-
-from benchkit import Bench, ProcessDied, sim_url, wait_until  # noqa: E402
+from testkit.benchkit import Bench, sim_url
+from testkit.waiting import ProcessDied, wait_until
 
 CASES = ("cart1", "cart2", "both")
 

@@ -17,15 +17,14 @@ The screenshots are not committed; look at them to check the page.
 from __future__ import annotations
 
 import argparse
-import sys
 import tempfile
 from pathlib import Path
 from typing import Any
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-
-from benchkit import Bench, endpoint, free_port, sim_url  # noqa: E402
-from web_harness import PageProcess, chromium_driver, wait_until  # noqa: E402
+from testkit.benchkit import Bench, sim_url
+from testkit.ports import endpoint, free_port
+from testkit.waiting import wait_until
+from testkit.web_harness import PageProcess, chromium_driver
 
 BENCH = "bench1"
 

@@ -16,8 +16,9 @@ from zenoh import ext
 from schemas import keys
 from schemas.bus import BusConfig
 from schemas.daq import DaqStatus, RunFinished, RunList, SampleBatch, ZeroReply
-from tests.conftest import pick_free_port
-from tests.daq.daq_process import start_daq, wait_for
+from testkit import ports
+from testkit.daq_process import start_daq
+from testkit.waiting import wait_until
 
 BENCH = "e2e"
 SIM = ("sim://?realtime=1&rate_hz=100&cases=cart1&seed=9&rest_s=0.3&pull_s=0.5&hold_s=0.8&c1=4&c2=4"
@@ -44,7 +45,7 @@ def _history_subscriber(session: zenoh.Session, sink: queue.SimpleQueue[RunFinis
 @pytest.fixture(scope="module")
 def live(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Live]:
     root = tmp_path_factory.mktemp("bus")
-    endpoint = f"tcp/127.0.0.1:{pick_free_port()}"
+    endpoint = ports.endpoint()
     proc = start_daq("run", "--port", SIM, "--bench", BENCH, "--runs-dir", str(root / "runs"),
                      "--listen", endpoint, log_path=root / "daq.log")
     session = zenoh.open(zenoh.Config.from_json5(BusConfig.connector(endpoint).zenoh_json5()))
@@ -137,5 +138,5 @@ def test_liveliness_token_then_clean_exit_on_sigterm(live: Live, first_run: RunF
     assert alive == [keys.daq_alive(BENCH)]
     live.proc.send_signal(signal.SIGTERM)
     assert live.proc.wait(timeout=20) == 0
-    wait_for(lambda: not list(live.session.liveliness().get(keys.ALL_DAQ_ALIVE, timeout=1)), 10,
+    wait_until(lambda: not list(live.session.liveliness().get(keys.ALL_DAQ_ALIVE, timeout=1)), 10,
              "the liveliness token to go")

@@ -15,8 +15,10 @@ import pytest
 
 from daq.cli import main
 from daq.run_file import load_run
-from tests.conftest import pick_free_port
-from tests.daq.daq_process import REPO, daq_command, parse_capture, wait_for
+from testkit import ports
+from testkit.daq_process import daq_command, parse_capture
+from testkit.repo import REPO
+from testkit.waiting import wait_until
 
 SIM = "sim://?realtime=0&rate_hz=200&cases=cart1,cart2,both&seed=5&c1=2&c2=2&capture={capture}"
 
@@ -148,7 +150,7 @@ def test_daq_run_does_not_load_the_web_stack(tmp_path: Path) -> None:
 
 
 def test_serve_serves_the_page_and_stops_cleanly_on_sigterm(free_port: int) -> None:
-    nobody = f"tcp/127.0.0.1:{pick_free_port()}"   # no daq there: the page says so and keeps serving
+    nobody = ports.endpoint()   # no daq there: the page says so and keeps serving
     proc = subprocess.Popen(daq_command("serve", "--port", str(free_port), "--connect", nobody), cwd=REPO,
                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     url = f"http://127.0.0.1:{free_port}/api/stats"
@@ -162,7 +164,7 @@ def test_serve_serves_the_page_and_stops_cleanly_on_sigterm(free_port: int) -> N
             return False
 
     try:
-        wait_for(serving, 20, "daq serve to answer")
+        wait_until(serving, 20, "daq serve to answer")
         proc.send_signal(signal.SIGTERM)
         assert proc.wait(10) == 0
         err = proc.stderr.read() if proc.stderr else b""

@@ -14,8 +14,9 @@ from daq.run_file import load_run
 from schemas import keys
 from schemas.bus import BusConfig
 from schemas.daq import RunFinished, SampleBatch
-from tests.conftest import pick_free_port
-from tests.daq.daq_process import start_daq, wait_for
+from testkit import ports
+from testkit.daq_process import start_daq
+from testkit.waiting import wait_until
 
 BENCH = "crash"
 RATE_HZ = 200
@@ -29,7 +30,7 @@ def _connect(endpoint: str) -> zenoh.Session:
 
 def test_kill_9_loses_at_most_half_a_second_and_restart_recovers(tmp_path: Path) -> None:
     runs = tmp_path / "runs"
-    endpoint = f"tcp/127.0.0.1:{pick_free_port()}"
+    endpoint = ports.endpoint()
     proc = start_daq("run", "--port", SIM, "--bench", BENCH, "--runs-dir", str(runs), "--listen", endpoint,
                      log_path=tmp_path / "daq1.log")
     live_t: queue.SimpleQueue[int] = queue.SimpleQueue()
@@ -44,17 +45,17 @@ def test_kill_9_loses_at_most_half_a_second_and_restart_recovers(tmp_path: Path)
     try:
         sub = session.declare_subscriber(keys.samples(BENCH), on_sample)
         parts = lambda: list(runs.glob("*.mcap.part"))  # noqa: E731
-        wait_for(lambda: bool(parts()), 30, "a run file to be opened")
+        wait_until(lambda: bool(parts()), 30, "a run file to be opened")
         part = parts()[0]
         start_size = part.stat().st_size
-        wait_for(lambda: part.stat().st_size > start_size + 20_000, 30, "the run file to grow")
+        wait_until(lambda: part.stat().st_size > start_size + 20_000, 30, "the run file to grow")
         # growth is seen right after a flush: let 0.15 s more of samples go out so the kill
         # lands between flushes, not just after one
         grown_at = latest[0]
-        wait_for(lambda: latest[0] >= grown_at + 150_000_000, 10, "0.15 s more of live samples")
+        wait_until(lambda: latest[0] >= grown_at + 150_000_000, 10, "0.15 s more of live samples")
         proc.send_signal(signal.SIGKILL)
         proc.wait(timeout=10)
-        wait_for(lambda: not list(session.liveliness().get(keys.ALL_DAQ_ALIVE, timeout=1)), 10,
+        wait_until(lambda: not list(session.liveliness().get(keys.ALL_DAQ_ALIVE, timeout=1)), 10,
                  "the killed daq's token to go")   # everything sent before the kill has arrived
         sub.undeclare()
     finally:
@@ -69,7 +70,7 @@ def test_kill_9_loses_at_most_half_a_second_and_restart_recovers(tmp_path: Path)
     assert 0 <= lost_s <= 0.5
     assert np.all(np.diff(salvaged.t_ns) == 1_000_000_000 // RATE_HZ)   # nothing missing inside
 
-    restart_endpoint = f"tcp/127.0.0.1:{pick_free_port()}"
+    restart_endpoint = ports.endpoint()
     proc2 = start_daq("run", "--port", "sim://?realtime=0&cases=none&duration_s=0.2", "--bench", BENCH,
                       "--runs-dir", str(runs), "--listen", restart_endpoint, log_path=tmp_path / "daq2.log")
     session = _connect(restart_endpoint)
@@ -99,7 +100,7 @@ def test_sigint_mid_run_finishes_the_run_file(tmp_path: Path) -> None:
     proc = start_daq("run", "--port", SIM, "--bench", BENCH, "--runs-dir", str(runs), "--no-zenoh",
                      log_path=tmp_path / "daq.log")
     try:
-        wait_for(lambda: bool(list(runs.glob("*.mcap.part"))), 30, "a run file to be opened")
+        wait_until(lambda: bool(list(runs.glob("*.mcap.part"))), 30, "a run file to be opened")
         proc.send_signal(signal.SIGINT)
         assert proc.wait(timeout=20) == 0
     finally:

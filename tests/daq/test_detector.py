@@ -8,7 +8,7 @@ import pytest
 from daq.detector import (Armed, DetectorSettings, Disarmed, Rejected, Released, ReleaseDetector, Settled,
                           fit_onset)
 from daq.errors import DaqValueError
-from tests.daq.synth_runs import LAB_CASES, Trace, idle_handling, lab_run
+from testkit.synth_runs import LAB_CASES, Trace, idle_handling, lab_run
 
 
 def _events(trace: Trace, offset_m: float = 0.0) -> list[object]:

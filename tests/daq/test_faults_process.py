@@ -23,10 +23,10 @@ from schemas import keys
 from schemas.bus import BusConfig
 from schemas.daq import RunFinished
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "tools"))
-from faultkit import PERIOD_NS, RATE_HZ, daq_process, free_endpoint, kill9_trials, wait_until  # noqa: E402
-
-REPO = Path(__file__).resolve().parents[2]
+from testkit.faultkit import PERIOD_NS, RATE_HZ, daq_process, kill9_trials
+from testkit.ports import endpoint as free_endpoint
+from testkit.repo import REPO
+from testkit.waiting import wait_until
 
 
 def test_kill_9_at_random_moments_loses_at_most_half_a_second_and_restart_recovers(tmp_path: Path) -> None:

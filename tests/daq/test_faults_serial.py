@@ -14,14 +14,11 @@ in this process, without Zenoh, on an injected no-wait back-off.
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 import numpy as np
-import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "tools"))
-from serialfaults import (  # noqa: E402
+from testkit.serialfaults import (
     Corrupted,
     corrupt_capture,
     expected,

@@ -11,7 +11,7 @@ import pytest
 from daq.decode import encode_data, encode_info
 from daq.pipeline import MAX_LIVE_GAPS, Acquisition, AcquisitionConfig
 from schemas.daq import DetectorStateMsg, RunFinished, RunMetadata, SampleBatch
-from tests.daq.synth_runs import LAB_CASES, Trace, lab_run
+from testkit.synth_runs import LAB_CASES, Trace, lab_run
 
 
 @dataclass

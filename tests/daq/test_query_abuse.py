@@ -24,7 +24,7 @@ from daq.service import Service, ServiceConfig
 from schemas import keys
 from schemas.bus import BusConfig
 from schemas.daq import DaqStatus, RunList, ZeroReply
-from tests.conftest import pick_free_port
+from testkit import ports
 
 BENCH = "abuse"
 SIM = ("sim://?realtime=0&rate_hz=100&cases=cart1&seed=5&rest_s=0.3&pull_s=0.5&hold_s=0.8&c1=3"
@@ -58,7 +58,7 @@ def running(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Running]:
     runs_dir = root / "runs"
     secret = root / "secret.mcap"
     secret.write_bytes(SECRET)
-    endpoint = f"tcp/127.0.0.1:{pick_free_port()}"
+    endpoint = ports.endpoint()
     service = Service(ServiceConfig(port=SIM, runs_dir=runs_dir, bench=BENCH, bus=BusConfig.listener(endpoint)))
     errors: list[BaseException] = []
 

@@ -11,7 +11,6 @@ import sys
 import textwrap
 from pathlib import Path
 
-import numpy as np
 import pytest
 from mcap.reader import make_reader
 
@@ -19,30 +18,11 @@ from daq.errors import DaqIOError
 from daq.recorder import RunWriter, finished_of, recover_all, recover_part, utc_now_iso
 from daq.run_file import export_csv, export_json, export_mat, load_run, run_info
 from schemas import topics
-from schemas.daq import DaqCounters, DetectorStateMsg, RunFinished, RunMetadata, SampleBatch
+from schemas.daq import DaqCounters, DetectorStateMsg, RunFinished
+from testkit.daq_records import run_metadata as _meta
+from testkit.daq_records import sample_batches as _batches
+from testkit.repo import REPO
 
-REPO = Path(__file__).resolve().parents[2]
-
-
-def _meta(run_id: str = "r1", first_t_ns: int = 1_000_000_000, release_t_ns: int | None = 1_500_000_000) -> RunMetadata:
-    return RunMetadata(bench="b1", run_id=run_id, dialect="cartlab", port="sim://", counts_per_m=20000.0,
-                       signs=[1, -1], zero_offsets_raw=[10.0, 20.0], n_channels=2,
-                       detector_settings={"fire_m": 0.003}, detector_method="test",
-                       release_time_s=None if release_t_ns is None else (release_t_ns - first_t_ns) / 1e9,
-                       release_t_ns=release_t_ns, first_t_ns=first_t_ns, pre_trigger_s=0.5,
-                       software_version="0.1.0", started_utc=utc_now_iso())
-
-
-def _batches(n_batches: int, per_batch: int = 20, rng_seed: int = 1) -> list[SampleBatch]:
-    rng = np.random.default_rng(rng_seed)
-    out = []
-    for b in range(n_batches):
-        t = [1_000_000_000 + (b * per_batch + i) * 1_000_000 for i in range(per_batch)]
-        raw1 = rng.integers(-3000, 3000, per_batch).astype(float).tolist()
-        raw2 = rng.integers(-3000, 3000, per_batch).astype(float).tolist()
-        out.append(SampleBatch(bench="b1", run_id="r1", batch_seq=b, t_ns=t, raw1=raw1, raw2=raw2,
-                               pos1_m=[(r - 10) / 20000 for r in raw1], pos2_m=[-(r - 20) / 20000 for r in raw2]))
-    return out
 
 
 def test_round_trip_keeps_every_sample_and_the_metadata(tmp_path: Path) -> None:
@@ -99,20 +79,19 @@ def test_exports_share_the_time_base_of_release_time(tmp_path: Path) -> None:
 
 
 _KILLED_WRITER = textwrap.dedent("""
-    import os, sys
-    sys.path.insert(0, {tests!r})
+    import os
     from pathlib import Path
-    from test_recorder import _meta, _batches
     from daq.recorder import RunWriter
-    writer = RunWriter(Path({runs!r}), _meta(), now_s=0.0)
-    for i, batch in enumerate(_batches(50)):
+    from testkit.daq_records import run_metadata, sample_batches
+    writer = RunWriter(Path({runs!r}), run_metadata(), now_s=0.0)
+    for i, batch in enumerate(sample_batches(50)):
         writer.write_samples(batch, now_s=i * 0.02)   # 20 ms per batch: flushed every 0.25 s
     os._exit(0)   # no finish: like kill -9
 """)
 
 
 def test_a_killed_writer_is_recovered_up_to_the_last_flush(tmp_path: Path) -> None:
-    script = _KILLED_WRITER.format(tests=str(Path(__file__).parent), runs=str(tmp_path))
+    script = _KILLED_WRITER.format(runs=str(tmp_path))
     subprocess.run([sys.executable, "-c", script], check=True, cwd=REPO, timeout=60)
     part = tmp_path / "r1.mcap.part"
     salvaged = load_run(part)

@@ -10,7 +10,7 @@ import serial
 from daq.decode import encode_csv, encode_csv_header
 from daq.serial_handlers import EndOfStream, protocol_replay
 from daq.sim import SimOptionError
-from tests.daq.sim_support import data_frames, decode, read_all
+from testkit.sim_support import data_frames, decode, read_all
 
 U32 = 2**32
 

@@ -19,7 +19,8 @@ from mcap.reader import make_reader
 from daq.run_file import load_run
 from schemas import topics
 from schemas.daq import PositionSample, SampleBatch
-from tests.daq.daq_process import REPO, daq_command, parse_capture
+from testkit.daq_process import daq_command, parse_capture
+from testkit.repo import REPO
 
 SIM = "sim://?realtime=0&rate_hz=200&cases=cart1,both&seed=11&c1=2&c2=2&capture={capture}"
 NODE_DIR = REPO / "tests" / "node"

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from tests.daq.sim_support import run_rig
+from testkit.sim_support import run_rig
 
 CPM = 20000.0
 BASE = "sim://?realtime=0&rate_hz=500&seed=1"

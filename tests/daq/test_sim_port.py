@@ -13,7 +13,7 @@ from daq.decode import encode_query_command, encode_rate_command
 from daq.frames import InfoFrame
 from daq.serial_handlers import EndOfStream
 from daq.sim import SimOptionError, describe_options
-from tests.daq.sim_support import data_frames, decode, read_all
+from testkit.sim_support import data_frames, decode, read_all
 
 FAST = "sim://?realtime=0&rest_s=0.5&pull_s=0.5&hold_s=0.5&ring_max_s=3&tail_s=0.5"
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 from daq.decode import make_decoder
 from daq.frames import DataFrame
 from daq.timeline import Timeline, TimelineStep
-from tests.daq.sim_support import read_all
+from testkit.sim_support import read_all
 
 U32 = 2**32
 

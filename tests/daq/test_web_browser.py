@@ -24,8 +24,10 @@ from schemas import keys
 from schemas.bus import BusConfig
 from schemas.daq import DaqStatus, RunFinished, RunList
 from schemas.fit import FitReport, ModeRec, PemFitRec, SimpleFitRec, TransferFunctionRec
-from tests.daq.web_support import (DaqProcess, FakeDaq, PageServer, chromium_driver, chromium_paths,
-                                   diagnosis_record, wait_for)
+from testkit import ports
+from testkit.waiting import wait_until
+from testkit.web_support import (DaqProcess, FakeDaq, PageServer, chromium_driver, chromium_paths,
+                                 diagnosis_record)
 
 BROWSER, DRIVER = chromium_paths()
 pytestmark = [
@@ -50,9 +52,7 @@ def workdir() -> Iterator[Path]:
 
 @pytest.fixture(scope="module")
 def endpoints() -> dict[str, str]:
-    from tests.conftest import pick_free_port
-
-    return {"daq": f"tcp/127.0.0.1:{pick_free_port()}", "page": f"tcp/127.0.0.1:{pick_free_port()}"}
+    return {"daq": ports.endpoint(), "page": ports.endpoint()}
 
 
 @pytest.fixture(scope="module")
@@ -92,7 +92,7 @@ def daq(browser: Any, page: PageServer, runs_dir: Path, endpoints: dict[str, str
     """`daq run` on the simulated rig, started once the page is open; linked to the page."""
     proc = DaqProcess(SIM_URL, BENCH, runs_dir, endpoints["daq"], ("--connect", endpoints["page"]))
     try:
-        wait_for(lambda: BENCH in page.service.hub.benches and page.service.hub.benches[BENCH].alive
+        wait_until(lambda: BENCH in page.service.hub.benches and page.service.hub.benches[BENCH].alive
                  or proc.proc.poll() is not None, 30, "the daq to come alive")
         assert proc.proc.poll() is None, "daq run exited"
         yield proc
@@ -153,15 +153,15 @@ def blue_pixels(browser: Any) -> int:
 
 def test_live_trace_moves_release_settles_and_the_run_appears_with_its_fit(
         browser: Any, page: PageServer, session: zenoh.Session, runs_dir: Path) -> None:
-    wait_for(lambda: js(browser, "window.cartlab.bench") == BENCH, 20, "the page to pick the bench")
+    wait_until(lambda: js(browser, "window.cartlab.bench") == BENCH, 20, "the page to pick the bench")
     # the live trace moves: device time and points drawn keep growing, pixels are painted
-    t0, drawn0 = wait_for(lambda: js(browser, "window.cartlab.lastT !== null && "
+    t0, drawn0 = wait_until(lambda: js(browser, "window.cartlab.lastT !== null && "
                                      "[window.cartlab.lastT, window.cartlab.pointsDrawn]"), 20, "samples")
-    wait_for(lambda: js(browser, "window.cartlab.lastT") > t0 + 0.5, 10, "the trace to move 0.5 s")
+    wait_until(lambda: js(browser, "window.cartlab.lastT") > t0 + 0.5, 10, "the trace to move 0.5 s")
     assert js(browser, "window.cartlab.pointsDrawn") > drawn0
 
     # a release changes the state to released, then settled
-    wait_for(lambda: "settled" in js(browser, "window.cartlab.stateHistory"), 30, "the run to settle")
+    wait_until(lambda: "settled" in js(browser, "window.cartlab.stateHistory"), 30, "the run to settle")
     history = js(browser, "window.cartlab.stateHistory")
     assert history.index("released") < history.index("settled")
     badges = js(browser, "window.badgeTexts")
@@ -169,7 +169,7 @@ def test_live_trace_moves_release_settles_and_the_run_appears_with_its_fit(
     assert blue_pixels(browser) > 500          # the ringing of cart 1 is painted on the canvas
 
     # the run appears in the list, with the daq's own release time
-    run_id = wait_for(lambda: run_ids(browser), 10, "a run row")[0]
+    run_id = wait_until(lambda: run_ids(browser), 10, "a run row")[0]
     runs = RunList.from_json_bytes(query(session, keys.daq_query(BENCH, "runs")))
     finished: RunFinished = next(r for r in runs.runs if r.run_id == run_id)
     cells = row_cells(browser, run_id)
@@ -196,7 +196,7 @@ def test_live_trace_moves_release_settles_and_the_run_appears_with_its_fit(
         publisher_detection=True, sample_miss_detection=zenoh.ext.MissDetectionConfig(heartbeat=1.0))
     try:
         publisher.put(report.to_json_bytes())
-        cells = wait_for(lambda: (lambda c: c if len(c) == 10 and c[4].startswith("5.500") else None)(
+        cells = wait_until(lambda: (lambda c: c if len(c) == 10 and c[4].startswith("5.500") else None)(
             row_cells(browser, run_id)), 10, "the fit in the row")
     finally:
         publisher.undeclare()
@@ -211,10 +211,10 @@ def test_live_trace_moves_release_settles_and_the_run_appears_with_its_fit(
 
 
 def test_zero_button_zeroes(browser: Any, session: zenoh.Session) -> None:
-    wait_for(lambda: js(browser, "window.cartlab.status !== null && window.cartlab.status.connected"),
+    wait_until(lambda: js(browser, "window.cartlab.status !== null && window.cartlab.status.connected"),
              20, "the daq status")
     browser.find_element("id", "zero-btn").click()
-    action = wait_for(lambda: js(browser, "window.cartlab.lastAction"), 10, "the zero reply")
+    action = wait_until(lambda: js(browser, "window.cartlab.lastAction"), 10, "the zero reply")
     assert action["action"] == "zero" and action["ok"] is True, action
     offsets = action["reply"]["zero_offsets_raw"]
     assert len(offsets) == 2 and "zeroed" in browser.find_element("id", "action-result").text
@@ -228,7 +228,7 @@ def test_zero_button_zeroes(browser: Any, session: zenoh.Session) -> None:
         now = DaqStatus.from_json_bytes(query(session, keys.daq_query(BENCH, "status"))).zero_offsets_raw
         return browser.find_element("id", "st-zero").text == ", ".join(f"{v:.0f}" for v in now)
 
-    wait_for(page_shows_the_daqs_zero, 10, "the daq's zero on the page", every_s=0.2)
+    wait_until(page_shows_the_daqs_zero, 10, "the daq's zero on the page", poll_s=0.2)
     assert "0.000" in browser.find_element("id", "st-pos1").text
 
 
@@ -236,22 +236,22 @@ def test_bench_selector_failed_fit_and_daq_gone(browser: Any, page: PageServer, 
                                                endpoints: dict[str, str]) -> None:
     other = FakeDaq("benchB", endpoints["page"], connect=True)   # a second daq, via the page's peer
     try:
-        wait_for(lambda: browser.find_element("id", "bench-picker").is_displayed(), 15,
+        wait_until(lambda: browser.find_element("id", "bench-picker").is_displayed(), 15,
                  "the bench selector to appear")
         options = [o.get_attribute("value") for o in browser.find_elements("css selector", "#bench-select option")]
         assert options == [BENCH, "benchB"]
         browser.find_element("css selector", '#bench-select option[value="benchB"]').click()
-        wait_for(lambda: js(browser, "window.cartlab.bench") == "benchB", 10, "the page to follow benchB")
+        wait_until(lambda: js(browser, "window.cartlab.bench") == "benchB", 10, "the page to follow benchB")
         other.publish_finished(RunFinished(bench="benchB", run_id="rB1", status="complete", file="rB1.mcap",
                                            n_samples=300, release_time_s=0.5, duration_s=0.3))
         other.publish_fit(FitReport(bench="benchB", run_id="rB1", worker="w", status="failed",
                                     reason="run too short: expected at least 2 s, got 0.3 s"))
-        cells = wait_for(lambda: (lambda c: c if len(c) > 4 and c[4].startswith("fit failed") else None)(
+        cells = wait_until(lambda: (lambda c: c if len(c) > 4 and c[4].startswith("fit failed") else None)(
             row_cells(browser, "rB1")), 10, "the failed fit")
         assert cells[4] == "fit failed: run too short: expected at least 2 s, got 0.3 s"
         assert run_ids(browser) == ["rB1"]                                  # benchA's runs not shown
         other.leave()
-        problem = wait_for(lambda: browser.find_element("id", "problems").text, 10, "the daq-gone problem")
+        problem = wait_until(lambda: browser.find_element("id", "problems").text, 10, "the daq-gone problem")
         assert "daq for bench benchB is not running" in problem
         assert browser.find_element("id", "zero-btn").get_attribute("disabled") is not None
     finally:
@@ -260,23 +260,21 @@ def test_bench_selector_failed_fit_and_daq_gone(browser: Any, page: PageServer, 
 
 def test_an_unplugged_encoder_port_is_reported_and_cleared(browser: Any, page: PageServer, daq: DaqProcess,
                                                           runs_dir: Path, endpoints: dict[str, str]) -> None:
-    from tests.conftest import pick_free_port
-
     # a second real daq whose simulated USB link drops for 1.5 s every 2 s of streaming
     unplugging = DaqProcess("sim://?rate_hz=200&cases=idle&idle_s=600&realtime=1"
                             "&disconnect_every_s=2&disconnect_s=1.5", "benchU", runs_dir,
-                            f"tcp/127.0.0.1:{pick_free_port()}", ("--connect", endpoints["page"]))
+                            ports.endpoint(), ("--connect", endpoints["page"]))
     try:
-        wait_for(lambda: browser.find_elements("css selector", '#bench-select option[value="benchU"]'), 30,
+        wait_until(lambda: browser.find_elements("css selector", '#bench-select option[value="benchU"]'), 30,
                  "benchU in the selector")
         browser.execute_script("const s = document.getElementById('bench-select');"
                                "s.value = 'benchU'; s.dispatchEvent(new Event('change'));")
-        wait_for(lambda: js(browser, "window.cartlab.bench") == "benchU", 10, "the page to follow benchU")
-        wait_for(lambda: "is not connected: check the USB cable" in browser.find_element("id", "problems").text,
+        wait_until(lambda: js(browser, "window.cartlab.bench") == "benchU", 10, "the page to follow benchU")
+        wait_until(lambda: "is not connected: check the USB cable" in browser.find_element("id", "problems").text,
                  20, "the unplugged port on the page")
         assert browser.find_element("id", "st-port").text.startswith("NOT CONNECTED")
         # the daq reopens the port: the problem goes away by itself
-        wait_for(lambda: not browser.find_element("id", "problems").is_displayed(), 20, "the port back")
+        wait_until(lambda: not browser.find_element("id", "problems").is_displayed(), 20, "the port back")
         assert browser.find_element("id", "st-port").text.startswith("connected")
     finally:
         log = unplugging.stop()

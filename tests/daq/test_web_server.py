@@ -6,6 +6,9 @@ from __future__ import annotations
 
 import json
 import os
+import signal
+import subprocess
+import sys
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -13,7 +16,8 @@ import pytest
 
 from schemas.daq import RunFinished
 from schemas.fit import FitReport, ModeRec, PemFitRec, TransferFunctionRec
-from tests.daq.web_support import FakeDaq, PageServer, SseReader, page_settings, position_m
+from testkit.waiting import wait_until
+from testkit.web_support import FakeDaq, PageServer, SseReader, page_settings, position_m
 
 pytestmark = pytest.mark.timeout(60)
 
@@ -215,12 +219,6 @@ def test_an_mcap_not_on_this_machine_is_fetched_from_the_daq(
 
 def test_the_command_serves_and_stops_cleanly_on_a_signal_with_a_page_open(
         free_port: int, endpoint: str) -> None:
-    import signal
-    import subprocess
-    import sys
-
-    from tests.daq.web_support import wait_for
-
     proc = subprocess.Popen([sys.executable, "-m", "daq.web", "--port", str(free_port),
                              "--connect", endpoint], stderr=subprocess.PIPE)
     try:
@@ -231,7 +229,7 @@ def test_the_command_serves_and_stops_cleanly_on_a_signal_with_a_page_open(
                 assert proc.poll() is None, proc.stderr.read() if proc.stderr else ""
                 return False
 
-        wait_for(serving, 20, "python -m daq.web to serve")
+        wait_until(serving, 20, "python -m daq.web to serve")
         reader = SseReader(free_port, "/api/events")
         first = reader.next()
         assert first.name == "snapshot" and "no daq found" in first.data["status"]["problems"][0]

@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from hidden_effects import EFFECTS, HiddenCase, make_case, write_csv
-from mcap_runs import write_mcap_run
+from testkit.mcap_runs import write_mcap_run
 
 from ident.cli import main
 from ident.diagnose import diagnose

@@ -6,7 +6,7 @@ import importlib
 
 import numpy as np
 import pytest
-from ident_synth import cart1_run, step
+from testkit.ident_synth import cart1_run, step
 
 import ident
 

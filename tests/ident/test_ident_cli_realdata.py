@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from ident_synth import cart1_run, cart2_run
+from testkit.ident_synth import cart1_run, cart2_run
 
 from ident.cli import main
 from ident.io import load

@@ -6,8 +6,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from ident_synth import cart1_run, cart2_run
-from mcap_runs import write_mcap_run
+from testkit.ident_synth import cart1_run, cart2_run
+from testkit.mcap_runs import write_mcap_run
 
 from ident.data import IdData, check_arrays, make_uniform, step_input
 from ident.errors import DataFileError, IdentDimensionError, IdentValueError

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from ident_synth import cart1_run, step
+from testkit.ident_synth import cart1_run, step
 
 from ident.compare import compare, fit_percent, resid, residual_test
 from ident.data import IdData, from_release

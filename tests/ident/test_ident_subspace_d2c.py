@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from ident_synth import cart2_run, step
+from testkit.ident_synth import cart2_run, step
 
 from ident.d2c import c2d_zoh, d2c_zoh
 from ident.data import IdData

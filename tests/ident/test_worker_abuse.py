@@ -26,9 +26,8 @@ import zenoh.ext
 from ident.worker.service import FitJob, WorkerOptions, run_worker
 from schemas import keys
 from schemas.bus import BusConfig
-from schemas.daq import RunFinished
 from schemas.fit import FitReport
-from tests.conftest import pick_free_port
+from testkit import ports
 
 BENCH = "wb"
 WAIT_S = 30.0
@@ -55,7 +54,7 @@ class Setup:
 def worker(tmp_path: Path, request: pytest.FixtureRequest) -> Iterator[Setup]:
     runs_dir = tmp_path / "deep" / "runs"
     runs_dir.mkdir(parents=True)
-    endpoint = f"tcp/127.0.0.1:{pick_free_port()}"
+    endpoint = ports.endpoint()
     fitter = getattr(request, "param", f"{__name__}:stand_in_fit")
     options = WorkerOptions(name="w-abuse", runs_dir=runs_dir, bus=BusConfig.listener(endpoint),
                             fitter=fitter, settle_s=0.05, sync_s=0.1)

@@ -11,7 +11,7 @@ from matplotlib.figure import Figure
 from ident.report import figures as figs
 from ident.report.content import CaseResult
 from ident.commands.report import write_lab_report
-from report_fixtures import record_lab_runs
+from testkit.lab_runs import record_lab_runs
 
 FIGURE_STEMS = ("cart1-simple", "cart2-simple", "cart1-pem", "cart2-pem", "both-pem",
                 "cart1-diagnosis", "cart2-diagnosis", "both-diagnosis",

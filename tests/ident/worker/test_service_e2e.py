@@ -10,7 +10,6 @@ worker never sees them.
 from __future__ import annotations
 
 import math
-import sys
 from pathlib import Path
 
 import pytest
@@ -18,8 +17,8 @@ import pytest
 from schemas.fit import FitReport
 from ident.worker.runs_dir import REPORT_NAME
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[3] / "tools"))
-from benchkit import Bench, sim_url, wait_until  # noqa: E402
+from testkit.benchkit import Bench, sim_url
+from testkit.waiting import wait_until
 
 pytestmark = pytest.mark.timeout(150)
 

@@ -15,8 +15,9 @@ import pytest
 
 from schemas.bus import BusConfig
 from ident.worker.schedule import RunRef, owner
-from worker_harness import (FakeDaq, FitCollector, alive_workers, fit_log_counts, open_session,
-                            record_sim_run, start_worker, stop, wait_for)
+from testkit.waiting import wait_until
+from testkit.worker_harness import (FakeDaq, FitCollector, alive_workers, fit_log_counts, open_session,
+                                    record_sim_run, start_worker, stop)
 
 pytestmark = pytest.mark.timeout(90)
 
@@ -43,10 +44,10 @@ def test_two_workers_fit_each_run_exactly_once(router, tmp_path: Path) -> None: 
     daq = FakeDaq(session, "bench1", runs_dir)
     collector = FitCollector(session)
     early = [daq.announce(f"r{i:02d}") for i in range(4)]     # before any worker runs
-    workers = [start_worker(n, _client(endpoint), runs_dir, tmp_path, "fake_fitters:instant_fit", env)
+    workers = [start_worker(n, _client(endpoint), runs_dir, tmp_path, "testkit.fake_fitters:instant_fit", env)
                for n in ("wa", "wb")]
     try:
-        wait_for(lambda: alive_workers(session) == {"wa", "wb"}, 20, "both workers alive")
+        wait_until(lambda: alive_workers(session) == {"wa", "wb"}, 20, "both workers alive")
         late = [daq.announce(f"r{i:02d}") for i in range(4, 12)]
         finals = collector.wait_finals(early + late, timeout_s=30)
     finally:
@@ -71,17 +72,17 @@ def test_kill_9_mid_fit_the_other_worker_takes_over(router, tmp_path: Path) -> N
     env = {"FAKE_FIT_LOG": str(log), "FAKE_FIT_GATE": str(gate)}
     daq = FakeDaq(session, "bench1", runs_dir)
     collector = FitCollector(session)
-    workers = {n: start_worker(n, _client(endpoint), runs_dir, tmp_path, "fake_fitters:gated_fit", env)
+    workers = {n: start_worker(n, _client(endpoint), runs_dir, tmp_path, "testkit.fake_fitters:gated_fit", env)
                for n in ("wa", "wb")}
     try:
-        wait_for(lambda: alive_workers(session) == {"wa", "wb"}, 20, "both workers alive")
+        wait_until(lambda: alive_workers(session) == {"wa", "wb"}, 20, "both workers alive")
         runs = [daq.announce(f"r{i:02d}") for i in range(8)]
-        wait_for(lambda: len(fit_log_counts(log)["start"]) == 2, 20, "each worker mid-fit")
+        wait_until(lambda: len(fit_log_counts(log)["start"]) == 2, 20, "each worker mid-fit")
         started = fit_log_counts(log)["start"]
         victim_run = next(run for run, ws in started.items() if ws == ["wa"])
         workers["wa"].send_signal(signal.SIGKILL)
         workers["wa"].wait(timeout=10)
-        wait_for(lambda: alive_workers(session) == {"wb"}, 20, "the killed worker's token gone")
+        wait_until(lambda: alive_workers(session) == {"wb"}, 20, "the killed worker's token gone")
         gate.touch()
         finals = collector.wait_finals(runs, timeout_s=40)
     finally:
@@ -104,7 +105,7 @@ def test_unloadable_run_gets_a_failed_report_and_the_worker_goes_on(router, tmp_
     env = {"FAKE_FIT_LOG": str(tmp_path / "fits.log")}
     daq = FakeDaq(session, "bench1", runs_dir)
     collector = FitCollector(session)
-    worker = start_worker("wa", _client(endpoint), runs_dir, tmp_path, "fake_fitters:instant_fit", env)
+    worker = start_worker("wa", _client(endpoint), runs_dir, tmp_path, "testkit.fake_fitters:instant_fit", env)
     try:
         missing = daq.announce("gone", content=None)   # no file, and no `run` queryable answers
         good = daq.announce("fine")
@@ -153,15 +154,15 @@ def test_a_restarted_worker_republishes_stored_fits_without_refitting(router, tm
     env = {"FAKE_FIT_LOG": str(log)}
     daq = FakeDaq(session, "bench1", runs_dir)
     runs = [daq.announce(f"r{i}") for i in range(3)]
-    first = start_worker("wa", _client(endpoint), runs_dir, tmp_path, "fake_fitters:instant_fit", env)
+    first = start_worker("wa", _client(endpoint), runs_dir, tmp_path, "testkit.fake_fitters:instant_fit", env)
     try:
         FitCollector(session).wait_finals(runs, timeout_s=30)
     finally:
         assert stop(first) == 0
     # The worker's publishers (and their caches) are gone; a new worker and a new listener.
-    wait_for(lambda: alive_workers(session) == set(), 20, "the first worker gone")
+    wait_until(lambda: alive_workers(session) == set(), 20, "the first worker gone")
     late = FitCollector(session)
-    second = start_worker("wb", _client(endpoint), runs_dir, tmp_path, "fake_fitters:instant_fit", env)
+    second = start_worker("wb", _client(endpoint), runs_dir, tmp_path, "testkit.fake_fitters:instant_fit", env)
     try:
         finals = late.wait_finals(runs, timeout_s=30)
     finally:
@@ -181,7 +182,7 @@ def test_kill_9_during_the_diagnosis_the_other_worker_completes_the_run(router, 
     collector = FitCollector(session)
     workers = {n: start_worker(n, _client(endpoint), runs_dir, tmp_path) for n in ("wa", "wb")}
     try:
-        wait_for(lambda: alive_workers(session) == {"wa", "wb"}, 30, "both workers alive")
+        wait_until(lambda: alive_workers(session) == {"wa", "wb"}, 30, "both workers alive")
         runs = [daq.announce("r0", content=run_bytes)]
         early = collector.wait_results(runs, timeout_s=30)[runs[0]][0]
         assert early.pending and not early.final
@@ -215,20 +216,20 @@ def test_a_new_worker_learns_from_a_survivor_what_a_dead_worker_fitted(router, t
     ids_a = [i for i in ids if owner(RunRef("bench1", i), {"wa", "wb"}) == "wa"
              and owner(RunRef("bench1", i), {"wb", "wc"}) == "wc"][:4]
     ids_b = [i for i in ids if owner(RunRef("bench1", i), {"wa", "wb"}) == "wb"][:4]
-    workers = {n: start_worker(n, _client(endpoint), dirs[n], tmp_path, "fake_fitters:instant_fit", env)
+    workers = {n: start_worker(n, _client(endpoint), dirs[n], tmp_path, "testkit.fake_fitters:instant_fit", env)
                for n in ("wa", "wb")}
     try:
-        wait_for(lambda: alive_workers(session) == {"wa", "wb"}, 20, "wa and wb alive")
+        wait_until(lambda: alive_workers(session) == {"wa", "wb"}, 20, "wa and wb alive")
         runs = [[daq.announce(i) for daq in daqs][0] for i in ids_a + ids_b]
         FitCollector(session).wait_finals(runs, timeout_s=30)
         assert all(fit_log_counts(log)["done"][f"bench1/{i}"] == ["wa"] for i in ids_a)
         workers["wa"].send_signal(signal.SIGKILL)
         workers["wa"].wait(timeout=10)
-        wait_for(lambda: alive_workers(session) == {"wb"}, 20, "wa gone")
+        wait_until(lambda: alive_workers(session) == {"wb"}, 20, "wa gone")
         late = FitCollector(session)
         workers["wc"] = start_worker("wc", _client(endpoint), dirs["wc"], tmp_path,
-                                     "fake_fitters:instant_fit", env)
-        wait_for(lambda: alive_workers(session) == {"wb", "wc"}, 20, "wc alive")
+                                     "testkit.fake_fitters:instant_fit", env)
+        wait_until(lambda: alive_workers(session) == {"wb", "wc"}, 20, "wc alive")
         # a new run that wc owns: wc fits pending runs oldest first, so once this one is
         # fitted, wc has had its chance to (wrongly) refit wa's older runs
         new_id = next(f"r-new{i}" for i in range(200)
@@ -247,12 +248,12 @@ def test_a_new_worker_learns_from_a_survivor_what_a_dead_worker_fitted(router, t
 
 def test_a_second_worker_with_a_name_in_use_refuses_to_start(router, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
     endpoint, session = router
-    first = start_worker("wa", _client(endpoint), tmp_path / "runs", tmp_path, "fake_fitters:instant_fit")
+    first = start_worker("wa", _client(endpoint), tmp_path / "runs", tmp_path, "testkit.fake_fitters:instant_fit")
     try:
-        wait_for(lambda: alive_workers(session) == {"wa"}, 20, "wa alive")
+        wait_until(lambda: alive_workers(session) == {"wa"}, 20, "wa alive")
         (tmp_path / "dup").mkdir()
         twin = start_worker("wa", _client(endpoint), tmp_path / "runs2", tmp_path / "dup",
-                            "fake_fitters:instant_fit")
+                            "testkit.fake_fitters:instant_fit")
         assert twin.wait(timeout=30) == 2
         assert "expected a name no alive worker uses, got 'wa', already alive" in \
             (tmp_path / "dup" / "wa.log").read_text()

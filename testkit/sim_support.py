@@ -2,12 +2,15 @@
 
 from __future__ import annotations
 
+import numpy as np
+import numpy.typing as npt
 import serial
 
 import daq  # noqa: F401  (registers sim:// and replay://)
 from daq.decode import make_decoder
 from daq.frames import DataFrame, DecodeCounters, Frame
 from daq.serial_handlers import EndOfStream
+from daq.sim import Rig, parse_sim_url
 
 
 def read_all(url: str, max_reads: int = 1_000_000, chunk: int = 65536) -> bytes:
@@ -34,12 +37,8 @@ def data_frames(frames: list[Frame]) -> list[DataFrame]:
     return [f for f in frames if isinstance(f, DataFrame)]
 
 
-def run_rig(url: str, max_bytes: int = 50_000_000):  # type: ignore[no-untyped-def]
+def run_rig(url: str, max_bytes: int = 50_000_000) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.int64], Rig]:
     """Drive the sim core directly (no port): (t_s (N,), counts (N, carts), rig) of a finite script."""
-    import numpy as np
-
-    from daq.sim import Rig, parse_sim_url
-
     rig = Rig(parse_sim_url(url))
     out = bytearray()
     while not rig.finished and len(out) < max_bytes:

@@ -6,7 +6,8 @@ import subprocess
 import sys
 from pathlib import Path
 
-REPO = Path(__file__).resolve().parents[3]
+from testkit.repo import REPO
+
 SIM_URL = ("sim://?cases=cart1,cart2,both&fc1=0.15&fc2=0.15&rate_hz=200&seed=5&realtime=0")
 
 

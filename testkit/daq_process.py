@@ -1,19 +1,18 @@
-"""Helpers for tests that run `daq` as a subprocess: command line, bounded waits, capture parsing."""
+"""Helpers for tests that run `daq` as a subprocess: command line, start, capture parsing."""
 
 from __future__ import annotations
 
 import re
 import subprocess
 import sys
-import time
-from collections.abc import Callable
 from functools import reduce
 from pathlib import Path
 
 import numpy as np
 import numpy.typing as npt
 
-REPO = Path(__file__).resolve().parents[2]
+from testkit.repo import REPO
+
 _DATA_LINE = re.compile(rb"\$(D,(\d+),(\d+),(-?\d+),(-?\d+))\*([0-9A-F]{2})\n")
 
 
@@ -24,16 +23,6 @@ def daq_command(*args: str) -> list[str]:
 def start_daq(*args: str, log_path: Path) -> subprocess.Popen[bytes]:
     log = open(log_path, "wb")  # noqa: SIM115 (closed by the OS when the child exits)
     return subprocess.Popen(daq_command(*args), cwd=REPO, stdout=log, stderr=subprocess.STDOUT)
-
-
-def wait_for(condition: Callable[[], bool], timeout_s: float, what: str, poll_s: float = 0.02) -> None:
-    """Poll `condition` until true; fail naming `what` after `timeout_s`."""
-    deadline = time.monotonic() + timeout_s
-    while time.monotonic() < deadline:
-        if condition():
-            return
-        time.sleep(poll_s)
-    raise AssertionError(f"timed out after {timeout_s} s waiting for {what}")
 
 
 def parse_capture(data: bytes) -> dict[str, npt.NDArray[np.int64]]:

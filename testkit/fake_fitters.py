@@ -1,4 +1,4 @@
-"""Fitter plug-ins for the worker's scheduling tests (loaded with `--fitter fake_fitters:...`).
+"""Fitter plug-ins for the worker's scheduling tests (loaded with `--fitter testkit.fake_fitters:...`).
 
 They log `start`/`done` lines to `$FAKE_FIT_LOG` so a test can count fits per run. The
 gated one waits, bounded, until the file `$FAKE_FIT_GATE` exists (a test opens the gate

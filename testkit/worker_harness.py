@@ -10,9 +10,8 @@ import queue
 import signal
 import subprocess
 import sys
-import time
 from collections import defaultdict
-from collections.abc import Callable, Iterable
+from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
@@ -24,22 +23,13 @@ from schemas.bus import BusConfig
 from schemas.daq import RunFinished
 from schemas.fit import FitReport
 from ident.worker.schedule import RunRef
+from testkit.repo import REPO
+from testkit.waiting import wait_until
 
-REPO = Path(__file__).resolve().parents[3]
-PLUGINS = Path(__file__).resolve().parent / "plugins"
 
 
 def open_session(bus: BusConfig) -> zenoh.Session:
     return zenoh.open(zenoh.Config.from_json5(bus.zenoh_json5()))
-
-
-def wait_for(condition: Callable[[], bool], timeout_s: float, what: str,
-             poll_s: float = 0.02) -> None:
-    deadline = time.monotonic() + timeout_s
-    while not condition():
-        if time.monotonic() > deadline:
-            raise AssertionError(f"timed out after {timeout_s} s waiting for {what}")
-        time.sleep(poll_s)
 
 
 def alive_workers(session: zenoh.Session) -> set[str]:
@@ -84,13 +74,13 @@ class FitCollector:
 
     def wait_results(self, runs: Iterable[RunRef], timeout_s: float) -> dict[RunRef, list[FitReport]]:
         wanted = set(runs)
-        wait_for(lambda: wanted <= set(self.with_results()), timeout_s,
+        wait_until(lambda: wanted <= set(self.with_results()), timeout_s,
                  f"fit results of {sorted(map(str, wanted))}")
         return self.with_results()
 
     def wait_finals(self, runs: Iterable[RunRef], timeout_s: float) -> dict[RunRef, list[FitReport]]:
         wanted = set(runs)
-        wait_for(lambda: wanted <= set(self.finals()), timeout_s,
+        wait_until(lambda: wanted <= set(self.finals()), timeout_s,
                  f"final fit reports of {sorted(map(str, wanted))}")
         return self.finals()
 
@@ -128,7 +118,6 @@ def start_worker(name: str, bus_args: list[str], runs_dir: Path, log_dir: Path,
     if fitter:
         args += ["--fitter", fitter]
     full_env = {**os.environ, **(env or {})}
-    full_env["PYTHONPATH"] = os.pathsep.join([str(PLUGINS), full_env.get("PYTHONPATH", "")])
     out = (log_dir / f"{name}.log").open("wb")
     return subprocess.Popen(args, cwd=REPO, env=full_env, stdout=out, stderr=subprocess.STDOUT)
 

@@ -16,11 +16,9 @@ from __future__ import annotations
 import queue
 import random
 import signal
-import socket
 import subprocess
 import sys
 import time
-from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
@@ -32,32 +30,17 @@ from daq.run_file import load_run
 from schemas import keys
 from schemas.bus import BusConfig
 from schemas.daq import SampleBatch
+from testkit import ports
+from testkit.repo import REPO
+from testkit.waiting import wait_until
 
-REPO = Path(__file__).resolve().parents[1]
 RATE_HZ = 200
 PERIOD_NS = 1_000_000_000 // RATE_HZ
-
-
-def free_endpoint() -> str:
-    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as sock:
-        sock.bind(("127.0.0.1", 0))
-        return f"tcp/127.0.0.1:{sock.getsockname()[1]}"
 
 
 def daq_process(args: list[str], log: Path) -> subprocess.Popen[bytes]:
     return subprocess.Popen([sys.executable, "-m", "daq.cli", *args], cwd=REPO,
                             stdout=log.open("wb"), stderr=subprocess.STDOUT)
-
-
-def wait_until(condition: Callable[[], bool], timeout_s: float, what: str,
-               proc: subprocess.Popen[bytes] | None = None, poll_s: float = 0.02) -> None:
-    deadline = time.monotonic() + timeout_s
-    while not condition():
-        if proc is not None and proc.poll() is not None:
-            raise RuntimeError(f"{what}: the process exited with code {proc.returncode}")
-        if time.monotonic() > deadline:
-            raise TimeoutError(f"timed out after {timeout_s:.0f} s waiting for {what}")
-        time.sleep(poll_s)
 
 
 @dataclass(frozen=True)
@@ -79,7 +62,7 @@ def kill9_trial(workdir: Path, seed: int, kill_after_s: float) -> Kill9Result:
     runs = workdir / "runs"
     workdir.mkdir(parents=True, exist_ok=True)
     bench = f"kill{seed}"
-    endpoint = free_endpoint()
+    endpoint = ports.endpoint()
     sim = (f"sim://?realtime=1&rate_hz={RATE_HZ}&cases=cart1&seed={seed}&rest_s=0.3&pull_s=0.4&hold_s=0.7"
            "&c1=0.2&ring_max_s=30")
     proc = daq_process(["run", "--port", sim, "--bench", bench, "--runs-dir", str(runs), "--listen", endpoint],
@@ -138,5 +121,4 @@ def kill9_trials(workdir: Path, n: int, seed: int = 0, parallel: int = 3,
         return [f.result() for f in futures]
 
 
-__all__ = ["Kill9Result", "PERIOD_NS", "RATE_HZ", "daq_process", "free_endpoint", "kill9_trial",
-           "kill9_trials", "wait_until"]
+__all__ = ["PERIOD_NS", "RATE_HZ", "Kill9Result", "daq_process", "kill9_trial", "kill9_trials"]

@@ -21,7 +21,6 @@ from __future__ import annotations
 import os
 import queue
 import signal
-import socket
 import subprocess
 import sys
 import time
@@ -29,7 +28,7 @@ from collections import defaultdict
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 import zenoh
 import zenoh.ext
@@ -38,23 +37,9 @@ from schemas import keys
 from schemas.bus import BusConfig
 from schemas.daq import RunFinished
 from schemas.fit import FitReport
-
-REPO = Path(__file__).resolve().parents[1]
-
-
-def free_port() -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as sock:
-        sock.bind(("127.0.0.1", 0))
-        port: int = sock.getsockname()[1]
-        return port
-
-
-def endpoint() -> str:
-    return f"tcp/127.0.0.1:{free_port()}"
-
-
-class ProcessDied(RuntimeError):
-    """A bench process exited while it was still needed."""
+from testkit.ports import endpoint
+from testkit.repo import REPO
+from testkit.waiting import ProcessDied, wait_until
 
 
 @dataclass
@@ -111,9 +96,12 @@ class FitWatcher:
         recovery = zenoh.ext.RecoveryConfig(periodic_queries=None, heartbeat=True)
         for key, kind in ((keys.ALL_FINISHED, "finished"), (keys.ALL_FITS, "fit")):
             self._subs.append(zenoh.ext.declare_advanced_subscriber(
-                self.session, key, lambda s, k=kind: self._queue.put(
-                    (k, s.payload.to_bytes(), time.monotonic())),
-                history=history, recovery=recovery))
+                self.session, key, self._enqueue(kind), history=history, recovery=recovery))
+
+    def _enqueue(self, kind: str) -> Callable[[zenoh.Sample], None]:
+        def put(sample: zenoh.Sample) -> None:
+            self._queue.put((kind, sample.payload.to_bytes(), time.monotonic()))
+        return put
 
     def drain(self) -> None:
         while True:
@@ -151,22 +139,6 @@ class FitWatcher:
             sub.undeclare()
 
 
-def wait_until(condition: Callable[[], bool], timeout_s: float, what: str,
-               procs: Iterable[Proc] = (), progress: Callable[[], None] | None = None,
-               poll_s: float = 0.05) -> None:
-    """Poll `condition` until true; raise on timeout or when a watched process dies."""
-    deadline = time.monotonic() + timeout_s
-    watched = list(procs)
-    while not condition():
-        for proc in watched:
-            proc.check_alive()
-        if time.monotonic() > deadline:
-            raise TimeoutError(f"timed out after {timeout_s:.0f} s waiting for {what}")
-        if progress is not None:
-            progress()
-        time.sleep(poll_s)
-
-
 class Bench:
     """Processes of a bench service; a context manager that always cleans up."""
 
@@ -176,7 +148,7 @@ class Bench:
         self.router = router
         self.endpoint = endpoint()
         self.procs: list[Proc] = []
-        mode = "router" if router else "peer"
+        mode: Literal["router", "peer"] = "router" if router else "peer"
         self.session = zenoh.open(zenoh.Config.from_json5(
             BusConfig(mode=mode, listen=[self.endpoint]).zenoh_json5()))
         self.watcher = FitWatcher(self.session)
@@ -247,5 +219,4 @@ def sim_url(cases: Iterable[str], *, friction_n: float = 0.15, rate_hz: float = 
     return "sim://?" + "&".join(f"{k}={v}" for k, v in query.items())
 
 
-__all__ = ["Bench", "FitWatcher", "Proc", "ProcessDied", "endpoint", "free_port", "sim_url",
-           "wait_until"]
+__all__ = ["Bench", "FitWatcher", "Proc", "sim_url"]

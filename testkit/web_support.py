@@ -11,7 +11,6 @@ import http.client
 import json
 import math
 import os
-import socket
 import threading
 import time
 from collections.abc import Callable
@@ -30,25 +29,6 @@ from schemas.daq import (DaqCounters, DaqStatus, DetectorState, DetectorStateMsg
 from schemas.fit import FitReport
 
 COUNTS_PER_M = 20000.0
-
-
-def free_port() -> int:  # also a conftest fixture; this one is for plain helpers
-    with socket.socket() as sock:
-        sock.bind(("127.0.0.1", 0))
-        return int(sock.getsockname()[1])
-
-
-def wait_for(condition: Callable[[], Any], timeout_s: float, what: str, every_s: float = 0.02) -> Any:
-    """Return `condition()` once truthy; fail after `timeout_s` naming `what`."""
-    deadline = time.monotonic() + timeout_s
-    done = threading.Event()
-    while True:
-        value = condition()
-        if value:
-            return value
-        if time.monotonic() > deadline:
-            raise AssertionError(f"timed out after {timeout_s} s waiting for {what}")
-        done.wait(every_s)
 
 
 # -- the page server --------------------------------------------------------------------
@@ -94,7 +74,7 @@ class SseReader:
         assert self.resp.getheader("content-type", "").startswith("text/event-stream")
 
     def next(self) -> SseEvent:
-        name, data = "message", []
+        name, data = "message", list[str]()
         while True:
             line = self.resp.readline()
             if not line:
@@ -234,7 +214,7 @@ class FakeDaq:
     def _advanced_put(self, key: str, payload: bytes) -> None:
         pub = zenoh.ext.declare_advanced_publisher(
             self.session, key, cache=zenoh.ext.CacheConfig(max_samples=1), publisher_detection=True,
-            sample_miss_detection=zenoh.ext.MissDetectionConfig(heartbeat=1.0))
+            sample_miss_detection=zenoh.ext.MissDetectionConfig(heartbeat=1.0, sporadic_heartbeat=None))
         self.publishers.append(pub)
         pub.put(payload)
 
