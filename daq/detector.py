@@ -27,16 +27,24 @@ A release is told from slow hand motion by the fitted initial acceleration `a = 
 a fast pull (a yank) by its direction: a released cart moves toward its rest (where the
 carts settled after the last run, or were first still after start-up), a pulled one leaves it.
 
-Start-up. Until the carts have settled once, the rest is only where they were first still,
-which may be a hold: a daq started while a student holds the cart pulled. A fast departure
-judged against that provisional rest is then rejected ("pulled from rest", "pulled away from
-rest") but followed: a released
-cart swings through its rest and comes back (it reverses by ≥ `confirm_reversal` of an
-excursion ≥ `confirm_min_excursion_m`) without ever being still, a yanked cart is held
-still at its new place. A reversal within `first_release_confirm_s` of the trigger turns
-the departure into the release (back-dated as usual, `t_confirmed_s` later); being still
-(arming) or the deadline forgets it. Releases whose half period exceeds that deadline
-(springs softer than ~0.4 Hz) are still missed when daq starts during the hold.
+Ringing (see `daq.ringing`). What the fast path turns down, or never sees, is caught by
+its ringing: every channel's turning points are followed in every state, and a free swing
+(half-periods that repeat, a swing of at least `ring_min_swing_m` that does not grow) is a
+release. This catches flicks from rest (the cart is let go while it moves; the fast path
+calls them "pulled from rest"), releases from a hold taken for the rest (daq started during
+the hold), later releases of a record, and a new release while the previous run still
+rings (a swing that grows ends that run: `Settled(reason="handled")`). It is confirmed about
+one period after the release (at most `first_release_confirm_s`, so the pipeline's ring of
+samples still holds the pre-trigger part) and dated from the data: from a still hold by the
+onset fit above, unless a free response (fitted one period on) clearly begins later (a hand
+that lets go gradually); otherwise where the free response begins (`daq.ringing.date_release`).
+Ringing that was going on when the stream began has no release in the data and is turned
+down ("in motion since the stream started"); each ringing is judged once (a hold or a new
+handling lets it be judged again). Springs slower than `ring_max_half_s` per half-period are
+not confirmed by ringing.
+
+Settling is judged on the moving carts only: a held cart that wanders (its span below
+`held_ratio` times the pulled cart's) does not keep a run open.
 
 Positions may be zeroed or not: only motion relative to the hold matters. Pure: no clocks,
 no I/O; time comes with the samples (float seconds, continuous).
@@ -44,15 +52,25 @@ no I/O; time comes with the samples (float seconds, continuous).
 
 from __future__ import annotations
 
+import math
 from collections import deque
 from collections.abc import Sequence
-from dataclasses import asdict, dataclass, replace
+from dataclasses import asdict, dataclass
 from typing import Literal
 
 import numpy as np
 import numpy.typing as npt
 
 from daq.errors import DaqValueError
+from daq.ringing import (
+    RingingLimits,
+    Turn,
+    Zigzag,
+    coarse_start,
+    date_release,
+    fit_free,
+    is_ringing,
+)
 
 State = Literal["idle", "armed", "released", "settled"]
 METHOD = "piecewise-polynomial-onset-fit"
@@ -77,14 +95,19 @@ class DetectorSettings:
     max_run_s: float = 60.0
     pre_trigger_s: float = 0.5
     max_hole_s: float = 0.05
-    first_release_confirm_s: float = 1.2
-    confirm_reversal: float = 0.25
-    confirm_min_excursion_m: float = 0.02
+    first_release_confirm_s: float = 2.5
+    ring_min_swing_m: float = 0.02
+    ring_max_half_s: float = 0.8
+    ring_half_ratio: float = 1.5
+    ring_grow: float = 1.15
+    ring_fit_max_rel: float = 0.05
+    held_ratio: float = 0.2
 
     def __post_init__(self) -> None:
         for name in ("still_band_m", "still_s", "fire_m", "fit_post_s", "fit_lookback_s", "rest_margin_m",
                      "min_accel_m_s2", "settle_band_m", "settle_s", "max_run_s", "max_hole_s",
-                     "first_release_confirm_s", "confirm_reversal", "confirm_min_excursion_m"):
+                     "first_release_confirm_s", "ring_min_swing_m", "ring_max_half_s", "ring_half_ratio",
+                     "ring_grow", "ring_fit_max_rel", "held_ratio"):
             if not getattr(self, name) > 0:
                 raise DaqValueError(f"detector {name}", "> 0", getattr(self, name))
         if self.pre_trigger_s < 0.5:
@@ -129,7 +152,7 @@ class Rejected:
 @dataclass(frozen=True, slots=True)
 class Settled:
     t_s: float
-    reason: Literal["still", "max_run"]
+    reason: Literal["still", "max_run", "handled"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -138,16 +161,6 @@ class Disarmed:
 
 
 Event = Armed | Released | Rejected | Settled | Disarmed
-
-
-@dataclass(slots=True)
-class _Pending:
-    """A fast departure from the provisional rest, followed until it proves a release."""
-
-    release: Released        # what it is if confirmed (t_confirmed_s set then)
-    direction: float         # +1 or -1: the sign of the departure on `release.channel`
-    hold_m: float            # the channel's position at the hold
-    excursion_m: float = 0.0
 
 
 @dataclass(frozen=True, slots=True)
@@ -161,21 +174,27 @@ class ReleaseDetector:
     """Feed samples in time order with `feed(t_s, positions)`; read events from its return."""
 
     def __init__(self, settings: DetectorSettings | None = None) -> None:
-        self.settings = settings or DetectorSettings()
+        self.settings = s = settings or DetectorSettings()
         self.state: State = "idle"
-        keep_s = self.settings.fit_lookback_s + self.settings.fit_post_s + 1.0
-        self._keep_s = keep_s
+        self._keep_s = s.pre_trigger_s + s.first_release_confirm_s + 1.0
         self._history: deque[tuple[float, tuple[float, ...]]] = deque()
         self._anchor: tuple[float, ...] | None = None
         self._anchor_t = 0.0
         self._rest: tuple[float, ...] | None = None
-        self._rest_settled = False     # the rest was seen settled (not only first still)
-        self._pending: _Pending | None = None
         self._hold: tuple[float, ...] = ()
         self._trigger_t: float | None = None
         self._trigger_channel = 0
         self._post_samples = 0
         self._release_t = 0.0
+        self._first_t: float | None = None
+        self._zigzags: list[Zigzag] = []
+        self._muted: list[bool] = []        # ringing already judged (and turned down) on this channel
+        self._run_channel = 0
+        self._run_turns = 0                 # turns of the run's channel since its release
+        self._run_low: list[float] = []
+        self._run_high: list[float] = []
+        self._limits = RingingLimits(s.ring_min_swing_m, 0.03, s.ring_max_half_s, s.ring_half_ratio,
+                                     s.ring_grow, s.still_band_m)
 
     # --- public -----------------------------------------------------------------------------
     def feed(self, t_s: float, pos: Sequence[float]) -> list[Event]:
@@ -186,19 +205,22 @@ class ReleaseDetector:
         horizon = t_s - self._keep_s
         while history[0][0] < horizon:
             history.popleft()
-        if self.state == "idle":
-            if self._pending is not None:
-                confirmed = self._follow_pending(t_s, sample)
-                if confirmed:
-                    return confirmed
-            return self._feed_idle(t_s, sample)
-        if self.state == "armed":
-            return self._feed_armed(t_s, sample)
+        if self._first_t is None:
+            self._first_t = t_s
+        turned = self._push_turns(t_s, sample)
         if self.state == "released":
-            return self._feed_released(t_s, sample)
-        self.state = "idle"  # settled lasts one sample
-        self._restart_anchor(t_s, sample)
-        return []
+            return self._feed_released(t_s, sample, turned)
+        if self.state == "settled":
+            self.state = "idle"  # settled lasts one sample
+            self._restart_anchor(t_s, sample)
+            return []
+        if turned:
+            ringing = self._check_ringing(t_s, turned)
+            if ringing:
+                return ringing
+        if self.state == "idle":
+            return self._feed_idle(t_s, sample)
+        return self._feed_armed(t_s, sample)
 
     def arm_now(self, t_s: float, pos: Sequence[float]) -> list[Event]:
         """Arm at `pos` at once (a command), unless a run is in progress."""
@@ -206,7 +228,6 @@ class ReleaseDetector:
             return []
         self.state = "armed"
         self._trigger_t = None
-        self._pending = None
         self._hold = tuple(pos)
         return [Armed(t_s, self._hold)]
 
@@ -220,11 +241,12 @@ class ReleaseDetector:
         return self.reset()
 
     def reset(self) -> list[Event]:
-        """Forget the hold (e.g. after a gap in the data); a run in progress is left alone."""
+        """Forget the hold and the turns (e.g. after a gap in the data); a run in progress is left alone."""
         if self.state == "released":
             return []
         self._trigger_t = None
-        self._pending = None
+        for zigzag in self._zigzags:
+            zigzag.clear()
         if self.state in ("armed", "settled"):
             self.state = "idle"
             self._anchor = None
@@ -233,14 +255,15 @@ class ReleaseDetector:
         return []
 
     # --- states -----------------------------------------------------------------------------
-    def _still(self, t_s: float, sample: tuple[float, ...], band: float, duration_s: float) -> bool:
-        """True once every channel stayed within ±band of the anchor for `duration_s`."""
+    def _still(self, t_s: float, sample: tuple[float, ...], band: float, duration_s: float,
+               channels: Sequence[int] | None = None) -> bool:
+        """True once every channel (of `channels`) stayed within ±band of the anchor for `duration_s`."""
         anchor = self._anchor
         if anchor is None or len(anchor) != len(sample):
             self._restart_anchor(t_s, sample)
             return False
-        for x, a in zip(sample, anchor):
-            if x - a > band or a - x > band:
+        for c in channels if channels is not None else range(len(sample)):
+            if abs(sample[c] - anchor[c]) > band:
                 self._restart_anchor(t_s, sample)
                 return False
         return t_s - self._anchor_t >= duration_s
@@ -255,7 +278,7 @@ class ReleaseDetector:
         self._hold = self._mean_since(self._anchor_t)
         if self._rest is None:
             self._rest = self._hold
-        self._pending = None   # still: whatever left the provisional rest was held, not released
+        self._unmute()   # still: any ringing before is over
         self.state = "armed"
         return [Armed(t_s, self._hold)]
 
@@ -296,11 +319,9 @@ class ReleaseDetector:
                   else "slow motion" if accel < self.settings.min_accel_m_s2
                   else self._away_from_rest(channel, direction))
         if reason:
+            # a flick or a release from a hold taken for the rest is still caught by its ringing
             self.state = "idle"
             self._restart_anchor(t_s, sample)
-            if reason.startswith("pulled") and not self._rest_settled and fit is not None:
-                release = Released(fit.t0_s, trigger_t, t_s, channel, abs(fit.accel_m_s2), hold)
-                self._pending = _Pending(release, direction, hold[channel])
             return Rejected(t_s, accel, reason)
         assert fit is not None
         return self._release(Released(fit.t0_s, trigger_t, t_s, channel, abs(fit.accel_m_s2), hold))
@@ -309,26 +330,11 @@ class ReleaseDetector:
         self.state = "released"
         self._release_t = release.t_release_s
         self._anchor = None
+        self._run_channel = release.channel
+        self._run_turns = 0
+        now = self._history[-1][1]
+        self._run_low, self._run_high = list(now), list(now)
         return release
-
-    def _follow_pending(self, t_s: float, sample: tuple[float, ...]) -> list[Event]:
-        """Confirm a departure from the provisional rest once the cart swings back (see module)."""
-        pending = self._pending
-        assert pending is not None
-        settings = self.settings
-        if t_s - pending.release.t_trigger_s > settings.first_release_confirm_s:
-            self._pending = None
-            return []
-        moved = pending.direction * (sample[pending.release.channel] - pending.hold_m)
-        if moved > pending.excursion_m:
-            pending.excursion_m = moved
-            return []
-        if (pending.excursion_m < settings.confirm_min_excursion_m
-                or pending.excursion_m - moved < settings.confirm_reversal * pending.excursion_m):
-            return []
-        self._pending = None
-        self._rest = None   # it was a hold: the rest is where this run settles
-        return [self._release(replace(pending.release, t_confirmed_s=t_s))]
 
     def _away_from_rest(self, channel: int, direction: float) -> str:
         """Why a fast departure cannot be a release, judged against the rest position, or ''.
@@ -347,20 +353,150 @@ class ReleaseDetector:
             return "pulled away from rest"
         return ""
 
-    def _feed_released(self, t_s: float, sample: tuple[float, ...]) -> list[Event]:
-        if t_s - self._release_t >= self.settings.max_run_s:
+    def _feed_released(self, t_s: float, sample: tuple[float, ...], turned: list[int]) -> list[Event]:
+        settings = self.settings
+        if t_s - self._release_t >= settings.max_run_s:
             self.state = "settled"
             return [Settled(t_s, "max_run")]
-        if self._still(t_s, sample, self.settings.settle_band_m, self.settings.settle_s):
+        for c, x in enumerate(sample):
+            self._run_low[c] = min(self._run_low[c], x)
+            self._run_high[c] = max(self._run_high[c], x)
+        if self._run_channel in turned and self._handled_again():
+            self.state = "settled"
+            self._unmute()
+            return [Settled(t_s, "handled")]
+        if self._still(t_s, sample, settings.settle_band_m, settings.settle_s, self._moving_channels()):
             self.state = "settled"
             self._rest = self._mean_since(self._anchor_t)
-            self._rest_settled = True
+            for zigzag in self._zigzags:
+                zigzag.clear()
+            self._unmute()
             return [Settled(t_s, "still")]
         return []
+
+    def _moving_channels(self) -> list[int]:
+        """The run's channel and every channel that swung like it (not a held cart's wander)."""
+        spans = [hi - lo for lo, hi in zip(self._run_low, self._run_high)]
+        pulled = spans[self._run_channel]
+        return [c for c, span in enumerate(spans)
+                if c == self._run_channel or span >= self.settings.held_ratio * pulled]
+
+    def _handled_again(self) -> bool:
+        """A swing of the run's cart that grew: a hand took it again (a new release may follow)."""
+        self._run_turns += 1
+        turns = self._zigzags[self._run_channel].turns
+        if self._run_turns < 3 or len(turns) < 3 or len(self._moving_channels()) > 1:
+            return False    # two free carts beat: their swings grow and shrink by themselves
+        a, b, c = turns[-3], turns[-2], turns[-1]
+        s1, s2 = abs(b.x_m - a.x_m), abs(c.x_m - b.x_m)
+        limits = self._limits
+        return s2 >= limits.min_swing_m and s2 > limits.grow * s1 + 2.0 * limits.band_m
 
     def _channel_moved_most(self, sample: tuple[float, ...]) -> int:
         moved = [abs(x - h) for x, h in zip(sample, self._hold)]
         return max(range(len(moved)), key=moved.__getitem__)
+
+    # --- ringing --------------------------------------------------------------------------------
+    def _push_turns(self, t_s: float, sample: tuple[float, ...]) -> list[int]:
+        """Feed every channel's turning points; the channels that completed a turn."""
+        if len(self._zigzags) != len(sample):
+            self._zigzags = [Zigzag(self.settings.still_band_m) for _ in sample]
+            self._muted = [False] * len(sample)
+        return [c for c, (zigzag, x) in enumerate(zip(self._zigzags, sample)) if zigzag.push(t_s, x)]
+
+    def _unmute(self) -> None:
+        self._muted = [False] * len(self._muted)
+
+    def _check_ringing(self, t_s: float, channels: list[int]) -> list[Event]:
+        """A channel that rings freely: its release, dated from the data, or why it is not one."""
+        for c in channels:
+            turns = self._zigzags[c].turns
+            if self._muted[c] or len(turns) < 3 or not is_ringing(turns[-3], turns[-2], turns[-1], self._limits):
+                continue
+            self._muted[c] = True       # judged once; stillness or a new handling unmutes
+            self._trigger_t = None
+            event = self._date(t_s, c, turns[-3], turns[-2], turns[-1])
+            if isinstance(event, Released):
+                return [self._release(event)]
+            return [event]
+        return []
+
+    def _date(self, t_s: float, channel: int, a: Turn, b: Turn, c: Turn) -> Released | Rejected:
+        """Date a ringing: from a hold by the onset fit unless the free response clearly began later."""
+        free = self._date_ringing(t_s, channel, a, b, c)
+        hold = self._date_hold_release(t_s, a)
+        if hold is None:
+            return free
+        if not isinstance(free, Released) or free.channel != hold.channel or self._others_swing(hold):
+            return hold     # two carts ring together: one damped sinusoid does not describe them
+        step = float(np.median(np.diff([h[0] for h in list(self._history)[-20:]])))
+        # a hand that lets go gradually: the motion starts before the free response does
+        return free if free.t_release_s - hold.t_release_s > max(2.0 * step, 0.005) else hold
+
+    def _others_swing(self, release: Released) -> bool:
+        """True when a channel other than the released one swung like it since the release."""
+        after = [pos for t, pos in self._history if t >= release.t_release_s]
+        hold = release.hold_pos
+        swing = [max(abs(pos[c] - hold[c]) for pos in after) for c in range(len(hold))]
+        pulled = swing[release.channel]
+        return any(c != release.channel and s >= self.settings.held_ratio * pulled for c, s in enumerate(swing))
+
+    def _date_hold_release(self, t_s: float, a: Turn) -> Released | None:
+        """The ringing began from a hold (still before turn A): date it by the onset fit, or None.
+
+        The cart that moved most from the hold is the released one (two carts may both ring).
+        """
+        history = list(self._history)
+        plateau = [pos for t, pos in history if a.t_s - self.settings.still_s <= t <= a.t_s]
+        if len(plateau) < self.settings.fit_min_lookback_samples or history[0][0] > a.t_s - self.settings.still_s:
+            return None
+        band = self.settings.still_band_m
+        if any(max(column) - min(column) > 2.0 * band for column in zip(*plateau)):
+            return None
+        hold = tuple(sum(column) / len(plateau) for column in zip(*plateau))
+        after = [(t, pos) for t, pos in history if t > a.t_s]
+        swing = [max(abs(pos[c] - hold[c]) for _, pos in after) for c in range(len(hold))]
+        channel = max(range(len(hold)), key=swing.__getitem__)
+        trigger = next((t for t, pos in after if abs(pos[channel] - hold[channel]) > self.settings.fire_m), None)
+        if trigger is None:
+            return None
+        self._hold = hold
+        fit = self._fit_onset(channel, trigger)
+        if fit is None:
+            return None
+        return Released(fit.t0_s, trigger, t_s, channel, abs(fit.accel_m_s2), hold)
+
+    def _date_ringing(self, t_s: float, channel: int, a: Turn, b: Turn, c: Turn) -> Released | Rejected:
+        """Fit the free response from a quarter period before B on; date where it began."""
+        half = 0.5 * (c.t_s - a.t_s)
+        s1, s2 = abs(b.x_m - a.x_m), abs(c.x_m - b.x_m)
+        sigma0 = max(0.0, math.log(max(s1, 1e-12) / max(s2, 1e-12)) / half) if s2 < s1 else 0.0
+        t = np.fromiter((h[0] for h in self._history), dtype=float, count=len(self._history))
+        y = np.fromiter((h[1][channel] for h in self._history), dtype=float, count=len(self._history))
+        t_from = b.t_s - 0.5 * half
+        window = t >= t_from
+        free = fit_free(t[window], y[window], sigma0, math.pi / half)
+        if free is None:
+            return Rejected(t_s, 0.0, "ringing: fit failed")
+        if free.rms_m > self.settings.ring_fit_max_rel * s2:
+            return Rejected(t_s, 0.0, f"ringing: not a free response (fit rms {free.rms_m:.2g} m "
+                                      f"for a swing of {s2:.2g} m)")
+        tol = max(5.0 * free.rms_m, 0.01 * s2)
+        t_coarse = coarse_start(t, y, free, t_from, tol)
+        started = self._first_t if self._first_t is not None else t[0]
+        if t_coarse is None or t_coarse - started < 2.0 * self.settings.fit_post_s:
+            return Rejected(t_s, 0.0, "ringing: in motion since the stream started (no release seen)"
+                            if t[0] <= started else "ringing: began before the kept history")
+        date = date_release(t, y, free, t_coarse, half)
+        if date is None:
+            return Rejected(t_s, 0.0, "ringing: release fit failed")
+        k0 = int(np.searchsorted(t, date.t0_s))
+        x0 = y[min(k0, y.size - 1)]
+        away = np.flatnonzero(np.abs(y[k0:] - x0) > self.settings.fire_m)
+        trigger = float(t[k0 + int(away[0])]) if away.size else t_s
+        hold = self._history[max(0, k0 - 1)][1]
+        return Released(date.t0_s, trigger, t_s, channel, date.accel_m_s2, hold)
+
 
     # --- back-dating --------------------------------------------------------------------------
     def _fit_onset(self, channel: int, trigger_t: float) -> OnsetFit | None:
@@ -372,7 +508,12 @@ class ReleaseDetector:
         n_back = max(settings.fit_min_lookback_samples,
                      int(np.count_nonzero(times[before] >= trigger_t - settings.fit_lookback_s)))
         first = int(before[max(0, before.size - n_back)])
-        window = list(self._history)[first:]
+        after = np.flatnonzero(times >= trigger_t)
+        # the window the live decision saw: fit_post_s and fit_min_post_samples past the trigger
+        n_post = max(settings.fit_min_post_samples + 1,
+                     int(np.count_nonzero(times[after] <= trigger_t + settings.fit_post_s)))
+        last = int(after[min(after.size, n_post) - 1]) + 1 if after.size else len(times)
+        window = list(self._history)[first:last]
         t = np.array([w[0] for w in window]) - trigger_t
         y = np.array([w[1][channel] for w in window]) - self._hold[channel]
         return fit_onset(t, y, settings.fit_powers, trigger_offset_s=trigger_t)

@@ -1,0 +1,261 @@
+"""Free ringing of one channel: turning points, the ringing test, and where the ringing began.
+
+Pure numerics for the release detector (`daq.detector`), no state beyond one channel's
+turning points. A released cart rings: it swings about a centre with half-periods that
+repeat and swings that do not grow. A hand does not: a nudge goes out and comes back once,
+a slow pull or a held cart's wander is too small or too irregular. So a release is confirmed
+by its ringing, and then dated by where a free response starts to fit.
+
+Turning points (`Zigzag`). A turn is recorded once the position retreats from its running
+extreme by more than `band_m` (hysteresis above the noise and the tremor). Its time is the
+end of the plateau at the extreme (the last sample within `band_m / 2` of it), so a hold
+followed by a release turns where the hand lets go, not somewhere inside the hold.
+
+Ringing test (`is_ringing`) on the last three turns A, B, C (times tA < tB < tC, positions):
+half-periods `B - A` and `C - B` within `[min_half_s, max_half_s]` and within a factor
+`half_ratio` of each other, the swing `|C - B| >= min_swing_m`, and it does not grow:
+`|C - B| <= grow |B - A| + 2 band_m`. A flick from rest gives A = the rest, B near the
+release, and its first swing is partial (so the test passes one turn later, on B, C, D).
+
+Where the ringing began (`date_release`), two steps:
+
+1. coarse: a damped sinusoid `x(t) = c + e^{-στ} (A cos ωτ + B sin ωτ)`, τ = t - t_ref,
+   is fitted (variable projection: σ, ω by least squares, c, A, B linear) on the samples
+   from a quarter period before the middle turn on; going back in time from there, the
+   first two samples in a row further than `tol` from the model end the free response
+   (`tol` = 5 × the fit RMS, at least 1 % of the swing);
+2. fine: around that point, a piecewise model whose pieces join with the same position
+   and velocity (the hand lets go: only the force jumps):
+       t >= t0:  x = f(t)                              (the free response, σ, ω fixed)
+       t <  t0:  x = f(t0) + f'(t0)(t - t0) + p2 (t - t0)² + p3 (t - t0)³   (the hand)
+   linear in (c, A, B, p2, p3) for a given t0; t0 by a grid at the sample spacing, then
+   50× finer around the best point.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+from scipy.optimize import least_squares
+
+Array = npt.NDArray[np.float64]
+
+
+@dataclass(frozen=True, slots=True)
+class Turn:
+    """A turning point: `t_s` the end of the plateau at the extreme, `x_m` the extreme."""
+
+    t_s: float
+    x_m: float
+
+
+class Zigzag:
+    """Turning points of one channel with hysteresis `band_m` (m); the last `keep` are kept."""
+
+    def __init__(self, band_m: float, keep: int = 8) -> None:
+        self.band_m = band_m
+        self.turns: deque[Turn] = deque(maxlen=keep)
+        self._direction = 0           # +1 rising, -1 falling, 0 not known yet
+        self._ext_x = math.nan        # running extreme of the current direction
+        self._ext_end_t = 0.0         # last time within band/2 of it
+        self._lo = self._hi = math.nan
+        self._lo_t = self._hi_t = 0.0
+
+    def clear(self) -> None:
+        """Forget every turn and the direction (the next sample starts afresh)."""
+        self.turns.clear()
+        self._direction = 0
+        self._ext_x = self._lo = self._hi = math.nan
+
+    def push(self, t_s: float, x: float) -> bool:
+        """One sample; True when it completed a new turn (appended to `turns`)."""
+        band = self.band_m
+        d = self._direction
+        if d == 0:
+            return self._push_unknown(t_s, x)
+        ext = self._ext_x
+        if (x - ext) * d >= 0.0:          # still going the same way: a new extreme
+            self._ext_x, self._ext_end_t = x, t_s
+            return False
+        if abs(x - ext) <= 0.5 * band:
+            self._ext_end_t = t_s
+            return False
+        if abs(x - ext) <= band:
+            return False
+        self.turns.append(Turn(self._ext_end_t, ext))
+        self._direction = -d
+        self._ext_x, self._ext_end_t = x, t_s
+        return True
+
+    def _push_unknown(self, t_s: float, x: float) -> bool:
+        if math.isnan(self._lo):
+            self._lo = self._hi = x
+            self._lo_t = self._hi_t = t_s
+            return False
+        self._lo = min(self._lo, x)
+        self._hi = max(self._hi, x)
+        if abs(x - self._lo) <= 0.5 * self.band_m:
+            self._lo_t = t_s
+        if abs(x - self._hi) <= 0.5 * self.band_m:
+            self._hi_t = t_s
+        if x - self._lo > self.band_m:
+            self.turns.append(Turn(self._lo_t, self._lo))
+            self._direction = 1
+        elif self._hi - x > self.band_m:
+            self.turns.append(Turn(self._hi_t, self._hi))
+            self._direction = -1
+        else:
+            return False
+        self._ext_x, self._ext_end_t = x, t_s
+        return True
+
+
+@dataclass(frozen=True, slots=True)
+class RingingLimits:
+    """What counts as ringing: swing (m), half-period bounds (s), consistency, growth."""
+
+    min_swing_m: float
+    min_half_s: float
+    max_half_s: float
+    half_ratio: float = 1.5
+    grow: float = 1.15
+    band_m: float = 0.0
+
+
+def is_ringing(a: Turn, b: Turn, c: Turn, limits: RingingLimits) -> bool:
+    """True when the turns A, B, C (oldest first) look like a free swing (see module)."""
+    h1, h2 = b.t_s - a.t_s, c.t_s - b.t_s
+    if not (limits.min_half_s <= h1 <= limits.max_half_s and limits.min_half_s <= h2 <= limits.max_half_s):
+        return False
+    if max(h1, h2) > limits.half_ratio * min(h1, h2):
+        return False
+    s1, s2 = abs(b.x_m - a.x_m), abs(c.x_m - b.x_m)
+    return s2 >= limits.min_swing_m and s2 <= limits.grow * s1 + 2.0 * limits.band_m
+
+
+@dataclass(frozen=True, slots=True)
+class FreeFit:
+    """A damped sinusoid `c + e^{-σ(t - t_ref)} (A cos ω(t - t_ref) + B sin ω(t - t_ref))`."""
+
+    t_ref: float
+    sigma: float      # 1/s
+    omega: float      # rad/s (damped)
+    coef: tuple[float, float, float]   # c, A, B (m)
+    rms_m: float
+
+    def __call__(self, t: Array) -> Array:
+        g1, g2, _, _ = _basis(t, self.t_ref, self.sigma, self.omega)
+        c, a, b = self.coef
+        out: Array = c + a * g1 + b * g2
+        return out
+
+
+@dataclass(frozen=True, slots=True)
+class ReleaseDate:
+    """Where the free response begins: `t0_s`, the spring's acceleration there, the fit."""
+
+    t0_s: float
+    accel_m_s2: float
+    free: FreeFit
+
+
+def _basis(t: Array, t_ref: float, sigma: float, omega: float) -> tuple[Array, Array, Array, Array]:
+    """e^{-στ} cos ωτ, e^{-στ} sin ωτ and their time derivatives, τ = t - t_ref."""
+    tau = t - t_ref
+    env = np.exp(-sigma * tau)
+    cos, sin = np.cos(omega * tau), np.sin(omega * tau)
+    g1, g2 = env * cos, env * sin
+    return g1, g2, -sigma * g1 - omega * g2, -sigma * g2 + omega * g1
+
+
+def fit_free(t: Array, y: Array, sigma0: float, omega0: float) -> FreeFit | None:
+    """Least-squares damped sinusoid on (t, y) (shapes (N,)), σ in [0, ω], ω within ±40 %."""
+    if t.size < 6:
+        return None
+    t_ref = float(t[0])
+
+    def linear(params: Array) -> tuple[Array, Array]:
+        g1, g2, _, _ = _basis(t, t_ref, float(params[0]), float(params[1]))
+        design = np.stack([np.ones_like(t), g1, g2], axis=1)
+        coef = np.asarray(np.linalg.lstsq(design, y, rcond=None)[0], dtype=np.float64)
+        residual: Array = y - design @ coef
+        return coef, residual
+
+    lo = np.array([0.0, 0.6 * omega0])
+    hi = np.array([max(omega0, 1e-6), 1.4 * omega0])
+    start = np.clip(np.array([sigma0, omega0]), lo, hi - 1e-9)
+    try:
+        result = least_squares(lambda p: linear(p)[1], start, bounds=(lo, hi), x_scale=np.array([1.0, omega0]))
+    except (ValueError, np.linalg.LinAlgError):
+        return None
+    coef, residual = linear(result.x)
+    rms = float(np.sqrt(np.mean(residual ** 2)))
+    return FreeFit(t_ref, float(result.x[0]), float(result.x[1]), (float(coef[0]), float(coef[1]), float(coef[2])),
+                   rms)
+
+
+def coarse_start(t: Array, y: Array, free: FreeFit, t_from: float, tol_m: float) -> float | None:
+    """Going back from `t_from`, the earliest time the data still follows `free` (within
+    `tol_m`, two samples out in a row end it); None when it follows it back to `t[0]`."""
+    idx = np.flatnonzero(t <= t_from)[::-1]
+    if idx.size == 0:
+        return None
+    off = np.abs(y[idx] - free(t[idx])) > tol_m
+    earliest = float(t[idx[0]])
+    for k in range(idx.size - 1):
+        if off[k] and off[k + 1]:
+            return earliest
+        if not off[k]:
+            earliest = float(t[idx[k]])
+    return None
+
+
+def date_release(t: Array, y: Array, free: FreeFit, t_coarse: float, half_s: float) -> ReleaseDate | None:
+    """Fine release instant near `t_coarse` by the joined hand/free model (see module)."""
+    step = float(np.median(np.diff(t)))
+    back = max(0.08, 8 * step, 0.25 * half_s)
+    lo, hi = t_coarse - back, t_coarse + back + 0.5 * half_s
+    keep = (t >= lo) & (t <= hi)
+    tw, yw = t[keep], y[keep]
+    if tw.size < 10:
+        return None
+    candidates = np.arange(t_coarse - 0.5 * back, t_coarse + 0.75 * back, step)
+    candidates = candidates[(candidates > tw[2]) & (candidates < tw[-4])]
+    if candidates.size == 0:
+        return None
+    best = _best_joint(tw, yw, free, candidates)
+    best = _best_joint(tw, yw, free, np.linspace(best - step, best + step, 101))
+    coef, _ = _joint_solve(tw, yw, free, best)
+    _, _, d1, d2 = _basis(np.array([best]), free.t_ref, free.sigma, free.omega)
+    # f'' of the free part at t0: (σ² - ω²) g + 2σω h-terms; from the ODE x'' = -2σ x' - (σ²+ω²)(x - c)
+    g1, g2, _, _ = _basis(np.array([best]), free.t_ref, free.sigma, free.omega)
+    x_rel = coef[1] * g1[0] + coef[2] * g2[0]
+    v = coef[1] * d1[0] + coef[2] * d2[0]
+    accel = -2.0 * free.sigma * v - (free.sigma ** 2 + free.omega ** 2) * x_rel
+    refit = FreeFit(free.t_ref, free.sigma, free.omega, (float(coef[0]), float(coef[1]), float(coef[2])), free.rms_m)
+    return ReleaseDate(float(best), abs(float(accel)), refit)
+
+
+def _joint_solve(t: Array, y: Array, free: FreeFit, t0: float) -> tuple[Array, float]:
+    """Coefficients (c, A, B, p2, p3) and RSS of the joined model for one `t0`."""
+    g1, g2, _, _ = _basis(t, free.t_ref, free.sigma, free.omega)
+    h1, h2, d1, d2 = _basis(np.array([t0]), free.t_ref, free.sigma, free.omega)
+    before = t < t0
+    dt = np.where(before, t - t0, 0.0)
+    col_a = np.where(before, h1[0] + d1[0] * dt, g1)
+    col_b = np.where(before, h2[0] + d2[0] * dt, g2)
+    scale = max(float(np.max(np.abs(dt))), 1e-9)
+    u = dt / scale
+    design = np.stack([np.ones_like(t), col_a, col_b, u ** 2, u ** 3], axis=1)
+    coef, *_ = np.linalg.lstsq(design, y, rcond=None)
+    residual = y - design @ coef
+    return coef, float(residual @ residual)
+
+
+def _best_joint(t: Array, y: Array, free: FreeFit, candidates: Array) -> float:
+    rss = [_joint_solve(t, y, free, float(c))[1] for c in candidates]
+    return float(candidates[int(np.argmin(rss))])
