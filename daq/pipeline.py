@@ -19,6 +19,7 @@ while a disconnect or a clock anomaly always does.
 
 from __future__ import annotations
 
+import logging
 import math
 from collections import deque
 from collections.abc import Callable
@@ -29,19 +30,39 @@ from typing import Protocol
 import daq
 from daq.calibration import Calibration
 from daq.decode import make_decoder
-from daq.detector import (METHOD, Armed, DetectorSettings, Disarmed, Event, Rejected, Released,
-                          ReleaseDetector, Settled)
+from daq.detector import (
+    METHOD,
+    Armed,
+    DetectorSettings,
+    Disarmed,
+    Event,
+    Rejected,
+    Released,
+    ReleaseDetector,
+    Settled,
+)
 from daq.frames import DataFrame, Dialect, InfoFrame
 from daq.run_ids import new_run_id
 from daq.timeline import Timeline
-from schemas.daq import (DaqCounters, DetectorState, DetectorStateMsg, GapInterval, GapReason, RawUnit,
-                         RunFinished, RunMetadata, SampleBatch)
+from schemas.daq import (
+    DaqCounters,
+    DetectorState,
+    DetectorStateMsg,
+    GapInterval,
+    GapReason,
+    RawUnit,
+    RunFinished,
+    RunMetadata,
+    SampleBatch,
+)
 
 DEFAULT_COUNTS_PER_M: dict[str, float] = {"cartlab": 20000.0, "csv": 1.0, "ecp": 56000.0}
 BATCH_NS = 20_000_000
 PINNED_SPAN_M = 0.002
 MAX_BATCH = 500
-MAX_LIVE_GAPS = 100   # gap intervals kept for the live status (a run keeps all of its own)
+MAX_LIVE_GAPS = 100
+HELD_RATIO = 0.2      # a cart whose span is below this fraction of the pulled cart's is held
+log = logging.getLogger(__name__)   # gap intervals kept for the live status (a run keeps all of its own)
 
 
 class Outputs(Protocol):
@@ -283,6 +304,8 @@ class Acquisition:
                 if self.run is not None:
                     self._end_run("complete", f"settled ({event.reason})")
             elif isinstance(event, Rejected | Disarmed):
+                if isinstance(event, Rejected):   # shown at -v: why handling made no run
+                    log.debug("candidate at %.3f s turned down: %s", event.t_s, event.reason)
                 self._set_state("idle", t_ns)
         if self.detector.state == "idle" and self.state == "settled":
             self._set_state("idle", t_ns)
@@ -388,15 +411,20 @@ def _utc_ns(moment: datetime) -> int:
 
 
 def _lab_case(run: _Run) -> str | None:
-    """The lab case from what moved: `cart1`/`cart2` (the other cart pinned) or `both`.
+    """The lab case from the carts' amplitudes: `cart1`/`cart2` (the other cart held) or `both`.
 
-    A cart counts as pinned when its position spanned less than `PINNED_SPAN_M` in the run.
+    The other cart is held (pinned, or loosely held by a hand that wanders and lets it follow
+    the pulled cart a little through the spring) when its span in the run is below
+    `PINNED_SPAN_M` or below `HELD_RATIO` times the pulled cart's span: held or free is told by
+    the amplitude, not by whether it moved at all.
     """
     pulled = run.metadata.pulled_cart
     if run.calibration.n_channels != 2 or pulled not in (1, 2) or run.n_samples == 0:
         return None
     other = 2 - pulled   # index of the other channel
-    if run.high_m[other] - run.low_m[other] < PINNED_SPAN_M:
+    span_other = run.high_m[other] - run.low_m[other]
+    span_pulled = run.high_m[pulled - 1] - run.low_m[pulled - 1]
+    if span_other < PINNED_SPAN_M or span_other < HELD_RATIO * span_pulled:
         return f"cart{pulled}"
     return "both" if pulled == 1 else "both_cart2_pulled"
 

@@ -1,7 +1,10 @@
 """`replay://<path>?speed=1|max|<factor>[&dialect=...][&rate_hz=...]` — a file as a serial stream.
 
 The file is a raw byte capture (e.g. `sim://...&capture=`) or a text export
-(`time_s,pos1[,pos2]` CSV/TSV); its bytes are delivered unchanged. `<path>` is absolute
+(`time_s,pos1[,pos2]` CSV/TSV); its bytes are delivered unchanged. A lab export of an ECP
+rig (a header line naming `Time` and `Encoder k Pos` columns: the ECP-210 app's `.txt`,
+ECP Executive's raw-data export) is streamed as the device sent it instead: each row becomes
+a line of `dialect` (default `ecp`), see `daq.serial_handlers.lab_export`. `<path>` is absolute
 (`replay:///data/run.bin`) or relative to the working directory (`replay://runs/a.bin`);
 percent-escapes are decoded.
 
@@ -28,15 +31,16 @@ from serial.serialutil import PortNotOpenError, SerialBase, SerialException
 from daq.decode import make_decoder
 from daq.frames import DataFrame
 from daq.serial_handlers import EndOfStream
+from daq.serial_handlers.lab_export import export_columns, export_to_dialect
 from daq.sim.options import DIALECT_NAMES, SimOptionError
 from daq.timeline import Timeline
-
 
 REPLAY_OPTIONS: tuple[tuple[str, str, str], ...] = (
     ("speed", "max", "`max`: as fast as read; a number > 0: real time times that factor, paced by the "
                      "lines' time stamps (1: real time)"),
     ("dialect", "guessed", "cartlab, csv or ecp: how to read the time stamps for pacing "
-                           "(guess: `$` -> cartlab, four `:` -> ecp, else csv)"),
+                           "(guess: `$` -> cartlab, four `:` -> ecp, else csv); a lab export (header naming "
+                           "`Time` and `Encoder k Pos`) is streamed as lines of this dialect (default ecp)"),
     ("rate_hz", "-", "pace at this many lines per second instead of by the time stamps"),
 )
 
@@ -140,6 +144,9 @@ class Serial(SerialBase):
             self._data = path.read_bytes()
         except OSError as exc:
             raise SerialException(f"could not open port {self._port}: {exc}") from exc
+        if export_columns(self._data[:4096]) is not None:
+            dialect = dialect or "ecp"
+            self._data = export_to_dialect(self._data, dialect)
         self._pos, self._speed = 0, speed
         if speed != math.inf:
             chosen = dialect or guess_dialect(self._data[:4096])

@@ -1,0 +1,126 @@
+"""Real hand releases of ECP rigs streamed through `daq run` in the rig's own dialect.
+
+Reads `../shared/realdata` (skips when absent; nothing of it is copied into the repo):
+the ECP-210 2025 hand-release records (flicks of cart 2, cart 1 loosely held, several
+releases per record; the by-eye release times, ±0.1 s, are read from the data set's own
+PROVENANCE.md table) and the 2023 `DOF1_en2_manual2_*` hand steps (one each). Each file is
+replayed as the `ecp` stream the device sent (`replay://...?speed=max`, a lab export turned
+back into lines) through a `daq run --until-eof` process. Checked: one run per labelled
+release and none from handling, and the release instant judged from the data on its own: a
+damped sinusoid fitted here (independently of daq) one period after the instant follows the
+data from 20 ms after it, and did not hold a quarter second before it (the hand was acting).
+"""
+
+from __future__ import annotations
+
+import re
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import numpy.typing as npt
+import pytest
+from scipy.optimize import curve_fit
+
+from daq.run_file import load_run
+from tests.daq.daq_process import REPO, daq_command
+
+ECP_2025 = "ECP210_UCSD_2025_team1"
+ECP_2023 = "ECP210_UCSD_2023_Parker-Knopf/Open_Loop"
+HAND_2025 = ("07-Feb-2025_11_29_09.txt", "07-Feb-2025_11_32_48.txt", "14-Feb-2025_09_22_43.txt",
+             "14-Feb-2025_09_44_21.txt")
+HAND_2023 = tuple(f"DOF1_en2_manual2_test{k}.csv" for k in range(1, 6))
+LABEL_TOLERANCE_S = 0.25     # by-eye labels (±0.1 s) mark the flick, which lasts ≈ 0.15 s before the hand lets go
+Array = npt.NDArray[np.float64]
+
+
+def _labels_2025(realdata: Path, name: str) -> list[float]:
+    """Release times of `name` from the PROVENANCE table (a range `a–b` counts as its end)."""
+    for line in (realdata / ECP_2025 / "PROVENANCE.md").read_text().splitlines():
+        if line.startswith(f"| `{name}`"):
+            cell = line.split("|")[2]
+            if "–" in cell:
+                return [float(re.findall(r"[\d.]+", cell)[-1])]
+            return [float(v) for v in re.findall(r"\d+\.\d+|\d+", cell)]
+    raise AssertionError(f"{name} is not in the PROVENANCE table")
+
+
+def _load(path: Path) -> tuple[Array, Array]:
+    """Time (s) and encoder 2 (counts) of a lab export, read here with numpy on its own."""
+    rows = []
+    for line in path.read_text().splitlines():
+        fields = line.replace("[", " ").replace("]", " ").replace(";", " ").split()
+        if len(fields) == 5 and fields[0].isdigit():
+            rows.append([float(f) for f in fields])
+    table = np.array(rows)
+    return table[:, 1], table[:, 3]
+
+
+def _damped(t: Array, c: float, a: float, b: float, s: float, w: float) -> Array:
+    out: Array = c + np.exp(-s * t) * (a * np.cos(w * t) + b * np.sin(w * t))
+    return out
+
+
+def _free_fit(t: Array, y: Array) -> tuple[npt.NDArray[np.float64], float]:
+    """Best damped sinusoid over a few starting frequencies: parameters and RMS."""
+    best: tuple[npt.NDArray[np.float64], float] | None = None
+    for w0 in np.linspace(6.0, 40.0, 12):
+        try:
+            p, _ = curve_fit(_damped, t, y, p0=[y.mean(), np.ptp(y) / 2, 0.0, 0.5, w0], maxfev=4000)
+        except RuntimeError:
+            continue
+        rms = float(np.sqrt(np.mean((_damped(t, *p) - y) ** 2)))
+        if best is None or rms < best[1]:
+            best = (p, rms)
+    assert best is not None
+    return best
+
+
+def _replay(path: Path, runs: Path) -> list[float]:
+    """Release instants (s, device time = the file's Time) of every run `daq run` recorded."""
+    proc = subprocess.run(daq_command("-v", "run", "--port", f"replay://{path}?speed=max", "--dialect", "ecp",
+                                      "--runs-dir", str(runs), "--no-zenoh", "--until-eof"),
+                          cwd=REPO, capture_output=True, timeout=120, check=False)
+    assert proc.returncode == 0, proc.stderr.decode()
+    out = []
+    for run_path in sorted(runs.glob("*.mcap")):
+        run = load_run(run_path)
+        assert run.metadata is not None and run.metadata.release_t_ns is not None
+        assert run.metadata.pulled_cart == 2 and run.metadata.lab_case == "cart2"   # cart 1 held
+        out.append(run.metadata.release_t_ns / 1e9)
+    return out
+
+
+def _check_instant(t: Array, y: Array, t0: float) -> None:
+    """The free response holds from t0 + 20 ms on, and did not hold 0.25 s before t0."""
+    window = (t >= t0 + 0.05) & (t <= t0 + 0.5)
+    params, rms = _free_fit(t[window] - t0, y[window])
+    swing = float(np.ptp(y[window]))
+    assert rms < 0.005 * swing
+    after = (t >= t0 + 0.02) & (t <= t0 + 0.05)
+    assert np.max(np.abs(y[after] - _damped(t[after] - t0, *params))) < 0.01 * swing
+    before = (t >= t0 - 0.25) & (t <= t0 - 0.02)
+    assert np.max(np.abs(y[before] - _damped(t[before] - t0, *params))) > 0.02 * swing
+
+
+@pytest.mark.parametrize("name", HAND_2025)
+def test_every_ecp_2025_hand_release_is_one_run_dated_from_the_data(
+        name: str, realdata_dir: Path, tmp_path: Path) -> None:
+    path = realdata_dir / ECP_2025 / name
+    labels = _labels_2025(realdata_dir, name)
+    found = _replay(path, tmp_path)
+    assert len(found) == len(labels), (found, labels)
+    for label, t0 in zip(labels, found):
+        assert abs(t0 - label) < LABEL_TOLERANCE_S
+    t, y = _load(path)
+    for t0 in found:
+        _check_instant(t, y, t0)
+
+
+@pytest.mark.parametrize("name", HAND_2023)
+def test_every_2023_hand_step_is_one_run_dated_from_the_data(name: str, realdata_dir: Path, tmp_path: Path) -> None:
+    path = realdata_dir / ECP_2023 / name
+    found = _replay(path, tmp_path)
+    assert len(found) == 1
+    t, y = _load(path)
+    _check_instant(t, y, found[0])
