@@ -36,11 +36,11 @@ from daq.sim.options import DIALECT_NAMES, SimOptionError
 from daq.timeline import Timeline
 
 REPLAY_OPTIONS: tuple[tuple[str, str, str], ...] = (
-    ("speed", "max", "`max`: as fast as read; a number > 0: real time times that factor, paced by the "
-                     "lines' time stamps (1: real time)"),
-    ("dialect", "guessed", "cartlab, csv or ecp: how to read the time stamps for pacing "
-                           "(guess: `$` -> cartlab, four `:` -> ecp, else csv); a lab export (header naming "
-                           "`Time` and `Encoder k Pos`) is streamed as lines of this dialect (default ecp)"),
+    ("speed", "max", ("`max`: as fast as read; a number > 0: real time times that factor, paced by the "
+                      "lines' time stamps (1: real time)")),
+    ("dialect", "guessed", ("cartlab, csv or ecp: how to read the time stamps for pacing "
+                            "(guess: `$` -> cartlab, four `:` -> ecp, else csv); a lab export (header naming "
+                            "`Time` and `Encoder k Pos`) is streamed as lines of this dialect (default ecp)")),
     ("rate_hz", "-", "pace at this many lines per second instead of by the time stamps"),
 )
 

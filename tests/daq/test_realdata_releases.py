@@ -23,7 +23,8 @@ import pytest
 from scipy.optimize import curve_fit
 
 from daq.run_file import load_run
-from tests.daq.daq_process import REPO, daq_command
+from testkit.daq_process import daq_command
+from testkit.repo import REPO
 
 ECP_2025 = "ECP210_UCSD_2025_team1"
 ECP_2023 = "ECP210_UCSD_2023_Parker-Knopf/Open_Loop"
