@@ -29,6 +29,8 @@ _EXPORTS: dict[str, str] = {
     "Model": "ident.model",
     "ModeEstimate": "ident.model",
     "compare": "ident.compare",
+    "simulate": "ident.compare",
+    "d2c": "ident.lti",
     "fit_percent": "ident.compare",
     "resid": "ident.compare",
     "ResidualTest": "ident.compare",
@@ -45,6 +47,15 @@ _EXPORTS: dict[str, str] = {
     "load_text": "ident.io",
     "load_mcap": "ident.io",
 }
+
+
+# `ident.simulate` and `ident.d2c` name both a submodule and a MATLAB-style function. The import
+# system binds a submodule to the package attribute when the submodule is first loaded, so load
+# both submodules first and bind the functions after them: the attributes then stay functions.
+importlib.import_module("ident.simulate")
+importlib.import_module("ident.d2c")
+from ident.compare import simulate  # noqa: E402
+from ident.lti import d2c  # noqa: E402
 
 
 def __getattr__(name: str) -> Any:

@@ -10,6 +10,11 @@ and ±2.576·√(Σ_k ρ_ee(k) ρ_uu(k))/√N for independence (Ljung, System Id
 whiteness passes when the portmanteau statistic N Σ_{τ≥1} ρ_ee² is below the 99 % point of
 χ²(M); independence passes when max |ρ_eu(τ)| is inside the 99 % bound corrected for the
 2M + 1 lags tested (Bonferroni).
+
+Argument order: `compare`, `resid` and `simulate` take `(model, data)` or MATLAB's
+`(data, model)`; a model is anything with `simulate(u, t)` (a fitted `Model`, a physical
+fit) or a python-control system, continuous or discrete, TF or SS, or a list of SISO ones,
+one per output (`ident.lti`).
 """
 
 from __future__ import annotations
@@ -23,7 +28,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ident.data import IdData
-from ident.errors import IdentDimensionError
+from ident.errors import IdentDimensionError, IdentValueError
 
 FloatArray = NDArray[np.float64]
 
@@ -48,9 +53,51 @@ def fit_percent(y: FloatArray, y_hat: FloatArray) -> list[float]:
     return [float(100.0 * (1.0 - e / s)) if s > 0 else float("-inf") for e, s in zip(error, spread, strict=True)]
 
 
-def compare(model: Simulates, data: IdData) -> list[float]:
-    """Fit % per output of `model`'s free-run simulation of `data.u` against `data.y`."""
-    return fit_percent(data.y, model.simulate(data.u, data.t))
+def _model_and_data(first: object, second: object, function: str) -> tuple[Simulates, IdData]:
+    """(model, data) from either argument order; python-control systems wrapped."""
+    from ident.lti import as_simulator, is_lti
+
+    if isinstance(first, IdData) and not isinstance(second, IdData):
+        first, second = second, first
+    if not isinstance(second, IdData):
+        raise IdentValueError(f"{function}(data, model)", "an ident.IdData among the arguments "
+                              "(build one with ident.IdData(t, u, y) or ident.load(path))",
+                              f"{type(first).__name__} and {type(second).__name__}")
+    model: object = first
+    if is_lti(model):
+        model = as_simulator(model)
+    if not hasattr(model, "simulate"):
+        raise IdentValueError(f"{function}(data, model)", "a fitted Model, a physical fit or a "
+                              "python-control TransferFunction/StateSpace", type(first).__name__)
+    return model, second
+
+
+def simulate(first: object, second: object) -> FloatArray:
+    """MATLAB's `sim`: the free-run output ŷ (N, n_out) of the model for `data.u` on `data.t`.
+
+    `simulate(model, data)` or `simulate(data, model)`.
+    """
+    model, data = _model_and_data(first, second, "simulate")
+    return _checked_simulation(model, data)
+
+
+def _checked_simulation(model: Simulates, data: IdData) -> FloatArray:
+    y_hat = np.asarray(model.simulate(data.u, data.t), dtype=np.float64).reshape(data.n_samples, -1)
+    if y_hat.shape[1] != data.n_outputs:
+        hint = (f"select the modelled columns with data.select_outputs({list(range(y_hat.shape[1]))})"
+                if y_hat.shape[1] < data.n_outputs else "give one model output per data column")
+        raise IdentDimensionError("model outputs", f"{data.n_outputs} (one per column of data.y): {hint}",
+                                  y_hat.shape[1])
+    return y_hat
+
+
+def compare(first: object, second: object) -> list[float]:
+    """Fit % per output of the model's free-run simulation of `data.u` against `data.y`.
+
+    `compare(model, data)` or MATLAB's `compare(data, model)`.
+    """
+    model, data = _model_and_data(first, second, "compare")
+    return fit_percent(data.y, _checked_simulation(model, data))
 
 
 @dataclass(frozen=True)
@@ -85,6 +132,28 @@ class ResidualTest:
     @property
     def passed(self) -> bool:
         return self.white and self.independent
+
+    def summary_rows(self) -> list[tuple[str, str]]:
+        """The labelled lines of `repr` and `_repr_html_`."""
+        verdict = {True: "pass", False: "FAIL"}
+        return [
+            ("whiteness", f"{verdict[self.white]}: N·Σρ² = {self.whiteness_statistic:.4g} "
+                          f"(99 % limit {self.whiteness_threshold:.4g}, lags 1 … {len(self.lags) - 1})"),
+            ("independence", f"{verdict[self.independent]}: max |ρ_eu| = {self.independence_statistic:.3g} "
+                             f"(limit {self.independence_threshold:.3g})"),
+            ("arrays", "autocorrelation, cross_correlation, lags, cross_lags, auto_bound, cross_bound"),
+        ]
+
+    def __repr__(self) -> str:
+        from ident import summary
+
+        return summary.text(f"ResidualTest: {'passed' if self.passed else 'failed'}", self.summary_rows())
+
+    def _repr_html_(self) -> str:
+        from ident import summary
+
+        return summary.html_table(f"ResidualTest: {'passed' if self.passed else 'failed'}",
+                                  self.summary_rows())
 
 
 def _correlation(a: FloatArray, b: FloatArray, max_lag: int) -> FloatArray:
@@ -122,9 +191,13 @@ def residual_test(residuals: FloatArray, u: FloatArray, max_lag: int = 25) -> Re
                                      * np.sqrt(max(spread, 0.0)) / np.sqrt(n)))
 
 
-def resid(model: Simulates, data: IdData, max_lag: int = 25) -> list[ResidualTest]:
-    """MATLAB-style `resid`: one `ResidualTest` per output of the simulation error."""
-    errors = data.y - model.simulate(data.u, data.t)
+def resid(first: object, second: object, max_lag: int = 25) -> list[ResidualTest]:
+    """MATLAB-style `resid`: one `ResidualTest` per output of the simulation error.
+
+    `resid(model, data)` or MATLAB's `resid(data, model)`.
+    """
+    model, data = _model_and_data(first, second, "resid")
+    errors = data.y - _checked_simulation(model, data)
     return [residual_test(errors[:, j], data.u, max_lag) for j in range(data.n_outputs)]
 
 
@@ -132,8 +205,8 @@ class _CallableModule(types.ModuleType):
     """Importing `ident.compare` makes the package attribute `ident.compare` this module (the
     import system sets it), hiding the function of the same name; calling the module calls it."""
 
-    def __call__(self, model: Simulates, data: IdData) -> list[float]:
-        return compare(model, data)
+    def __call__(self, first: object, second: object) -> list[float]:
+        return compare(first, second)
 
 
 sys.modules[__name__].__class__ = _CallableModule

@@ -26,6 +26,9 @@ FloatArray = NDArray[np.float64]
 MIN_SAMPLES = 20
 #: Time stamps within this fraction of a step of a uniform grid are that grid (rounding, jitter).
 GRID_TOLERANCE = 0.25
+#: A median step this long (s) is taken for milliseconds: spring carts oscillate at 0.5–10 Hz, so
+#: no usable record is sampled this slowly, while 1–20 ms periods written in ms give steps ≥ 1.
+MS_STEP_THRESHOLD_S = 0.5
 
 
 def check_arrays(t: ArrayLike, u: ArrayLike | None, y: ArrayLike,
@@ -36,6 +39,8 @@ def check_arrays(t: ArrayLike, u: ArrayLike | None, y: ArrayLike,
     `IdentValueError` for NaN/Inf, too few samples and non-increasing time.
     """
     t_arr = np.asarray(t, dtype=np.float64)
+    if t_arr.ndim == 2 and 1 in t_arr.shape:
+        t_arr = t_arr.reshape(-1)   # a column or row vector of times is still one time base
     if t_arr.ndim != 1:
         raise IdentDimensionError("t", "a 1-D array of shape (N,)", f"shape {t_arr.shape}")
     n = t_arr.shape[0]
@@ -51,12 +56,19 @@ def check_arrays(t: ArrayLike, u: ArrayLike | None, y: ArrayLike,
         kind = "duplicate" if steps[i] == 0.0 else "decreasing"
         raise IdentValueError("t", "strictly increasing time stamps",
                               f"{kind} time at index {i + 1} ({t_arr[i]!r} then {t_arr[i + 1]!r})")
+    step = float(np.median(steps))
+    if step >= MS_STEP_THRESHOLD_S:
+        raise IdentValueError("t", f"seconds (a sample step below {MS_STEP_THRESHOLD_S} s)",
+                              f"a median step of {step:.4g}: milliseconds? pass t / 1000")
     return t_arr, u_arr, y_arr
 
 
 def _as_outputs(y: NDArray[np.float64], n: int) -> FloatArray:
     if y.ndim == 1:
         y = y[:, None]
+    if y.ndim == 2 and y.shape[0] != n and y.shape[1] == n:
+        raise IdentDimensionError("y", f"time-major shape ({n},) or ({n}, n_outputs)",
+                                  f"shape {y.shape} (outputs in rows): pass y.T")
     if y.ndim != 2 or y.shape[0] != n:
         raise IdentDimensionError("y", f"time-major shape ({n},) or ({n}, n_outputs)",
                                   f"shape {y.shape}")
@@ -68,6 +80,8 @@ def _as_outputs(y: NDArray[np.float64], n: int) -> FloatArray:
 def _as_input(u: NDArray[np.float64], n: int) -> FloatArray:
     if u.ndim == 2 and u.shape[1] == 1:
         u = u[:, 0]
+    if u.ndim == 2 and u.shape == (1, n):
+        raise IdentDimensionError("u", f"one input of shape ({n},) or ({n}, 1)", f"shape {u.shape}: pass u.T")
     if u.ndim != 1 or u.shape[0] != n:
         raise IdentDimensionError("u", f"one input of shape ({n},) or ({n}, 1)", f"shape {u.shape}")
     return np.ascontiguousarray(u)
@@ -139,8 +153,49 @@ class IdData:
 
     def select_outputs(self, columns: list[int]) -> IdData:
         """The same run with only the output columns `columns` (0-based)."""
+        if not columns or any(not 0 <= c < self.n_outputs for c in columns):
+            raise IdentValueError("columns", f"indices in 0 … {self.n_outputs - 1}", columns)
         return IdData(self.t, self.u, self.y[:, columns], self.release_time_s,
                       self.pulled_cart, self.name, self.notes)
+
+    def summary_rows(self) -> list[tuple[str, str]]:
+        """The labelled lines of `repr` and `_repr_html_`."""
+        from ident import summary
+        from ident.release import moving_outputs
+
+        ts = self.sample_time()
+        rows = [("samples", f"{self.n_samples}, Ts = {ts:.4g} s ({1 / ts:.4g} Hz), "
+                            f"{'uniform' if self.is_uniform() else 'NOT uniform: ident.make_uniform(data)'}"),
+                ("time", summary.span(self.t, "s"))]
+        moving = moving_outputs(self.y) if self.n_samples >= MIN_SAMPLES else list(range(self.n_outputs))
+        for j in range(self.n_outputs):
+            state = "moving" if j in moving else "held (no motion)"
+            rows.append((f"y{j + 1}", f"{summary.span(self.y[:, j], 'm')}, {state}"))
+        if moving and len(moving) < self.n_outputs:
+            rows.append(("hint", f"fit the moving outputs: data.select_outputs({moving})"))
+        step = self.step_time()
+        rows.append(("input u", "constant" if step is None else
+                     f"step of {self.step_amplitude:.4g} at {step:.4g} s"))
+        if self.release_time_s is not None:
+            rows.append(("release", f"{self.release_time_s:.4f} s"))
+        if self.pulled_cart is not None:
+            rows.append(("pulled cart", str(self.pulled_cart)))
+        rows.extend(("note", note) for note in self.notes)
+        return rows
+
+    def _title(self) -> str:
+        name = f" {self.name!r}" if self.name else ""
+        return f"IdData{name}: {self.n_outputs} output(s), 1 input"
+
+    def __repr__(self) -> str:
+        from ident import summary
+
+        return summary.text(self._title(), self.summary_rows())
+
+    def _repr_html_(self) -> str:
+        from ident import summary
+
+        return summary.html_table(self._title(), self.summary_rows())
 
 
 def _grid_deviation(t: FloatArray) -> float:

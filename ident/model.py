@@ -149,6 +149,41 @@ class Model:
             return np.asarray(self.offset + phi @ self.theta.T)
         return self._simulate_zoh(u_arr, t_arr)
 
+    def summary_rows(self) -> list[tuple[str, str]]:
+        """The labelled lines of `repr` and `_repr_html_` (all arrays stay in the attributes)."""
+        from ident import summary
+
+        rows = [(f"mode {i + 1}", f"wn = {summary.with_std(m.wn, m.wn_std, unit='rad/s')}, "
+                                  f"zeta = {summary.with_std(m.zeta, m.zeta_std)}")
+                for i, m in enumerate(self.modes)]
+        rows.append(("fit (simulation)", summary.percents(self.fit_percent)))
+        rows.append(("noise std", ", ".join(f"{v:.3g} m" for v in np.atleast_1d(self.noise_std))))
+        rows.append(("dc gain", ", ".join(f"{v:.4g}" for v in self.dc_gain)))
+        release = "n/a" if self.release_time_s is None else f"{self.release_time_s:.4f} s"
+        rows.append(("release", f"{release} (input delay {1e3 * self.input_delay_s:.3g} ms)"))
+        rows.append(("data", f"{len(self.t)} samples, Ts = {float(np.median(np.diff(self.t))):.4g} s"))
+        rows.append(("status", f"{'converged' if self.success else 'NOT converged'}, {self.nfev} "
+                               f"evaluations: {self.message}"))
+        rows.extend(("note", note) for note in self.notes)
+        rows.append(("see", "model.tf (control.TransferFunction per output), model.state_space, "
+                            "model.poles, ident.compare(data, model)"))
+        return rows
+
+    def _title(self) -> str:
+        noise = "output error" if self.K is None else "innovation form"
+        return (f"Continuous-time model, order {self.order}, {self.n_outputs} output(s), "
+                f"{self.method} ({noise})")
+
+    def __repr__(self) -> str:
+        from ident import summary
+
+        return summary.text(self._title(), self.summary_rows())
+
+    def _repr_html_(self) -> str:
+        from ident import summary
+
+        return summary.html_table(self._title(), self.summary_rows())
+
     def _simulate_zoh(self, u: FloatArray, t: FloatArray) -> FloatArray:
         steps = np.diff(t)
         ts = float(np.median(steps))

@@ -60,10 +60,12 @@ def pem(data: IdData, order: int | None = None, *, relative_degree: int | Sequen
     if order < 2 or order % 2:
         raise IdentValueError("order", "an even order ≥ 2 (2 per oscillatory mode) or None", order)
     check_motion(data.y)
-    still = sorted(set(range(data.n_outputs)) - set(moving_outputs(data.y)))
+    moving = sorted(moving_outputs(data.y))
+    still = sorted(set(range(data.n_outputs)) - set(moving))
     if still:
-        raise IdentValueError("y", "motion in every output (select the moving carts' columns)",
-                              f"no motion in output(s) {still} (a pinned cart?)")
+        raise IdentValueError("y", "motion in every output: fit the moving carts only with "
+                              f"pem(data.select_outputs({moving}), ...)",
+                              f"no motion in output(s) {still} (a held cart?)")
     problem, release0 = _problem(data, _per_output(relative_degree, data.n_outputs, "relative_degree"),
                                  _per_output(dc_gain, data.n_outputs, "dc_gain"), fit_release, fit_offset)
     n_modes = order // 2

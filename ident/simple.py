@@ -62,6 +62,35 @@ class SimpleFit:
     success: bool
     message: str
 
+    def summary_rows(self) -> list[tuple[str, str]]:
+        """The labelled lines of `repr` and `_repr_html_` (arrays stay in the attributes)."""
+        from ident import summary
+
+        def value(name: str, unit: str = "") -> str:
+            return summary.with_std(getattr(self, name), self.std_errors.get(name, float("nan")), unit=unit)
+
+        rows = [("wn", value("wn", "rad/s")), ("zeta", value("zeta")), ("gain", value("gain"))]
+        if self.friction is not None:
+            rows.append(("friction", value("friction", "m/s²")))
+        rows += [("release", f"{self.release_time_s:.4f} s"),
+                 ("fit (simulation)", summary.percents(self.fit_percent)),
+                 ("status", f"{'converged' if self.success else 'NOT converged'}, {self.nfev} "
+                            f"evaluations: {self.message}")]
+        return rows
+
+    def _title(self) -> str:
+        return f"Physical single-cart fit ({self.method}, {self.substeps} substep(s))"
+
+    def __repr__(self) -> str:
+        from ident import summary
+
+        return summary.text(self._title(), self.summary_rows())
+
+    def _repr_html_(self) -> str:
+        from ident import summary
+
+        return summary.html_table(self._title(), self.summary_rows())
+
     def simulate(self, u: ArrayLike, t: ArrayLike | None = None) -> FloatArray:
         """Simulated y (N, 1) for a step input `u` on time base `t` (default: the fitted data's)."""
         t_arr = self.t if t is None else np.asarray(t, dtype=np.float64)
