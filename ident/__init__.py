@@ -49,12 +49,10 @@ _EXPORTS: dict[str, str] = {
 }
 
 
-# `ident.simulate` and `ident.d2c` name both a submodule and a MATLAB-style function. The import
-# system binds a submodule to the package attribute when the submodule is first loaded, so load
-# both submodules first and bind the functions after them: the attributes then stay functions.
-importlib.import_module("ident.simulate")
+# `ident.d2c` names both a submodule (the matrix functions) and the MATLAB-style function. The
+# import system binds a submodule to the package attribute when the submodule is first loaded,
+# so load the submodule first and bind the function after it: the attribute stays the function.
 importlib.import_module("ident.d2c")
-from ident.compare import simulate  # noqa: E402
 from ident.lti import d2c  # noqa: E402
 
 

@@ -21,9 +21,9 @@ from packaging.version import Version
 ROOT = Path(__file__).resolve().parents[1]
 OURS = {"daq", "ident", "schemas", "testkit", "tests", "tools"}
 #: Shipped packages (must declare their imports as runtime dependencies).
-RUNTIME_DIRS = ("daq", "ident", "schemas", "testkit")
-#: Development-only code (may also use the `test` extra).
-DEV_DIRS = ("tests", "tools")
+RUNTIME_DIRS = ("daq", "ident", "schemas")
+#: Development-only code (may also use the `test` extra); testkit is installed but only for tests and tools.
+DEV_DIRS = ("tests", "tools", "testkit")
 
 
 def _pyproject() -> dict[str, object]:
