@@ -16,6 +16,7 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 COMMANDS: tuple[str, ...] = (
     "fit",
     "diagnose",
+    "releases",
     "worker",
     "report",
 )

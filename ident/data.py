@@ -12,6 +12,7 @@ errors say "expected …, got …". This module does no file I/O and no fitting.
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass, field
 from typing import Literal
 
@@ -111,6 +112,7 @@ class IdData:
     pulled_cart: int | None = None
     name: str = ""
     notes: tuple[str, ...] = field(default=())
+    columns: tuple[str, ...] = field(default=())
 
     def __post_init__(self) -> None:
         t, u, y = check_arrays(self.t, self.u, self.y)
@@ -155,8 +157,18 @@ class IdData:
         """The same run with only the output columns `columns` (0-based)."""
         if not columns or any(not 0 <= c < self.n_outputs for c in columns):
             raise IdentValueError("columns", f"indices in 0 … {self.n_outputs - 1}", columns)
+        names = tuple(self.columns[i] for i in columns) if self.columns else ()
         return IdData(self.t, self.u, self.y[:, columns], self.release_time_s,
-                      self.pulled_cart, self.name, self.notes)
+                      self.pulled_cart, self.name, self.notes, names)
+
+    def cart_numbers(self) -> tuple[int, ...]:
+        """The cart each output column reads: the number in its name ('Encoder 2 Pos',
+        'pos2_m' -> 2), else its position (1, 2, ...). Figures and reports label by these."""
+        found = [re.findall(r"\d+", name) for name in self.columns]
+        numbers = tuple(int(f[-1]) if f else i + 1 for i, f in enumerate(found))
+        if len(numbers) != self.n_outputs or len(set(numbers)) != len(numbers) or 0 in numbers:
+            return tuple(range(1, self.n_outputs + 1))
+        return numbers
 
     def summary_rows(self) -> list[tuple[str, str]]:
         """The labelled lines of `repr` and `_repr_html_`."""
@@ -224,7 +236,7 @@ def make_uniform(data: IdData, method: Literal["auto", "grid", "linear"] = "auto
         grid = data.t[0] + ts * np.arange(data.n_samples)
         note = f"time stamps replaced by the least-squares grid, Ts = {ts:.6g} s"
         return IdData(grid, data.u, data.y, data.release_time_s, data.pulled_cart, data.name,
-                      (*data.notes, note))
+                      (*data.notes, note), data.columns)
     ts = float(np.median(np.diff(data.t)))
     n = int(np.floor((data.t[-1] - data.t[0]) / ts + 1e-9)) + 1
     grid = data.t[0] + ts * np.arange(n)
@@ -232,7 +244,7 @@ def make_uniform(data: IdData, method: Literal["auto", "grid", "linear"] = "auto
     hold = np.clip(np.searchsorted(data.t, grid, side="right") - 1, 0, data.n_samples - 1)
     note = f"resampled by linear interpolation onto a uniform grid, Ts = {ts:.6g} s"
     return IdData(grid, data.u[hold], y, data.release_time_s, data.pulled_cart, data.name,
-                  (*data.notes, note))
+                  (*data.notes, note), data.columns)
 
 
 def step_input(t: ArrayLike, release_time_s: float, amplitude: float) -> FloatArray:

@@ -133,7 +133,7 @@ def unit_scale(name: str) -> float | None:
 def load_text(path: str | Path, time_col: str | None = None, pos_cols: list[str] | None = None,
               scale: float | None = None, release_time_s: float | None = None,
               step_m: float = DEFAULT_STEP_M, pulled_cart: int | None = None,
-              input_col: str | None = None, rate_hz: float | None = None) -> IdData:
+              input_col: str | None = None, rate_hz: float | None = None, raw: bool = False) -> IdData:
     """Load a delimited export. `scale` (m per unit) overrides a unit found in the names.
     The time base is the file's (a given `release_time_s` is on it); a file without a time
     column (columns named col0, col1, … when there is no header) needs `rate_hz`, and its
@@ -161,11 +161,15 @@ def load_text(path: str | Path, time_col: str | None = None, pos_cols: list[str]
                          for i in y_indices])
     t, _, y = check_arrays(t, None, y)
     _check_plausible(y)
+    columns = tuple(table.names[i] for i in y_indices)
     if input_col is not None:
         u = table.values[:, _find_column(table.names, input_col)]
         return IdData(t, u, y, release_time_s, pulled_cart, file.name,
-                      (f"input: column {table.names[_find_column(table.names, input_col)]!r} as recorded",))
-    return from_release(t, y, release_time_s, step_m, pulled_cart, file.name)
+                      (f"input: column {table.names[_find_column(table.names, input_col)]!r} as recorded",),
+                      columns)
+    if raw:
+        return IdData(t, np.zeros(t.shape), y, release_time_s, pulled_cart, file.name, (), columns)
+    return replace(from_release(t, y, release_time_s, step_m, pulled_cart, file.name), columns=columns)
 
 
 #: Largest |position| a lab track allows (m): anything beyond is a wrong scale or a broken file.
@@ -192,7 +196,7 @@ def _position_scale(name: str, scale: float | None) -> float:
 
 
 def load_mcap(path: str | Path, step_m: float = DEFAULT_STEP_M,
-              release_time_s: float | None = None) -> IdData:
+              release_time_s: float | None = None, raw: bool = False) -> IdData:
     """Load a `daq` run file: samples, release time and pulled cart from its metadata.
 
     Read by `schemas.run_file` (the one damage-tolerant reader, with its limits), so a
@@ -218,7 +222,9 @@ def load_mcap(path: str | Path, step_m: float = DEFAULT_STEP_M,
     pulled = metadata.pulled_cart if metadata is not None else None
     t, _, y = check_arrays(t, None, read.pos_m)
     _check_plausible(y)
-    data = from_release(t, y, release, step_m, pulled, file.name)
+    names = tuple(f"pos{j + 1}_m" for j in range(y.shape[1]))
+    data = (IdData(t, np.zeros(t.shape), y, release, pulled, file.name, (), names) if raw
+            else replace(from_release(t, y, release, step_m, pulled, file.name), columns=names))
     if read.complete:
         return data
     damage = (read.stop_reason or "file ended early")[:120]
@@ -228,12 +234,15 @@ def load_mcap(path: str | Path, step_m: float = DEFAULT_STEP_M,
 def load(path: str | Path, time_col: str | None = None, pos_cols: list[str] | None = None,
          scale: float | None = None, release_time_s: float | None = None,
          step_m: float = DEFAULT_STEP_M, input_col: str | None = None,
-         rate_hz: float | None = None) -> IdData:
-    """Load a run from an MCAP file (`.mcap`) or a delimited text export (anything else)."""
+         rate_hz: float | None = None, raw: bool = False) -> IdData:
+    """Load a run from an MCAP file (`.mcap`) or a delimited text export (anything else).
+
+    `raw=True` loads the positions only (a zero input, no release estimated): a raw record
+    with several releases, or one that starts in motion (`ident.releases` finds them)."""
     file = Path(path)
     if not file.exists():
         raise DataFileError(f"expected an existing file, got {str(file)!r}")
     if file.suffix == ".mcap":
-        return load_mcap(file, step_m, release_time_s)
-    return load_text(file, time_col, pos_cols, scale, release_time_s, step_m, input_col=input_col,
+        return load_mcap(file, step_m, release_time_s, raw=raw)
+    return load_text(file, time_col, pos_cols, scale, release_time_s, step_m, input_col=input_col, raw=raw,
                      rate_hz=rate_hz)

@@ -1,0 +1,66 @@
+"""`ident releases PATH`: every release in a raw record (text export or MCAP run).
+
+For each release: where the hand let go (`release_time_s`, on the file's time base), the end
+of its free response (before the next release or touch, or the end of the record), the
+pulled cart, the carts that move freely, and whether the end of the record cut it. A JSON
+array with `--json`, a table otherwise. Exit status 0 (also when none is found), 2 on
+unusable input.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from typing import Any
+
+from ident.commands.run_file_options import add_run_file_options
+
+
+def add_parser(subparsers: Any) -> None:
+    parser = subparsers.add_parser("releases", help="list every release in a raw record",
+                                   description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    add_run_file_options(parser, None)
+    parser.add_argument("--rate", dest="rate_hz", type=float, default=None,
+                        help="sample rate (Hz) of an export without a time column")
+    parser.add_argument("--json", action="store_true", help="print a JSON array")
+    parser.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from ident.errors import IdentError
+
+    try:
+        releases = releases_of_file(args)
+    except IdentError as exc:
+        print(f"ident releases: error: {exc}", file=sys.stderr)
+        return 2
+    if args.json:
+        print(json.dumps([r.to_dict() for r in releases], indent=2))
+    else:
+        print(table(args.path, releases))
+    return 0
+
+
+def releases_of_file(args: argparse.Namespace) -> list[Any]:
+    """Load the file raw as the arguments say and find its releases."""
+    from ident.io import load
+    from ident.releases import find_releases
+
+    data = load(args.path, time_col=args.time_col, pos_cols=args.pos_cols, scale=args.scale,
+                rate_hz=args.rate_hz, raw=True)
+    return find_releases(data.t, data.y, data.cart_numbers())
+
+
+def table(path: str, releases: list[Any]) -> str:
+    """A readable table of releases."""
+    if not releases:
+        return f"{path}: no release found"
+    lines = [f"{path}: {len(releases)} release(s)",
+             "   #  release (s)   end (s)  pulled  moving   amplitude (mm)  ended by"]
+    for r in releases:
+        amp = "/".join(f"{1e3 * a:.1f}" for a in r.amplitudes_m)
+        ending = r.ended_by.replace("_", " ") + ("" if r.complete else " (cut)")
+        lines.append(f"{r.number:4d}  {r.release_time_s:11.3f}  {r.end_time_s:8.3f}  cart {r.pulled_cart}"
+                     f"  {','.join(map(str, r.moving_carts)):6s}  {amp:>14s}  {ending}")
+    return "\n".join(lines)

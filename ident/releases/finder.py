@@ -1,0 +1,210 @@
+"""`find_releases(t, y)`: every release in a raw record, in time order.
+
+Steps (arrays in, `Release` records out):
+1. `motion`: a uniform grid, the dominant period T, smoothed x, v, a per column;
+2. the free columns: a cart whose swing is small beside the largest one is held (it may
+   wander by a few mm or follow weakly through the spring); the free carts' positions enter
+   each other's equations of motion;
+3. `hand`: per free column, the force its free equation of motion does not explain, and the
+   hand episodes where it is large; weaker but sustained pushes (a held cart moved, which
+   moves this one through the spring) also end a free response;
+4. a candidate release is the end of a hand episode followed by a free response: at least
+   one period without a hand, ringing (three turning points) with an amplitude well above
+   the noise and the dry-friction band. The pulled cart is the column whose hand episode it
+   is; when a held cart moved as much as this one during the episode, a hand moved the held
+   cart (a touch), not a release;
+5. `instant`: the release instant to a sample, where the free response begins;
+6. the free response ends where the next hand episode on the pulled cart begins (the next
+   release or a touch) or at the end of the record, cut when the cart still rings there.
+A record that starts in motion has no hand episode before its first free stretch: that
+stretch is the tail of an earlier release, not a release of this record.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ident.releases.hand import FreeModel, fit_free_model
+from ident.releases.instant import release_instant
+from ident.releases.motion import FloatArray, Motion, motion
+from ident.releases.record import EndedBy, Release
+
+#: A cart whose amplitude is below this fraction of the pulled cart's is held.
+HELD_FRACTION = 0.25
+#: During a touch the held cart moves at least this fraction of what the pulled cart moves.
+TOUCH_FRACTION = 0.5
+#: A release rings: at least this many turning points in its free response.
+MIN_TURNS = 3
+#: Its first swing exceeds this many noise stds and this many dry-friction bands.
+MIN_AMPLITUDE_SIGMAS = 30.0
+MIN_AMPLITUDE_BANDS = 4.0
+#: A sustained push: the residual's moving average over a quarter period beyond this many scales.
+SUSTAINED_SIGMAS = 2.5
+
+
+def find_releases(t: NDArray[np.float64], y: NDArray[np.float64],
+                  carts: Sequence[int] | None = None) -> list[Release]:
+    """Every release in a record `y` (N,) or (N, n) m on `t` (N,) s, in time order.
+
+    `carts` names the columns (cart numbers, default 1..n); times are on `t`'s time base
+    (a non-uniform `t` is interpolated onto a uniform grid from `t[0]`).
+    """
+    m = motion(t, y)
+    n_cols = m.y.shape[1]
+    names = tuple(carts) if carts is not None else tuple(range(1, n_cols + 1))
+    if len(names) != n_cols:
+        from ident.errors import IdentDimensionError
+
+        raise IdentDimensionError("carts", f"one cart number per column ({n_cols})", len(names))
+    free = free_columns(m)
+    found: list[tuple[int, int, FreeModel]] = []   # (release index, column, model)
+    stops: list[tuple[int, int]] = []              # (column, start index of a hand episode)
+    for j in free:
+        model = fit_free_model(m, j, tuple(i for i in free if i != j))
+        episodes = hand_episodes(m, model)
+        # where a hand begins to act, conservatively: the derivatives' smoothing (T/20 each
+        # side) and the sustained pushes' moving average (T/8 each side) see it late
+        stops += [(j, max(0, a - m.samples(m.period_s / 20))) for a, _ in episodes]
+        stops += [(j, max(0, a - m.samples(m.period_s / 4))) for a, _ in sustained_pushes(m, model)]
+        for k, (a, b) in enumerate(episodes):
+            nxt = episodes[k + 1][0] if k + 1 < len(episodes) else m.n_samples
+            if is_release(m, model, a, b, nxt, free):
+                found.append((release_instant(m, model, a, b), j, model))
+    found = _one_per_event(m, sorted(found))
+    releases = []
+    for number, (start, j, model) in enumerate(found, start=1):
+        later = [a for c, a in stops if c == j and a > start + m.samples(0.5 * m.period_s)]
+        end = min(later, default=m.n_samples - 1)
+        releases.append(_record(m, model, number, start, end, names, free,
+                                _ended_by(end, m, [s for s, _, _ in found])))
+    return releases
+
+
+def free_columns(m: Motion) -> list[int]:
+    """Columns that swing at least `HELD_FRACTION` of the largest swing (robust range)."""
+    span = np.percentile(m.x, 99.5, axis=0) - np.percentile(m.x, 0.5, axis=0)
+    return [j for j in range(m.y.shape[1]) if span[j] >= HELD_FRACTION * float(np.max(span))]
+
+
+def hand_episodes(m: Motion, model: FreeModel) -> list[tuple[int, int]]:
+    """(first, last) indices of the hand episodes: runs of `model.hand` joined across gaps
+    shorter than T/8, that move the cart (a cart stuck off its rest by dry friction shows
+    a residual but no motion), away from the smoothing's edge."""
+    edge = m.samples(0.05 * m.period_s) + 2
+    mask = model.hand.copy()
+    mask[:edge] = False
+    mask[-edge:] = False
+    runs = _runs(mask, m.samples(m.period_s / 8))
+    x = m.x[:, model.column]
+    floor = 8.0 * float(m.noise_m[model.column])
+    return [(a, b) for a, b in runs if float(np.ptp(x[a:b + 1])) > floor]
+
+
+def sustained_pushes(m: Motion, model: FreeModel) -> list[tuple[int, int]]:
+    """Weak but sustained hand forces (a quarter-period moving average of |r| beyond
+    `SUSTAINED_SIGMAS` scales for at least T/8) that move the cart: a held cart moved by hand pulls this
+    one through the spring."""
+    width = m.samples(0.25 * m.period_s)
+    mean = np.convolve(np.abs(model.residual), np.ones(width) / width, mode="same")
+    mask = mean > SUSTAINED_SIGMAS * model.scale
+    edge = width
+    mask[:edge] = False
+    mask[-edge:] = False
+    x = m.x[:, model.column]
+    floor = 8.0 * float(m.noise_m[model.column])
+    shortest = m.samples(m.period_s / 8)
+    return [(a, b) for a, b in _runs(mask, 1) if b - a >= shortest and float(np.ptp(x[a:b + 1])) > floor]
+
+
+def _runs(mask: NDArray[np.bool_], join: int) -> list[tuple[int, int]]:
+    idx = np.flatnonzero(mask)
+    if idx.size == 0:
+        return []
+    breaks = np.flatnonzero(np.diff(idx) > join)
+    starts = np.concatenate([[idx[0]], idx[breaks + 1]])
+    ends = np.concatenate([idx[breaks], [idx[-1]]])
+    return [(int(a), int(b)) for a, b in zip(starts, ends, strict=True)]
+
+
+def is_release(m: Motion, model: FreeModel, first: int, last: int, nxt: int, free: list[int]) -> bool:
+    """Whether the hand episode [first, last] of `model.column` lets a cart go (step 4)."""
+    j = model.column
+    if nxt - last < m.samples(m.period_s):
+        return False   # the hand took hold again within a period: handling
+    x = m.x[:, j]
+    stop = min(nxt, last + m.samples(3.0 * m.period_s))
+    band = abs(model.dry) / max(float(model.stiffness[0]), 1e-12)
+    level = max(MIN_AMPLITUDE_SIGMAS * float(m.noise_m[j]), MIN_AMPLITUDE_BANDS * band)
+    if turning_points(x[last:stop], max(level / 3.0, 2.0 * band)) < MIN_TURNS:
+        return False
+    span = x[last:min(stop, last + m.samples(m.period_s))]
+    if 0.5 * float(np.ptp(span)) < level:
+        return False
+    lead = max(0, first - m.samples(m.period_s / 8))
+    own = float(np.ptp(x[lead:last + 1]))
+    held = [i for i in range(m.y.shape[1]) if i not in free]
+    return all(float(np.ptp(m.x[lead:last + 1, i])) < TOUCH_FRACTION * own for i in held)
+
+
+def turning_points(x: FloatArray, hysteresis: float) -> int:
+    """Number of turning points of `x` that reverse by more than `hysteresis`."""
+    count, direction = 0, 0
+    low = high = float(x[0]) if x.size else 0.0
+    for value in x:
+        v = float(value)
+        if direction >= 0:
+            if v > high:
+                high = v
+            elif high - v > hysteresis:
+                count += direction > 0
+                direction, low = -1, v
+        if direction <= 0:
+            if v < low:
+                low = v
+            elif v - low > hysteresis:
+                count += direction < 0
+                direction, high = 1, v
+    return count
+
+
+def _one_per_event(m: Motion, found: list[tuple[int, int, FreeModel]]) -> list[tuple[int, int, FreeModel]]:
+    """Candidates of several columns within half a period are one release: keep the one
+    whose cart moved most around it (the pulled cart)."""
+    kept: list[tuple[int, int, FreeModel]] = []
+    for cand in found:
+        if kept and cand[0] - kept[-1][0] < m.samples(0.5 * m.period_s):
+            if _swing(m, cand) > _swing(m, kept[-1]):
+                kept[-1] = cand
+            continue
+        kept.append(cand)
+    return kept
+
+
+def _swing(m: Motion, cand: tuple[int, int, FreeModel]) -> float:
+    start, j, _ = cand
+    return float(np.ptp(m.x[start:start + m.samples(m.period_s), j]))
+
+
+def _ended_by(end: int, m: Motion, starts: list[int]) -> EndedBy:
+    if end >= m.n_samples - 1:
+        return "record_end"
+    nearest = min((s - end for s in starts if s >= end), default=None)
+    return "release" if nearest is not None and nearest <= m.samples(m.period_s) else "touch"
+
+
+def _record(m: Motion, model: FreeModel, number: int, start: int, end: int, names: tuple[int, ...],
+            free: list[int], ended_by: EndedBy) -> Release:
+    j = model.column
+    first = slice(start, min(end, start + m.samples(m.period_s)) + 1)
+    amp = 0.5 * np.ptp(m.x[first], axis=0)
+    moving = tuple(names[i] for i in range(len(names)) if amp[i] >= HELD_FRACTION * amp[j])
+    band = abs(model.dry) / max(float(model.stiffness[0]), 1e-12)
+    tail = m.x[max(start, end - m.samples(m.period_s)):end + 1, j]
+    rings = float(np.ptp(tail)) > max(10.0 * float(m.noise_m[j]), 2.0 * band)
+    complete = not (ended_by == "record_end" and rings)
+    return Release(number=number, release_time_s=float(m.t[start]), end_time_s=float(m.t[end]),
+                   pulled_cart=names[j], moving_carts=moving, amplitudes_m=tuple(float(a) for a in amp),
+                   complete=complete, ended_by=ended_by, period_s=m.period_s)

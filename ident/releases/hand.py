@@ -1,0 +1,94 @@
+"""Where a hand acts: the force on a cart that its free equation of motion does not explain.
+
+A free cart obeys (per unit mass, the other free carts' positions entering through springs)
+
+    a_j = -Σ_i k_ji x_i - c_j v_j - f_j·tanh(v_j / v_s) + b_j,
+
+with stiffness `k`, viscous `c` and dry friction `f` (m/s², smoothed over a velocity `v_s`
+so that the regression stays linear) and an offset `b` (the rest position). The coefficients
+come from a robust regression (Tukey bisquare, iteratively reweighted) of the smoothed
+acceleration on those terms over the samples where the cart moves: hand phases are short
+and get weight zero. The residual `r_j` is then the hand's force per unit mass: large while
+a hand pulls, holds, flicks or moves the cart (or, through the spring, a held cart it is
+coupled to), near zero during a free response. No I/O.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ident.releases.motion import FloatArray, Motion
+
+#: Tukey bisquare tuning constant (95 % efficiency for Gaussian residuals).
+TUKEY_C = 4.685
+#: A residual beyond this many robust scales is a hand.
+HAND_SIGMAS = 6.0
+
+
+@dataclass(frozen=True)
+class FreeModel:
+    """The fitted free equation of motion of one cart (see the module docstring).
+
+    `column` the cart's column; `others` the columns whose positions enter; `stiffness`
+    (len(others)+1,) k_jj first (1/s²); `viscous` c_j (1/s); `dry` f_j (m/s²); `offset` b_j
+    (m/s²); `v_smooth` v_s (m/s); `residual` (N,) m/s²; `scale` its robust std over the
+    free samples; `hand` (N,) bool, where |residual| > HAND_SIGMAS·scale.
+    """
+
+    column: int
+    others: tuple[int, ...]
+    stiffness: FloatArray
+    viscous: float
+    dry: float
+    offset: float
+    v_smooth: float
+    residual: FloatArray
+    scale: float
+    hand: NDArray[np.bool_]
+
+    @property
+    def wn(self) -> float:
+        """Natural frequency of the cart alone (rad/s)."""
+        return float(np.sqrt(max(float(self.stiffness[0]), 1e-12)))
+
+    def rest(self, others_x: FloatArray | None = None) -> float:
+        """Spring equilibrium (m) for given other positions (none: zeros)."""
+        load = 0.0 if others_x is None or not self.others else float(self.stiffness[1:] @ others_x)
+        return (self.offset - load) / max(float(self.stiffness[0]), 1e-12)
+
+
+def regressors(m: Motion, column: int, others: tuple[int, ...], v_smooth: float) -> FloatArray:
+    """The regression matrix (N, 4 + len(others)): -x_j, -x_others, -v_j, -tanh(v_j/v_s), 1."""
+    cols = [-m.x[:, column]] + [-m.x[:, i] for i in others]
+    cols += [-m.v[:, column], -np.tanh(m.v[:, column] / v_smooth), np.ones(m.n_samples)]
+    return np.column_stack(cols)
+
+
+def fit_free_model(m: Motion, column: int, others: tuple[int, ...] = ()) -> FreeModel:
+    """Robust fit of the free equation of motion of `column` (see the module docstring)."""
+    v = m.v[:, column]
+    speed = float(np.percentile(np.abs(v), 95))
+    v_smooth = max(0.02 * speed, 3.0 * float(m.noise_m[column]) / m.dt / 10.0, 1e-9)
+    basis = regressors(m, column, others, v_smooth)
+    target = m.a[:, column]
+    moving = np.abs(v) > 0.05 * speed
+    if np.count_nonzero(moving) < basis.shape[1] * 4:
+        moving = np.ones(m.n_samples, dtype=bool)
+    weights = moving.astype(np.float64)
+    coef: FloatArray = np.zeros(basis.shape[1])
+    scale = 0.0
+    for _ in range(12):
+        w = np.sqrt(weights)
+        coef = np.asarray(np.linalg.lstsq(basis * w[:, None], target * w, rcond=None)[0], dtype=np.float64)
+        resid = target - basis @ coef
+        scale = float(np.median(np.abs(resid[moving & (weights > 0)]))) / 0.6745 if np.any(weights > 0) else 0.0
+        scale = max(scale, 1e-12)
+        u = resid / (TUKEY_C * scale)
+        weights = np.where(moving & (np.abs(u) < 1.0), (1.0 - u ** 2) ** 2, 0.0)
+    resid = target - basis @ coef
+    n_k = 1 + len(others)
+    return FreeModel(column, others, np.asarray(coef[:n_k]), float(coef[n_k]), float(coef[n_k + 1]),
+                     float(coef[n_k + 2]), v_smooth, resid, scale, np.abs(resid) > HAND_SIGMAS * scale)
