@@ -75,6 +75,17 @@ class Model:
         return 2 * len(self.sigma)
 
     @property
+    def unstable_modes(self) -> tuple[int, ...]:
+        """Indices into `modes` of the modes with ζ ≤ 0: poles -σ ± jω with σ ≤ 0, on or right of
+        the imaginary axis (|z| = e^{-σ Ts} ≥ 1 once sampled). No spring cart does that."""
+        return tuple(i for i, mode in enumerate(self.modes) if not mode.zeta > 0.0)
+
+    @property
+    def stable(self) -> bool:
+        """Every pole strictly in the left half-plane (ζ > 0 in every mode)."""
+        return not self.unstable_modes
+
+    @property
     def n_outputs(self) -> int:
         return int(self.theta.shape[0])
 

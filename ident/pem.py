@@ -16,7 +16,13 @@ Pipeline (MATLAB `pem` → `d2c` → `tf`, made robust for lightly damped poles 
 4. the result is continuous-time already: poles, `wn`, `zeta` per mode, transfer functions.
    The discrete innovation form is available from `Model.discrete()`.
 
-Order selection: `order=None` fits 2, 4 and 6 and keeps the smallest BIC.
+Order selection: `order=None` fits 2, 4 and 6 and keeps the smallest BIC among the stable
+models (all of them when none is stable).
+
+An unstable estimate (a mode with ζ ≤ 0, i.e. |z| ≥ 1 once sampled: seen on real motor-pulse
+records, where an extra slow mode absorbs what the linear model cannot explain) is not a
+model of the carts: it comes back with `success=False`, `Model.stable` False and a message
+naming the modes, never as converged.
 """
 
 from __future__ import annotations
@@ -24,6 +30,7 @@ from __future__ import annotations
 import sys
 import types
 from collections.abc import Sequence
+from dataclasses import replace
 from typing import Any, Literal
 
 import numpy as np
@@ -32,7 +39,7 @@ from numpy.typing import NDArray
 from ident import subspace, varpro
 from ident.data import FloatArray, IdData, make_uniform
 from ident.errors import FitFailed, IdentValueError
-from ident.model import Model, ModeEstimate
+from ident.model import ModeEstimate, Model
 from ident.release import check_motion, estimate_release_time, moving_outputs, noise_std
 
 #: Orders tried by the order selection.
@@ -56,7 +63,8 @@ def pem(data: IdData, order: int | None = None, *, relative_degree: int | Sequen
         models = [pem(data, n, relative_degree=relative_degree, dc_gain=dc_gain,
                       fit_release=fit_release, fit_offset=fit_offset, noise_model=noise_model)
                   for n in CANDIDATE_ORDERS]
-        return min(models, key=lambda model: _bic(model, data))
+        stable = [model for model in models if model.stable]
+        return min(stable or models, key=lambda model: _bic(model, data))
     if order < 2 or order % 2:
         raise IdentValueError("order", "an even order ≥ 2 (2 per oscillatory mode) or None", order)
     check_motion(data.y)
@@ -81,7 +89,18 @@ def pem(data: IdData, order: int | None = None, *, relative_degree: int | Sequen
         model = refine(model, data if data.is_uniform() else make_uniform(data, "linear"))
     elif noise_model != "oe":
         raise IdentValueError("noise_model", "'oe' or 'innovation'", noise_model)
-    return model
+    return flag_unstable(model)
+
+
+def flag_unstable(model: Model) -> Model:
+    """The model with `success=False` and a message naming the modes with ζ ≤ 0, when it has any."""
+    if model.stable:
+        return model
+    modes = ", ".join(f"mode {i + 1} (wn = {model.modes[i].wn:.4g} rad/s, zeta = {model.modes[i].zeta:.4g})"
+                      for i in model.unstable_modes)
+    message = (f"unstable estimate: zeta <= 0 in {modes}: not a model of the carts; try another order, "
+               f"the --input column or a shorter window (optimizer: {model.message})")
+    return replace(model, success=False, message=message)
 
 
 def _per_output(value: object, n_out: int, name: str) -> tuple[Any, ...]:
@@ -203,8 +222,6 @@ def _reweighted(problem: varpro.Problem, solution: varpro.Solution) -> varpro.So
     ratio = (1.0 / problem.weights) / np.maximum(residual_std, 1e-15)
     if np.max(ratio) / np.min(ratio) < 1.2:
         return solution
-    from dataclasses import replace
-
     reweighted = replace(problem, weights=1.0 / np.maximum(residual_std, 1e-15))
     return varpro.fit(reweighted, solution.release_time_s, solution.sigma, solution.omega)
 

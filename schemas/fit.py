@@ -93,6 +93,8 @@ class PemFitRec(Record):
     release_time_s: float | None = None
     noise_model: Literal["oe", "innovation"] = "oe"
     converged: bool = True
+    stable: bool = Field(default=True, description="every mode has zeta > 0 (False: not a model of the carts)")
+    message: str = ""
 
 
 class FitTimings(Record):

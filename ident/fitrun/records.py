@@ -82,7 +82,8 @@ def pem_record(analysis: RunAnalysis) -> PemFitRec | None:
                      dc_gain=[float(g) for g in np.atleast_1d(model.dc_gain)],
                      release_time_s=None if release is None else finite_or_none(release),
                      noise_model="innovation" if "innovation" in model.method else "oe",
-                     converged=bool(model.success))
+                     converged=bool(model.success), stable=model.stable,
+                     message="" if model.stable else model.message)
 
 
 def to_fit_report(analysis: RunAnalysis, *, bench: str, run_id: str, worker: str,

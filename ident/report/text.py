@@ -30,6 +30,8 @@ def _simple_lines(fit: SimpleFitRec) -> list[str]:
 def _pem_lines(pem: PemFitRec) -> list[str]:
     label = f"pem order {pem.order}" + (" (innovation form)" if pem.noise_model == "innovation" else "")
     lines = [_head(label, pem.release_time_s, pem.converged)]
+    if not pem.stable:
+        lines.append(f"  WARNING: {pem.message or 'unstable estimate (zeta <= 0): not a model of the carts'}")
     lines += [_mode_line(i, m.wn_rad_s, m.zeta, m.wn_std, m.zeta_std)
               for i, m in enumerate(pem.modes, 1)]
     gains = pem.dc_gain or [float("nan")] * len(pem.tfs)
