@@ -14,8 +14,9 @@ Families (an effect, `none`, or a pair):
   static = f·[1, 1.5]; two carts: on cart 1, cart 2 or both, seen through both encoders or
   (`encoders=1`) cart 1's only;
 - quadratic_drag: q = r·3/(4A), r ∈ [0.03, 0.15], the same per mass on every cart;
-- cubic_stiffness: κ = ±r·8 wn²/(3A²), r ∈ [0.005, 0.05] (hardening and softening: the
-  frequency moves by ±r at A), the same per mass on every cart's displacement;
+- cubic_stiffness: every spring pulls k (e + γ e³), γ = ±r·8/(3A²), r ∈ [0.005, 0.05]
+  (hardening and softening: the frequency moves by about ±r at A); reported as κ = wn² γ
+  (`cubic_per_m2_s2`) for one cart, γ (`cubic_rel_per_m2`) for two;
 - quantization: the encoder reads Q·round(y/Q), Q ∈ [10 µm, 2 mm] (log-uniform), an exact
   lattice or with white noise of 2–30 % of Q added after it;
 - coupled_mode: an extra mass behind the last cart, m_e/m ∈ [0.05, 1.5] (log-uniform: from a
@@ -34,6 +35,7 @@ Families (an effect, `none`, or a pair):
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -65,8 +67,8 @@ class Layout:
     observed: tuple[int, ...] = (0,)
     still: tuple[int, ...] = ()
 
-    def rig(self, effects: dict[str, object]) -> Rig:
-        return make_rig(self.masses, self.springs, self.dampers, **effects)  # type: ignore[arg-type]
+    def rig(self, effects: dict[str, Any]) -> Rig:
+        return make_rig(self.masses, self.springs, self.dampers, **effects)
 
 
 @dataclass(frozen=True)
@@ -88,7 +90,7 @@ class Spec:
     release: Release
     wn: float
     amplitude: float
-    effects: dict[str, object] = field(default_factory=dict)
+    effects: dict[str, Any] = field(default_factory=dict)
     parameters: dict[str, float] = field(default_factory=dict)
     details: dict[str, float] = field(default_factory=dict)
     present: tuple[str, ...] = ()
@@ -168,9 +170,13 @@ def add_drag(rng: np.random.Generator, spec: Spec) -> None:
 
 
 def add_cubic(rng: np.random.Generator, spec: Spec) -> None:
-    kappa = rng.choice([-1.0, 1.0]) * rng.uniform(0.005, 0.05) * 8 * spec.wn ** 2 / (3 * spec.amplitude ** 2)
-    spec.effects["cubic"] = np.full(len(spec.layout.masses), kappa)
-    spec.parameters["cubic_per_m2_s2"] = float(kappa)
+    """Every spring k (e + γ e³); one cart reported as κ = wn² γ (a = -κ (x - rest)³)."""
+    gamma = rng.choice([-1.0, 1.0]) * rng.uniform(0.005, 0.05) * 8 / (3 * spec.amplitude ** 2)
+    spec.effects["cubic_rel"] = float(gamma)
+    if spec.carts == 1:
+        spec.parameters["cubic_per_m2_s2"] = float(spec.wn ** 2 * gamma)
+    else:
+        spec.parameters["cubic_rel_per_m2"] = float(gamma)
     spec.present += ("cubic_stiffness",)
 
 
@@ -233,7 +239,7 @@ def held_cart(rng: np.random.Generator, kind: str | None) -> Spec:
     k_h = k2 / rng.uniform(0.02, 0.05)
     hand = HandSpring(0, k_h, k_h * rng.uniform(0.02, 0.03), hands.wander(rng, rng.uniform(2e-3, 7e-3)))
     lay = Layout(lay.masses, lay.springs, lay.dampers, pulled=1, observed=(0, 1), still=())
-    effects: dict[str, object] = {"hands": (hand,)}
+    effects: dict[str, Any] = {"hands": (hand,)}
     wn = lowest_wn(lay.rig(effects))
     rel = draw_release(rng, kind, wn)
     spec = Spec(lay, rel, wn, float(np.hypot(rel.x, rel.v / wn)), effects=effects, model=(1,))
@@ -256,6 +262,8 @@ def draw_spec(rng: np.random.Generator, family: str, carts: int | None, kind: st
         spec = held_cart(rng, kind)
         add_coulomb(rng, spec, (1,))
         spec.present += ("held_cart_motion",)
+        # the held cart pulls the free one through the spring between them: a = β u_h, β = k2/m2
+        spec.parameters["held_cart_gain_per_s2"] = spec.layout.springs[1][2] / spec.layout.masses[1]
         return spec
     spec = base(rng, layout_for(rng, carts), kind)
     spec.headline = family

@@ -3,11 +3,12 @@
 Masses m_i (kg) joined by springs (to each other or to the wall) and viscous dampers to
 ground. With x the displacements from the mechanical rest (m) and v = x' (m/s):
 
-    m_i x_i'' = -(K x)_i - (C v)_i - m_i κ_i x_i³ - m_i q_i v_i |v_i|
+    m_i x_i'' = -(K x)_i - (C v)_i - Σ_s ±k_s γ e_s³ - m_i q_i v_i |v_i|
                 + k_h (w(t) - x_i) + c_h (w'(t) - v_i)   [a hand spring on mass i]
                 - m_i f_i sign(v_i)                       [dry friction while slipping]
 
-κ_i (1/(m² s²)) is a cubic spring term (hardening κ > 0, softening κ < 0), q_i (1/m) quadratic
+every spring s (stiffness k_s, extension e_s = x_i - x_j, or x_i for a spring to the wall) may
+pull with k_s (e_s + γ e_s³): γ (1/m²) > 0 hardening, < 0 softening; q_i (1/m) quadratic
 drag, f_i (m/s²) kinetic Coulomb friction; a mass at rest stays stuck while the rest of its
 force per mass stays within the static level s_i ≥ f_i. A hand spring (k_h, c_h) ties a held
 cart to where the hand is, w(t): the hand holds it loosely, so it follows the other cart weakly
@@ -44,7 +45,7 @@ class Rig:
     masses: FloatArray
     stiffness: FloatArray
     damping: FloatArray
-    cubic: FloatArray
+    cubic: tuple[tuple[int, int | None, float], ...]
     drag: FloatArray
     kinetic: FloatArray
     static: FloatArray
@@ -57,10 +58,15 @@ class Rig:
     def accel(self, t: float, x: FloatArray, v: FloatArray) -> FloatArray:
         """Every force but dry friction, per unit mass (m/s²), shape (n,)."""
         force = -self.stiffness @ x - self.damping @ v
+        for i, j, k_gamma in self.cubic:     # k γ e³ (N) of a spring with extension e
+            pull = k_gamma * (x[i] - (0.0 if j is None else x[j])) ** 3
+            force[i] -= pull
+            if j is not None:
+                force[j] += pull
         for hand in self.hands:
             w, w_dot = hand.target(t)
             force[hand.index] += hand.stiffness * (w - x[hand.index]) + hand.damping * (w_dot - v[hand.index])
-        return np.asarray(force / self.masses - self.cubic * x ** 3 - self.drag * v * np.abs(v))
+        return np.asarray(force / self.masses - self.drag * v * np.abs(v))
 
     def linear_matrix(self) -> FloatArray:
         """A of z' = A z for z = (x, v), the linear part with the hands' springs (2n, 2n)."""
@@ -87,18 +93,19 @@ def stiffness_matrix(n: int, springs: Sequence[tuple[int, int | None, float]]) -
 
 
 def make_rig(masses: Sequence[float], springs: Sequence[tuple[int, int | None, float]],
-             dampers: Sequence[float], **effects: Sequence[float] | tuple[HandSpring, ...]) -> Rig:
-    """A rig with dampers to ground (N·s/m per mass); effect arrays (cubic, drag, kinetic,
-    static) default to zero, `hands` to none."""
+             dampers: Sequence[float], *, drag: Sequence[float] | None = None,
+             kinetic: Sequence[float] | None = None, static: Sequence[float] | None = None,
+             cubic_rel: float = 0.0, hands: Sequence[HandSpring] = ()) -> Rig:
+    """A rig with dampers to ground (N·s/m per mass); per-mass drag (1/m), kinetic and static
+    friction (m/s², static raised to at least kinetic) default to zero; `cubic_rel` γ (1/m²)
+    acts on every spring given."""
     m = np.asarray(masses, dtype=np.float64)
     n = m.size
 
-    def per_mass(name: str) -> FloatArray:
-        value = effects.get(name)
-        return np.zeros(n) if value is None else np.asarray(value, dtype=np.float64)
+    def per_mass(value: Sequence[float] | None) -> FloatArray:
+        return np.zeros(n) if value is None else np.asarray(value, dtype=np.float64).reshape(n)
 
-    kinetic = per_mass("kinetic")
-    static = np.maximum(per_mass("static"), kinetic)
-    hands = effects.get("hands") or ()
+    kin = per_mass(kinetic)
+    cubic = tuple((i, j, k * cubic_rel) for i, j, k in springs) if cubic_rel else ()
     return Rig(m, stiffness_matrix(n, springs), np.diag(np.asarray(dampers, dtype=np.float64)),
-               per_mass("cubic"), per_mass("drag"), kinetic, static, tuple(hands))  # type: ignore[arg-type]
+               cubic, per_mass(drag), kin, np.maximum(per_mass(static), kin), tuple(hands))

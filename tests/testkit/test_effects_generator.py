@@ -82,7 +82,7 @@ def test_dry_friction_sticks_where_the_piecewise_exact_solution_does(static_rati
 def test_an_undamped_cubic_spring_keeps_its_energy(kappa: float) -> None:
     wn, d = 10.0, 0.08
     t = np.linspace(0.0, 4.0, 4001)
-    rig = make_rig([1.0], [(0, None, wn * wn)], [0.0], cubic=[kappa])
+    rig = make_rig([1.0], [(0, None, wn * wn)], [0.0], cubic_rel=kappa / wn ** 2)
     z0 = np.array([-d, 0.0])
     x, _ = simulate(rig, [Phase(0.0, 4.0)], t, z0)
     v = np.gradient(x[:, 0], t, edge_order=2)
