@@ -94,7 +94,10 @@ def _bus_config(args: argparse.Namespace) -> BusConfig | None:
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
+    from daq.port_url import check_port
     from daq.service import Service, ServiceConfig
+
+    check_port(args.port)
 
     signs = (-1 if 1 in args.invert else 1, -1 if 2 in args.invert else 1)
     config = ServiceConfig(port=args.port, runs_dir=args.runs_dir, bench=args.bench, dialect=args.dialect,

@@ -13,6 +13,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from ident.commands.aliases import add_deprecated_alias
 from ident.commands.run_file_options import add_run_file_options
 
 
@@ -20,8 +21,9 @@ def add_parser(subparsers: Any) -> None:
     parser = subparsers.add_parser("diagnose", help="name what the linear model misses and measure the gain",
                                    description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     add_run_file_options(parser, "1: one cart, 2: the two-cart chain; default: from the columns")
-    parser.add_argument("--step", dest="step_m", type=float, default=None,
+    parser.add_argument("--step-m", dest="step_m", type=float, default=None,
                         help="step size (m); default: estimated with the other parameters")
+    add_deprecated_alias(parser, "--step", "--step-m", "step_m", float)
     parser.add_argument("--json", action="store_true", help="print one JSON object")
     parser.add_argument("--figures", type=Path, default=None, help="write figures (PNG, SVG) here")
     parser.set_defaults(func=run)
@@ -38,7 +40,9 @@ def run(args: argparse.Namespace) -> int:
     report = result.report
     if args.figures is not None:
         from ident.diagnose.figures import write_figures
+        from ident.progress import stage
 
+        stage("writing figures")
         write_figures(result, args.figures)
     print(report.model_dump_json(indent=2) if args.json else summary(report))
     return 0
@@ -49,8 +53,11 @@ def diagnose_file(args: argparse.Namespace) -> Any:
     from ident.data import make_uniform
     from ident.diagnose import diagnose
     from ident.io import load
+    from ident.progress import stage
 
+    stage("loading")
     data = make_uniform(load(args.path, time_col=args.time_col, pos_cols=args.pos_cols, scale=args.scale))
+    stage("fitting the linear model and the candidate effects")
     return diagnose(data.t, data.y, carts=args.carts, step_m=args.step_m, source=Path(args.path).name)
 
 

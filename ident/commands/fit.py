@@ -13,6 +13,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from ident.commands.aliases import add_deprecated_alias
 from ident.commands.run_file_options import add_run_file_options
 
 METHODS = ("pem", "rk4", "euler", "all")
@@ -25,8 +26,9 @@ def add_parser(subparsers: Any) -> None:
     parser.add_argument("--method", choices=METHODS, default="all")
     parser.add_argument("--input", dest="input_col", default=None,
                         help="input column (e.g. 'Control Effort' for a motor input); default: the release step")
-    parser.add_argument("--rate", dest="rate_hz", type=float, default=None,
+    parser.add_argument("--rate-hz", dest="rate_hz", type=float, default=None,
                         help="sample rate (Hz) of an export without a time column")
+    add_deprecated_alias(parser, "--rate", "--rate-hz", "rate_hz", float)
     parser.add_argument("--release", type=float, default=None, help="release time (s) if known")
     parser.add_argument("--step-m", type=float, default=0.15, help="pull distance (m), default 0.15")
     parser.add_argument("--order", type=int, default=None, help="PEM order (default: 2 per cart)")

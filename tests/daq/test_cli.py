@@ -173,3 +173,13 @@ def test_serve_serves_the_page_and_stops_cleanly_on_sigterm(free_port: int) -> N
         if proc.poll() is None:
             proc.kill()
             proc.wait(5)
+
+
+@pytest.mark.parametrize("port", ["tcp://127.0.0.1:9", "http://bench/", "COM://3"])
+def test_unknown_url_scheme_is_one_line_listing_the_schemes(port: str, capsys: pytest.CaptureFixture[str],
+                                                             tmp_path: Path) -> None:
+    assert main(["run", "--port", port, "--no-zenoh", "--runs-dir", str(tmp_path)]) == 1
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "Traceback" not in err
+    assert port in err and "socket://" in err and "sim://" in err and "replay://" in err
+    assert not list(tmp_path.iterdir())   # refused before anything opened or was written
