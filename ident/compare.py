@@ -137,10 +137,10 @@ class ResidualTest:
         """The labelled lines of `repr` and `_repr_html_`."""
         verdict = {True: "pass", False: "FAIL"}
         return [
-            ("whiteness", f"{verdict[self.white]}: N·Σρ² = {self.whiteness_statistic:.4g} "
-                          f"(99 % limit {self.whiteness_threshold:.4g}, lags 1 … {len(self.lags) - 1})"),
-            ("independence", f"{verdict[self.independent]}: max |ρ_eu| = {self.independence_statistic:.3g} "
-                             f"(limit {self.independence_threshold:.3g})"),
+            ("whiteness", (f"{verdict[self.white]}: N·Σρ² = {self.whiteness_statistic:.4g} "
+                           f"(99 % limit {self.whiteness_threshold:.4g}, lags 1 … {len(self.lags) - 1})")),
+            ("independence", (f"{verdict[self.independent]}: max |ρ_eu| = {self.independence_statistic:.3g} "
+                              f"(limit {self.independence_threshold:.3g})")),
             ("arrays", "autocorrelation, cross_correlation, lags, cross_lags, auto_bound, cross_bound"),
         ]
 

@@ -176,8 +176,8 @@ class IdData:
         from ident.release import moving_outputs
 
         ts = self.sample_time()
-        rows = [("samples", f"{self.n_samples}, Ts = {ts:.4g} s ({1 / ts:.4g} Hz), "
-                            f"{'uniform' if self.is_uniform() else 'NOT uniform: ident.make_uniform(data)'}"),
+        grid = "uniform" if self.is_uniform() else "NOT uniform: ident.make_uniform(data)"
+        rows = [("samples", f"{self.n_samples}, Ts = {ts:.4g} s ({1 / ts:.4g} Hz), {grid}"),
                 ("time", summary.span(self.t, "s"))]
         moving = moving_outputs(self.y) if self.n_samples >= MIN_SAMPLES else list(range(self.n_outputs))
         for j in range(self.n_outputs):

@@ -5,7 +5,8 @@ Formats
   CSV (`"Time (s)","Position (m)"`), ECP Executive / Teensy TSV (`Sample  Time  Commanded Pos
   Encoder 2 Pos …` then `[ 0 0.000 2 13 0.0000;` rows). Columns are chosen by name
   (case-insensitive substring), values scaled to metres (from a unit in the column name, or
-  `scale` in metres per unit). `[`, `;`, `]`, blank lines and `#` comments are ignored.
+  `scale` in metres per unit). `[`, `]`, a row-ending `;`, blank lines and `#` comments are
+  ignored; the separator (`,` `;` tab whitespace) and a decimal comma are sniffed per file.
 - `daq` MCAP runs (`/samples` SampleBatch messages, `cartlab.run` RunMetadata): the release
   time and pulled cart come from the metadata.
 
@@ -23,6 +24,7 @@ import numpy as np
 
 from ident.data import FloatArray, IdData, check_arrays, from_release
 from ident.errors import DataFileError, IdentValueError
+from ident.text_dialect import clean, sniff
 from schemas import SchemaError, run_file, topics
 
 #: Default pull distance of the lab (m): the cart is held 0.15 m from rest.
@@ -44,48 +46,44 @@ class Table:
 def read_table(text: str) -> Table:
     """Parse a delimited export into named columns (see the module docstring).
 
+    The separator and the decimal mark are sniffed once per file (`ident.text_dialect`).
     Non-numeric lines before the first data row are headers (the last one names the
     columns); after it, a row that is not all numbers (text, nan, inf) is a `DataFileError`
-    naming the line, never skipped.
+    naming the line and the dialect it was read in, never skipped.
     """
+    lines = text.splitlines()
+    dialect = sniff(lines)
     names: list[str] = []
     rows: list[list[float]] = []
-    for number, raw in enumerate(text.splitlines(), start=1):
-        line = raw.replace("[", " ").replace("]", " ").replace(";", " ").strip()
+    for number, raw in enumerate(lines, start=1):
+        line = clean(raw)
         if not line or line.startswith("#"):
             continue
-        fields = _split(line)
-        if all(_NUMBER.match(f) for f in fields):
+        fields = [dialect.number(f) for f in dialect.split(line)]
+        if fields and all(_NUMBER.match(f) for f in fields):
             rows.append([float(f) for f in fields])
         elif not rows:
-            names = [f.strip().strip('"').strip() for f in _split_header(raw)]
+            names = dialect.split(line) if dialect.delimiter is not None else _split_header(line)
         else:
             raise DataFileError(f"expected numbers in every data row, got {raw.strip()[:60]!r} "
-                                f"in line {number}")
+                                f"in line {number} (read as {dialect.describe()})")
     if not rows:
-        raise DataFileError("expected numeric rows after the header, got none")
+        raise DataFileError(f"expected numeric rows after the header, got none (read as {dialect.describe()})")
     width = len(rows[0])
     bad = [i for i, r in enumerate(rows) if len(r) != width]
     if bad:
-        raise DataFileError(f"expected {width} values per row, got {len(rows[bad[0]])} in data row {bad[0]}")
+        raise DataFileError(f"expected {width} values per row, got {len(rows[bad[0]])} in data row {bad[0]} "
+                            f"(read as {dialect.describe()})")
     if len(names) != width:  # no header line, or one we could not split: number the columns
         names = [f"col{i}" for i in range(width)]
     return Table(names, np.asarray(rows, dtype=np.float64))
 
 
-def _split(line: str) -> list[str]:
-    if "," in line:
-        return [f.strip().strip('"') for f in line.split(",") if f.strip()]
-    return line.split()
-
-
 def _split_header(line: str) -> list[str]:
-    line = line.strip()
-    if "," in line:
-        return [f for f in line.split(",") if f.strip()]
+    """A whitespace-separated header: names may hold single spaces ('Encoder 1 Pos')."""
     if "\t" in line:
-        return [f for f in line.split("\t") if f.strip()]
-    return [f for f in re.split(r"\s{2,}", line) if f.strip()]
+        return [f.strip().strip('"') for f in line.split("\t") if f.strip()]
+    return [f.strip().strip('"') for f in re.split(r"\s{2,}", line.strip()) if f.strip()]
 
 
 def _find_column(names: list[str], wanted: str) -> int:

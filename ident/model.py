@@ -164,8 +164,8 @@ class Model:
         """The labelled lines of `repr` and `_repr_html_` (all arrays stay in the attributes)."""
         from ident import summary
 
-        rows = [(f"mode {i + 1}", f"wn = {summary.with_std(m.wn, m.wn_std, unit='rad/s')}, "
-                                  f"zeta = {summary.with_std(m.zeta, m.zeta_std)}")
+        rows = [(f"mode {i + 1}", (f"wn = {summary.with_std(m.wn, m.wn_std, unit='rad/s')}, "
+                                   f"zeta = {summary.with_std(m.zeta, m.zeta_std)}"))
                 for i, m in enumerate(self.modes)]
         rows.append(("fit (simulation)", summary.percents(self.fit_percent)))
         rows.append(("noise std", ", ".join(f"{v:.3g} m" for v in np.atleast_1d(self.noise_std))))
@@ -173,11 +173,11 @@ class Model:
         release = "n/a" if self.release_time_s is None else f"{self.release_time_s:.4f} s"
         rows.append(("release", f"{release} (input delay {1e3 * self.input_delay_s:.3g} ms)"))
         rows.append(("data", f"{len(self.t)} samples, Ts = {float(np.median(np.diff(self.t))):.4g} s"))
-        rows.append(("status", f"{'converged' if self.success else 'NOT converged'}, {self.nfev} "
-                               f"evaluations: {self.message}"))
+        state = "converged" if self.success else "NOT converged"
+        rows.append(("status", f"{state}, {self.nfev} evaluations: {self.message}"))
         rows.extend(("note", note) for note in self.notes)
-        rows.append(("see", "model.tf (control.TransferFunction per output), model.state_space, "
-                            "model.poles, ident.compare(data, model)"))
+        rows.append(("see", ("model.tf (control.TransferFunction per output), model.state_space, "
+                             "model.poles, ident.compare(data, model)")))
         return rows
 
     def _title(self) -> str:

@@ -74,8 +74,8 @@ class SimpleFit:
             rows.append(("friction", value("friction", "m/s²")))
         rows += [("release", f"{self.release_time_s:.4f} s"),
                  ("fit (simulation)", summary.percents(self.fit_percent)),
-                 ("status", f"{'converged' if self.success else 'NOT converged'}, {self.nfev} "
-                            f"evaluations: {self.message}")]
+                 ("status", f"{'converged' if self.success else 'NOT converged'}, {self.nfev} evaluations: "
+                            + self.message)]
         return rows
 
     def _title(self) -> str:

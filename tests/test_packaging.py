@@ -131,7 +131,8 @@ def test_licence_is_bsd_3_clause() -> None:
 
 
 def test_pip_check_is_clean() -> None:
-    proc = subprocess.run([sys.executable, "-m", "pip", "check"], capture_output=True, text=True, timeout=120)
+    proc = subprocess.run([sys.executable, "-m", "pip", "check"], capture_output=True, text=True, timeout=120,
+                          check=False)
     if "No module named pip" in proc.stderr:
         pytest.skip("pip is not installed in this environment")
     assert proc.returncode == 0, proc.stdout + proc.stderr

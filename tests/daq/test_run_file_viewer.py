@@ -35,7 +35,7 @@ def recorded(tmp_path_factory: pytest.TempPathFactory) -> tuple[list[Path], Path
     before = time.time_ns()
     proc = subprocess.run(daq_command("run", "--port", SIM.format(capture=capture), "--runs-dir",
                                       str(root / "runs"), "--no-zenoh", "--until-eof", "--bench", "b1"),
-                          cwd=REPO, capture_output=True, timeout=90)
+                          cwd=REPO, capture_output=True, timeout=90, check=False)
     after = time.time_ns()
     assert proc.returncode == 0, proc.stderr.decode()
     files = sorted((root / "runs").glob("*.mcap"))
@@ -90,7 +90,7 @@ def _node_reader(path: Path) -> dict[str, object]:
     if not (NODE_DIR / "node_modules" / "@mcap" / "core").is_dir() or not (NODE_DIR / "node_modules" / "fzstd").is_dir():
         pytest.skip("@mcap/core and fzstd are not installed in tests/node: run `make node`")
     proc = subprocess.run([node, str(NODE_DIR / "check_mcap.mjs"), str(path)], capture_output=True,
-                          text=True, timeout=60)
+                          text=True, timeout=60, check=False)
     assert proc.returncode == 0, proc.stderr
     result: dict[str, object] = json.loads(proc.stdout)
     return result

@@ -22,8 +22,8 @@ def _subcommands(parser: argparse.ArgumentParser) -> dict[str, argparse.Argument
 def _visible_options() -> dict[str, set[str]]:
     """dest -> every visible long option spelling that sets it, over all subcommands."""
     names: dict[str, set[str]] = defaultdict(set)
-    for tool, parser in (("ident", ident_parser()), ("daq", daq_parser())):
-        for command, sub in _subcommands(parser).items():
+    for parser in (ident_parser(), daq_parser()):
+        for sub in _subcommands(parser).values():
             for action in sub._actions:
                 if action.help == argparse.SUPPRESS:
                     continue

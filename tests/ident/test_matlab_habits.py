@@ -10,10 +10,10 @@ from __future__ import annotations
 import control
 import numpy as np
 import pytest
-from testkit.ident_synth import CART1, PULL_M, cart1_run, step
 
 import ident
 from ident.errors import IdentValueError
+from testkit.ident_synth import CART1, PULL_M, cart1_run, step
 
 
 def _analytic_step(t: np.ndarray, t0: float, wn: float, zeta: float, amplitude: float) -> np.ndarray:
@@ -135,7 +135,7 @@ def test_d2c_refuses_what_has_no_continuous_original() -> None:
 def test_matlab_names_stay_functions_after_their_modules_load() -> None:
     import ident.d2c as _  # noqa: F401   (the submodule of the same name)
     import ident.pem
-    import ident.simple  # noqa: F401
+    import ident.simple
 
     run = cart1_run(50.0, seed=61)
     ident.pem.pem(ident.IdData(run.t, step(run.t, 0.9), run.y), 2)   # loads ident.d2c lazily
