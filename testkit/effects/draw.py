@@ -313,17 +313,21 @@ def phases(spec: Spec, end: float) -> list[Phase]:
 
 
 def make_case(seed: int, family: str | None = None, *, carts: int | None = None, release: str | None = None,
-              encoders: int | None = None) -> Case:
+              encoders: int | None = None, rate_hz: float | None = None, record_s: float | None = None) -> Case:
     """One run of `family` (drawn by the seed when None). `carts` (1, 2) and `release` ('hold',
-    'flick') are drawn unless given; `encoders=1` reads only cart 1 of two carts with friction."""
+    'flick') are drawn unless given; `encoders=1` reads only cart 1 of two carts with friction;
+    `rate_hz` and `record_s` (the whole record's length) fix the sampling (speed measurements)."""
     rng = np.random.default_rng(seed)
     family = family or str(rng.choice(FAMILIES))
     if family not in FAMILIES:
         raise ValueError(f"family: expected one of {', '.join(FAMILIES)}, got {family!r}")
     rate = log_uniform(rng, 50.0, 1000.0)
     length = float(rng.uniform(4.0, 10.0))
+    rate = rate if rate_hz is None else rate_hz
     noise = log_uniform(rng, *NOISE_M)
     spec = draw_spec(rng, family, carts, release, encoders, noise)
+    if record_s is not None:
+        length = record_s - spec.release.t_r
     end = spec.release.t_r + length
     t = np.arange(round(end * rate)) / rate
     rig = spec.layout.rig(spec.effects)
