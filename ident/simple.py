@@ -18,6 +18,7 @@ fitted ζ comes out too large; `substeps` shrinks h.
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass
 
 import numpy as np
@@ -27,8 +28,8 @@ from scipy.optimize import least_squares
 from ident.compare import fit_percent
 from ident.data import IdData
 from ident.errors import FitFailed, IdentValueError
-from ident.release import check_motion, estimate_release_time, noise_std, rest_window
 from ident.physics.steppers import Method, euler_coulomb, linear_step_response
+from ident.release import check_motion, estimate_release_time, noise_std, rest_window
 
 FloatArray = NDArray[np.float64]
 PARAMETER_NAMES = ("wn", "zeta", "gain", "release_time_s", "offset", "friction")
@@ -131,8 +132,8 @@ def start_values(t: FloatArray, y: FloatArray, amplitude: float, release0: float
         raise FitFailed(f"expected an oscillation (≥ 3 crossings of the final level), got {crossings.size}")
     t_cross = ta[crossings] - e[crossings] * (ta[crossings + 1] - ta[crossings]) / (e[crossings + 1] - e[crossings])
     omega_d = np.pi / float(np.median(np.diff(t_cross)))
-    peaks = np.array([np.max(np.abs(e[a:b + 1])) for a, b in zip(crossings[:-1], crossings[1:], strict=True)])
-    times = np.array([ta[a + int(np.argmax(np.abs(e[a:b + 1])))] for a, b in zip(crossings[:-1], crossings[1:], strict=True)])
+    peaks = np.array([np.max(np.abs(e[a:b + 1])) for a, b in itertools.pairwise(crossings)])
+    times = np.array([ta[a + int(np.argmax(np.abs(e[a:b + 1])))] for a, b in itertools.pairwise(crossings)])
     usable = peaks > 0.05 * peaks[0]
     sigma = 0.05 * omega_d
     if usable.sum() >= 2:
@@ -148,7 +149,7 @@ def _significant_crossings(e: FloatArray, noise: float) -> NDArray[np.int64]:
     signs = np.signbit(e)
     crossings = np.flatnonzero(signs[1:] != signs[:-1])
     kept = [int(crossings[0])] if crossings.size else []
-    for a, b in zip(crossings[:-1], crossings[1:], strict=True):
+    for a, b in itertools.pairwise(crossings):
         if np.max(np.abs(e[a:b + 1])) < 10.0 * noise:
             break
         kept.append(int(b))
@@ -236,10 +237,10 @@ def envelope_friction(t: FloatArray, y: FloatArray, release0: float, wn: float) 
     after = t > release0
     e = y[after] - float(np.mean(y[after][-max(5, int(after.sum()) // 10):]))
     crossings = _significant_crossings(e, float(noise_std(y)[0]))
-    peaks = np.array([np.max(np.abs(e[a:b + 1])) for a, b in zip(crossings[:-1], crossings[1:], strict=True)])
+    peaks = np.array([np.max(np.abs(e[a:b + 1])) for a, b in itertools.pairwise(crossings)])
     if peaks.size < 3:
         return 0.0
-    slope, intercept = np.polyfit(peaks[:-1], peaks[1:], 1)
+    _slope, intercept = np.polyfit(peaks[:-1], peaks[1:], 1)
     return float(max(-intercept * wn * wn / 2.0, 0.0))
 
 

@@ -19,6 +19,7 @@ No I/O here.
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass
 
 import numpy as np
@@ -94,7 +95,7 @@ def _half_cycle_extrema(tau: FloatArray, dev: FloatArray, sigma: float) -> Float
     bounds = np.concatenate([[0], cross, [dev.size]])
     out = []
     floor = max(6.0 * sigma, 0.01 * float(np.max(np.abs(dev))))
-    for a, b in zip(bounds[:-1], bounds[1:]):
+    for a, b in itertools.pairwise(bounds):
         if b - a < 2:
             continue
         k = a + int(np.argmax(np.abs(dev[a:b])))
@@ -129,7 +130,7 @@ def _frequency_drift(tau: FloatArray, dev: FloatArray, sigma: float, wn: float) 
         return 0.0, 0.0
     t0 = tau[idx] - dev[idx] * (tau[idx + 1] - tau[idx]) / (dev[idx + 1] - dev[idx])
     half = np.diff(t0)
-    amps = np.array([np.max(np.abs(dev[a:b + 1])) for a, b in zip(idx[:-1], idx[1:])])
+    amps = np.array([np.max(np.abs(dev[a:b + 1])) for a, b in itertools.pairwise(idx)])
     keep = (amps > 10 * sigma) & (half > 0.3 * np.pi / wn) & (half < 3 * np.pi / wn)
     if keep.sum() < 4 or np.ptp(amps[keep] ** 2) <= 0:
         return 0.0, 0.0

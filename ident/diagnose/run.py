@@ -22,7 +22,6 @@ from numpy.typing import NDArray
 
 from ident.diagnose import explain
 from ident.diagnose.candidates import Problem, fit_baseline, fit_candidates
-from ident.physics.chain import LINEAR_NAMES, modes
 from ident.diagnose.evidence import EvidenceResult, collect
 from ident.diagnose.fitting import FitResult
 from ident.diagnose.lattice import find_lattice
@@ -30,6 +29,7 @@ from ident.diagnose.models import effect_names
 from ident.diagnose.select import fit_percent, likelihood_ratio, thresholds
 from ident.diagnose.window import Window, find_window
 from ident.errors import IdentDimensionError, IdentValueError
+from ident.physics.chain import LINEAR_NAMES, modes
 from schemas.diagnosis import Candidate, DiagnosisReport, Evidence, ModelFit
 
 FloatArray = NDArray[np.float64]

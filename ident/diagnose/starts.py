@@ -12,8 +12,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from ident.physics.chain import physical_from_modes
 from ident.diagnose.modal import ModalFit
+from ident.physics.chain import physical_from_modes
 
 FloatArray = NDArray[np.float64]
 

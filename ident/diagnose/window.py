@@ -83,9 +83,9 @@ def find_window(t: FloatArray, y: FloatArray, carts: int) -> Window:
     after = y[onset:]
     peaks = spectral_peaks(after - after.mean(axis=0), dt, carts)
     period = 2 * np.pi / float(peaks[0])
-    span = int(round(2.5 * period / dt))
-    head = max(2, int(round(0.25 * period / dt)))
-    step = max(1, int(round(period / 24 / dt)))
+    span = round(2.5 * period / dt)
+    head = max(2, round(0.25 * period / dt))
+    step = max(1, round(period / 24 / dt))
     dec = max(1, int(np.ceil(span / 150)))
     scores: list[float] = []
     heads: list[float] = []

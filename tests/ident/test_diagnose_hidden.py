@@ -16,12 +16,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 from hidden_effects import EFFECTS, HiddenCase, make_case, write_csv
-from testkit.mcap_runs import write_mcap_run
 
 from ident.cli import main
 from ident.diagnose import diagnose
 from ident.io import load
 from schemas.diagnosis import DiagnosisReport
+from testkit.mcap_runs import write_mcap_run
 
 REL_TOL = 0.15
 SET_SEED = 20261122
@@ -139,7 +139,7 @@ def test_hidden_effects_are_found_when_the_hand_lets_go_while_the_cart_moves(tmp
 
 def _write_run_mcap(case: HiddenCase, path: Path) -> None:
     """The run as a `daq` MCAP file (samples in batches, run metadata), one cart, no release time."""
-    write_mcap_run(path, [int(round(v * 1e9)) for v in case.t], [float(v) for v in case.y[:, 0]], None)
+    write_mcap_run(path, [round(v * 1e9) for v in case.t], [float(v) for v in case.y[:, 0]], None)
 
 
 def test_a_daq_run_file_is_diagnosed_with_its_own_columns(tmp_path: Path,

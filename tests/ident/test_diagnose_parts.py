@@ -5,11 +5,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ident.physics.chain import linear_free_response
-from ident.physics.free import NonlinearTerms, simulate_free
 from ident.diagnose.lattice import find_lattice
 from ident.diagnose.select import fit_percent, thresholds
 from ident.errors import IdentValueError
+from ident.physics.chain import linear_free_response
+from ident.physics.free import NonlinearTerms, simulate_free
 from schemas.diagnosis import DiagnosisReport
 
 
