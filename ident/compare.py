@@ -29,6 +29,7 @@ from numpy.typing import NDArray
 
 from ident.data import IdData
 from ident.errors import IdentDimensionError, IdentValueError
+from ident.physics.measures import fit_percent
 
 FloatArray = NDArray[np.float64]
 
@@ -40,17 +41,6 @@ class Simulates(Protocol):
     """Anything with `simulate(u, t) -> y_hat (N, n_out)`: a `Model`, a physical fit."""
 
     def simulate(self, u: NDArray[np.float64], t: NDArray[np.float64] | None = None) -> FloatArray: ...
-
-
-def fit_percent(y: FloatArray, y_hat: FloatArray) -> list[float]:
-    """MATLAB `compare` fit % per output column of time-major `y`, `y_hat` (N, n_out)."""
-    y2 = np.asarray(y, dtype=np.float64).reshape(len(y), -1)
-    y_hat2 = np.asarray(y_hat, dtype=np.float64).reshape(len(y_hat), -1)
-    if y2.shape != y_hat2.shape:
-        raise IdentDimensionError("y_hat", f"shape {y2.shape}", f"shape {y_hat2.shape}")
-    spread = np.linalg.norm(y2 - y2.mean(axis=0), axis=0)
-    error = np.linalg.norm(y2 - y_hat2, axis=0)
-    return [float(100.0 * (1.0 - e / s)) if s > 0 else float("-inf") for e, s in zip(error, spread, strict=True)]
 
 
 def _model_and_data(first: object, second: object, function: str) -> tuple[Simulates, IdData]:

@@ -10,6 +10,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ident.errors import IdentValueError
+from ident.physics.measures import noise_std
 
 FloatArray = NDArray[np.float64]
 
@@ -20,19 +21,6 @@ MIN_MOTION_SIGMAS = 20.0
 def rest_window(n: int) -> slice:
     """The first samples, taken as the rest before the release (5 %, at least 5)."""
     return slice(0, max(5, n // 20))
-
-
-def noise_std(y: FloatArray) -> FloatArray:
-    """Per-output measurement noise std (m), shape (n_out,).
-
-    From the second differences of the whole record, robustly: for white noise of std σ,
-    `y[k+1] - 2y[k] + y[k-1]` has std σ·√6; the median absolute value (÷0.6745) ignores
-    the few samples where the motion's own curvature dominates. Floored at 1e-12.
-    """
-    y2 = np.asarray(y, dtype=np.float64).reshape(len(y), -1)
-    second = y2[2:] - 2.0 * y2[1:-1] + y2[:-2]
-    sigma = np.median(np.abs(second), axis=0) / 0.6745 / np.sqrt(6.0)
-    return np.maximum(sigma, 1e-12)
 
 
 def motion_amplitude(y: FloatArray) -> FloatArray:

@@ -13,20 +13,23 @@ Bump `SCHEMA_VERSION` on any incompatible change.
 
 from __future__ import annotations
 
-from typing import Literal
+from typing import ClassVar, Literal
 
 from pydantic import Field
 
 from schemas.base import Record
 
-#: The physical extensions `ident diagnose` can name (DESIGN.md "Effect names").
+#: The physical extensions `ident diagnose` can name (DESIGN.md "Effect names"), plus the
+#: families added with forward selection: `presliding` (Dahl friction: the Coulomb friction's
+#: pre-sliding stiffness) and `held_cart_motion` (the held cart's measured motion driving the
+#: free cart through the coupling spring).
 EffectName = Literal["coulomb_friction", "quadratic_drag", "cubic_stiffness", "quantization",
-                     "coupled_mode", "none"]
+                     "coupled_mode", "presliding", "held_cart_motion", "none"]
 #: How the peaks of |x - x_rest| decay, from the extrema of the measured run.
 EnvelopeShape = Literal["constant_ratio", "constant_step", "amplitude_dependent", "undetermined"]
 
 EFFECT_NAMES: tuple[str, ...] = ("coulomb_friction", "quadratic_drag", "cubic_stiffness",
-                                 "quantization", "coupled_mode", "none")
+                                 "quantization", "coupled_mode", "presliding", "held_cart_motion", "none")
 
 
 class ModelFit(Record):
@@ -40,11 +43,13 @@ class ModelFit(Record):
 
 
 class Candidate(Record):
-    """One extension of the linear model, fitted to the same training samples.
+    """One extension of the linear model (the first round of the forward selection).
 
-    `gain_points` is its validation fit % minus the baseline's. `lr_train`/`lr_validation`
-    are the likelihood-ratio statistics `n ln(SSE_base / SSE_candidate)` on the training and
-    validation samples; `significant` says both exceed what noise explains (`threshold_*`).
+    `fit_percent` is its whole-window fit %, `gain_points` that minus the baseline's.
+    `lr_train` is `n ln(SSE_base / SSE_candidate)` on the whole window, `lr_validation` the
+    same ratio of the blocked cross-validation costs (contiguous held-out blocks);
+    `significant` says both exceed what noise explains (`threshold_*`) and the information
+    criterion agrees.
     """
 
     effect: EffectName
@@ -59,6 +64,29 @@ class Candidate(Record):
     threshold_validation: float
     significant: bool
     note: str = ""
+
+
+class EffectFit(Record):
+    """One effect accepted by the forward selection, in the order of its own gain.
+
+    `gain_points`: whole-window fit % gained when it was added to the model before it;
+    `cv_ratio`: `n ln(CV_before / CV_after)` of the blocked cross-validation costs, against
+    `cv_threshold` (what noise explains); `bic_drop`: decrease of the Bayesian information
+    criterion. `material` is False for a real but immaterial effect (the misfit it removes is
+    under a tenth of what the final model still misses, and it adds under 0.05 points):
+    listed, never the headline.
+    """
+
+    effect: EffectName
+    rank: int = Field(ge=1)
+    step: int = Field(ge=1)
+    parameters: dict[str, float]
+    parameter_std: dict[str, float] = Field(default_factory=dict)
+    gain_points: float
+    cv_ratio: float
+    cv_threshold: float
+    bic_drop: float
+    material: bool
 
 
 class Evidence(Record):
@@ -83,8 +111,16 @@ class Evidence(Record):
 
 
 class DiagnosisReport(Record):
-    """The answer of `ident diagnose`: baseline, candidates, cause, extended model, gain."""
+    """The answer of `ident diagnose`: baseline, candidates, accepted effects, cause, gain.
 
+    `effects` are every effect the forward selection accepted, ranked by their own gain;
+    `cause` (the headline) is the largest material one (`none` when there is none);
+    `extended` is the model with every accepted effect and its whole-window fit.
+    """
+
+    SCHEMA_VERSION: ClassVar[int] = 2
+
+    schema_version: int = 2
     source: str = ""
     carts: int = Field(ge=1, le=2)
     sample_rate_hz: float
@@ -95,6 +131,7 @@ class DiagnosisReport(Record):
     step_estimated: bool
     baseline: ModelFit
     candidates: list[Candidate]
+    effects: list[EffectFit] = Field(default_factory=list)
     cause: EffectName
     extended: ModelFit
     gain_points: float

@@ -22,8 +22,7 @@ ROOT = Path(__file__).resolve().parents[1]
 OURS = {"daq", "ident", "schemas", "testkit", "tests", "tools"}
 #: Shipped packages (must declare their imports as runtime dependencies).
 RUNTIME_DIRS = ("daq", "ident", "schemas")
-#: Development-only code (may also use the `test` extra); testkit is installed with the
-#: project but only tests and tools import it.
+#: Development-only code (may also use the `test` extra); testkit is installed but only for tests and tools.
 DEV_DIRS = ("tests", "tools", "testkit")
 
 

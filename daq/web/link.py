@@ -16,7 +16,6 @@ server calls them from worker threads, never from a Zenoh callback.
 
 from __future__ import annotations
 
-import contextlib
 import queue
 from dataclasses import dataclass
 from typing import Any, Literal
@@ -85,9 +84,10 @@ class WebLink:
 
     def close(self) -> None:
         for handle in reversed(self._handles):
-            # closing anyway: whatever undeclare raises, the session close cleans up
-            with contextlib.suppress(Exception):
+            try:
                 handle.undeclare()
+            except Exception:  # noqa: BLE001 - closing anyway; session close cleans up
+                pass
         self._handles.clear()
         self._followed.clear()
         if self._session is not None:

@@ -1,7 +1,8 @@
 """`ident diagnose PATH`: what the linear simulation gets wrong, the cause, the gain.
 
 Loads an MCAP run or a text export (`ident.io.load`, put on a uniform grid by
-`ident.data.make_uniform`), runs `ident.diagnose.diagnose` and prints one JSON object (the
+`ident.data.make_uniform`), runs `ident.diagnose.diagnose` (with `--input`, a measured force
+input column enters the model) and prints one JSON object (the
 `schemas.diagnosis.DiagnosisReport` record) with `--json`, a readable summary otherwise;
 `--figures DIR` writes the figures. Exit status 0 on success, 2 on unusable input.
 """
@@ -24,6 +25,12 @@ def add_parser(subparsers: Any) -> None:
     parser.add_argument("--step-m", dest="step_m", type=float, default=None,
                         help="step size (m); default: estimated with the other parameters")
     add_deprecated_alias(parser, "--step", "--step-m", "step_m", float)
+    parser.add_argument("--input", dest="input_col", default=None,
+                        help="a measured force input column (e.g. 'Control Effort' for a motor pulse): "
+                             "modelled with a gain per cart, so its response is never taken for a mode; "
+                             "default: a hand release, no input")
+    parser.add_argument("--rate", dest="rate_hz", type=float, default=None,
+                        help="sample rate (Hz) of an export without a time column")
     parser.add_argument("--json", action="store_true", help="print one JSON object")
     parser.add_argument("--figures", type=Path, default=None, help="write figures (PNG, SVG) here")
     parser.set_defaults(func=run)
@@ -56,16 +63,19 @@ def diagnose_file(args: argparse.Namespace) -> Any:
     from ident.progress import stage
 
     stage("loading")
-    data = make_uniform(load(args.path, time_col=args.time_col, pos_cols=args.pos_cols, scale=args.scale))
-    stage("fitting the linear model and the candidate effects")
-    return diagnose(data.t, data.y, carts=args.carts, step_m=args.step_m, source=Path(args.path).name)
+    # raw: the diagnosis finds the release window itself (a record may start in motion)
+    data = make_uniform(load(args.path, time_col=args.time_col, pos_cols=args.pos_cols, scale=args.scale,
+                             input_col=args.input_col, rate_hz=args.rate_hz, raw=True))
+    stage("fitting the linear model and selecting effects")
+    return diagnose(data.t, data.y, carts=args.carts, step_m=args.step_m, source=Path(args.path).name,
+                    u=None if args.input_col is None else data.u)
 
 
 def summary(report: Any) -> str:
     """A readable summary of a `DiagnosisReport`."""
     ev = report.evidence
-    lines = [f"{report.source}: {report.carts} cart(s), {report.sample_rate_hz:.1f} Hz, "
-             f"release at {report.release_time_s:.3f} s, fitted from {report.window_start_s:.3f} s",
+    lines = [(f"{report.source}: {report.carts} cart(s), {report.sample_rate_hz:.1f} Hz, "
+              f"release at {report.release_time_s:.3f} s, fitted from {report.window_start_s:.3f} s"),
              f"baseline   {report.baseline.model}: fit {report.baseline.fit_percent:.3f} %",
              "evidence   residual " + ("white" if ev.residual_is_white else "NOT white")
              + f" ({ev.whiteness_fraction_outside:.0%} of lags outside), rms {1e3 * ev.residual_rms_m:.3f} mm"
@@ -74,14 +84,22 @@ def summary(report: Any) -> str:
              f" {1e3 * ev.rest_offset_m:.2f} mm from the fitted rest"
              + (f"; encoder lattice {1e6 * ev.lattice_quantum_m:.2f} um" if ev.lattice_quantum_m else "")
              + (f"; second frequency {ev.second_frequency_hz:.2f} Hz" if ev.second_frequency_hz else ""),
-             "candidates (held-out fit %, gain, likelihood ratio train/validation vs bound):"]
+             "first round (whole-window fit %, gain, likelihood ratio window/blocked-CV vs bound):"]
     for c in report.candidates:
         params = ", ".join(f"{k}={v:.4g}" for k, v in c.parameters.items()) or c.note
         lines.append(f"  {'*' if c.effect == report.cause else ' '} {c.effect:17s} {c.fit_percent:8.3f} %"
                      f" {c.gain_points:+8.3f}  LR {c.lr_train:9.1f}/{c.lr_validation:9.1f}"
                      f" vs {c.threshold_train:.1f}/{c.threshold_validation:.1f}  {params}")
-    lines.append(f"cause      {report.cause}; extended fit {report.extended.fit_percent:.3f} %, "
-                 f"gain {report.gain_points:+.3f} points")
+    lines.append("effects (forward selection, ranked by own gain; CV ratio vs noise bound):")
+    for e in report.effects:
+        params = ", ".join(f"{k}={v:.4g}" + (f"±{e.parameter_std[k]:.2g}" if k in e.parameter_std else "")
+                           for k, v in e.parameters.items())
+        lines.append(f"  {e.rank}. {e.effect:17s} {e.gain_points:+8.3f} points  CV {e.cv_ratio:9.1f} vs "
+                     f"{e.cv_threshold:.1f}{'' if e.material else '  (immaterial)'}  {params}")
+    if not report.effects:
+        lines.append("  none: no effect beats the noise")
+    lines.append(f"cause      {report.cause}; whole-window fit {report.baseline.fit_percent:.3f} % -> "
+                 f"{report.extended.fit_percent:.3f} %, gain {report.gain_points:+.3f} points")
     lines.append("corrected  " + ", ".join(f"{k}={v:.5g}" for k, v in report.corrected_linear.items()))
     lines.append("")
     lines.append(report.explanation)

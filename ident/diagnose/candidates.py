@@ -1,10 +1,12 @@
-"""The fits of `diagnose`: the linear baseline and every extension, on the same samples.
+"""The fits of `diagnose`: the linear baseline, and one effect added to the current model.
 
-`Problem` holds the work samples of the window (τ from the window start, y, the training
-mask: even work samples). The baseline starts from a modal fit (`starts`); each extension
-starts from the baseline and its effect's evidence (envelope step -> friction, envelope
-curvature -> drag, frequency drift -> cubic, residual peak -> coupled mode, the measured
-lattice -> quantization), within physically sensible bounds. No I/O here.
+`Problem` holds the work samples of the window (τ from the window start, y, the held cart's
+motion and force inputs when there are any). The baseline starts from a modal fit
+(`starts`); an extension starts from the current model's parameters plus its effect's
+start (from the evidence: envelope step -> friction, envelope curvature -> drag, frequency
+drift -> cubic, residual peak -> coupled mode, the measured lattice -> quantization; a
+short grid for pre-sliding stiffness and the held cart's coupling), within physically
+sensible bounds. No I/O here.
 """
 
 from __future__ import annotations
@@ -17,15 +19,19 @@ from numpy.typing import NDArray
 from ident.diagnose import starts
 from ident.diagnose.evidence import EvidenceResult
 from ident.diagnose.fitting import FitResult, evaluate, fit
-from ident.diagnose.modal import fit_modes, project, spectral_peaks
-from ident.diagnose.models import EFFECTS, ModelSpec
+from ident.diagnose.modal import fit_modes, project
+from ident.diagnose.models import ModelSpec, effect_names, smoothed_staircase
+from ident.physics.measures import spectral_peaks
 
 FloatArray = NDArray[np.float64]
+Bounds = tuple[FloatArray, FloatArray, FloatArray, FloatArray]
 
 
 @dataclass(frozen=True)
 class Problem:
-    """Work samples of the window: `tau` (N,) s, `y` (N, carts) m, `dt` s, `train` (N,)."""
+    """Work samples of the window: `tau` (N,) s, `y` (N, carts) m, `dt` s, `train` (N,) the
+    samples every fit uses (all of them), the largest swing `amplitude` (m), `held` (N,) the
+    held cart's motion from its first sample (m) or None, `inputs` (N, m) or None."""
 
     tau: FloatArray
     y: FloatArray
@@ -33,56 +39,241 @@ class Problem:
     train: NDArray[np.bool_]
     carts: int
     amplitude: float
+    held: FloatArray | None = None
+    inputs: FloatArray | None = None
 
 
-def fit_baseline(prob: Problem, fixed: dict[int, float]) -> FitResult:
-    peaks = spectral_peaks(prob.y, prob.dt, prob.carts)
-    modal = fit_modes(prob.tau, prob.y, peaks)
-    spec = ModelSpec("none", prob.carts, fixed)
+def base_spec(prob: Problem, fixed: dict[str, float]) -> ModelSpec:
+    return ModelSpec((), prob.carts, fixed, prob.inputs, prob.held)
+
+
+def fit_baseline(prob: Problem, fixed: dict[str, float]) -> FitResult:
+    spec = base_spec(prob, fixed)
+    n_in = spec.n_inputs * prob.carts
     best: FitResult | None = None
-    for theta0 in starts.linear_starts(modal, prob.carts):
+    for theta0 in _linear_starts(prob):
         lower, upper = starts.linear_bounds(theta0, prob.carts)
         typical = starts.linear_typical(theta0, prob.carts, prob.amplitude)
-        result = fit(spec, theta0, lower, upper, typical, prob.dt, prob.y, prob.train, max_nfev=80)
+        if n_in:
+            gain = _input_gain_start(prob, theta0)
+            theta0 = np.concatenate([theta0, gain])
+            lower, upper = np.concatenate([lower, np.full(n_in, -np.inf)]), np.concatenate([upper, np.full(n_in, np.inf)])
+            typical = np.concatenate([typical, np.maximum(np.abs(gain), 1e-6)])
+        result = fit(spec, theta0, lower, upper, typical, prob.dt, prob.y, prob.train, max_nfev=80,
+                     cross_validate=True)
         if best is None or result.sse_train < best.sse_train:
             best = result
     assert best is not None
     return best
 
 
-def fit_candidates(prob: Problem, base: FitResult, ev: EvidenceResult, fixed: dict[int, float],
-                    wn_modes: FloatArray) -> dict[str, FitResult]:
-    lower0, upper0 = starts.linear_bounds(base.theta, prob.carts)
-    typical0 = starts.linear_typical(base.theta, prob.carts, prob.amplitude)
-    wn = float(wn_modes[0])
-    out: dict[str, FitResult] = {}
-    for effect in EFFECTS:
-        spec = ModelSpec(effect, prob.carts, fixed)
-        if effect == "quantization":
-            if ev.lattice is not None:
-                out[effect] = _fit_staircase(spec, prob, base, ev)
-            continue
-        extra0, lo, hi, typ = _effect_start(effect, prob, base, ev, wn_modes, wn)
-        lower, upper = np.concatenate([lower0, lo]), np.concatenate([upper0, hi])
-        typical = np.concatenate([typical0, typ])
-        theta0 = np.concatenate([base.theta, extra0])
-        if effect == "coulomb_friction":
-            out[effect] = _fit_friction(spec, prob, theta0, lower, upper, typical, ev)
-        else:
-            out[effect] = fit(spec, theta0, lower, upper, typical, prob.dt, prob.y, prob.train,
-                              max_nfev=40)
-    return out
+def _linear_starts(prob: Problem) -> list[FloatArray]:
+    """Linear | x0 | v0 | rest start vectors: from a modal fit of the free response, or, with
+    a force input, from the ringing's frequencies (spectral peaks of the sample differences,
+    where the input's slow shape no longer dominates) with the carts at rest at the start."""
+    if prob.inputs is None:
+        modal = fit_modes(prob.tau, prob.y, spectral_peaks(prob.y, prob.dt, prob.carts))
+        return starts.linear_starts(modal, prob.carts)
+    wn = spectral_peaks(np.diff(prob.y, axis=0), prob.dt, prob.carts, min_rad_s=1.0)
+    c = prob.carts
+    state = np.concatenate([prob.y[0], np.zeros(c), prob.y[0]])
+    if c == 1:
+        return [np.concatenate([[wn[0], 0.05], state])]
+    coupling = max(0.5 * (wn[1] ** 2 - wn[0] ** 2), 0.05 * wn[0] ** 2)
+    lin = np.array([wn[0] ** 2, coupling, coupling, wn[0] ** 2, 0.1 * wn[0], 0.1 * wn[0]])
+    return [np.concatenate([lin, state])]
 
 
-def _fit_friction(spec: ModelSpec, prob: Problem, theta0: FloatArray, lower: FloatArray,
-                     upper: FloatArray, typical: FloatArray, ev: EvidenceResult) -> FitResult:
+def _input_gain_start(prob: Problem, theta0: FloatArray) -> FloatArray:
+    """Input gains (m/s² per unit, input-major) from the quasi-static response K x ≈ G u:
+    the least-squares slope of each output against each input, times the stiffness."""
+    assert prob.inputs is not None
+    u = prob.inputs.reshape(prob.inputs.shape[0], -1)
+    wn2 = theta0[0] ** 2 if prob.carts == 1 else float(np.max(theta0[:4]))
+    du = u - u[0]
+    dy = prob.y - prob.y[0]
+    slope = np.linalg.lstsq(du, dy, rcond=None)[0]             # (m, outputs)
+    gains = np.zeros((u.shape[1], prob.carts))
+    gains[:, :slope.shape[1]] = wn2 * slope
+    return gains.ravel()
+
+
+def _bounds_of(effect: str, prob: Problem, ev: EvidenceResult, wn_modes: FloatArray, theta: FloatArray,
+               res: FloatArray) -> Bounds:
+    """(start, lower, upper, typical) of one effect's parameters."""
+    c, amp, wn = prob.carts, prob.amplitude, float(wn_modes[0])
+    # bounds: effects no larger than stopping the cart within a cycle or shifting the
+    # frequency by ~25 % at the largest amplitude (beyond that the model is not linear-ish)
+    if effect == "coulomb_friction":
+        f_max = wn * wn * amp
+        f0 = float(np.clip(0.5 * ev.envelope_step_m * wn * wn, 1e-3 * f_max, 0.5 * f_max))
+        return (np.full(c, f0), np.zeros(c), np.full(c, f_max), np.full(c, 0.01 * f_max))
+    if effect == "presliding":
+        return (np.array([wn * wn]), np.zeros(1), np.array([50.0 * wn * wn]), np.array([wn * wn]))
+    if effect == "quadratic_drag":
+        d_max = 10.0 / amp
+        d0 = float(np.clip(0.75 * ev.drag_beta_per_m, 0.01 / amp, 0.5 * d_max))
+        return np.array([d0]), np.zeros(1), np.array([d_max]), np.array([0.1 / amp])
+    if effect == "cubic_stiffness":
+        k_max = 0.7 * wn * wn / (amp * amp)
+        k0 = float(np.clip(ev.cubic_start_per_m2_s2, -0.5 * k_max, 0.5 * k_max))
+        return (np.array([k0]), np.array([-k_max]), np.array([k_max]), np.array([0.01 * k_max]))
+    if effect == "held_cart_motion":
+        return (np.array([0.1 * wn * wn]), np.array([-0.2 * wn * wn]), np.array([1.5 * wn * wn]),
+                np.array([0.1 * wn * wn]))
+    if effect == "quantization":
+        q, off = (ev.lattice.quantum_m, ev.lattice.offset_m) if ev.lattice is not None else (1e-3 * amp, 0.0)
+        return (np.array([q, off, 0.15]), np.array([-np.inf, -np.inf, 0.005]),
+                np.array([np.inf, np.inf, 0.5]), np.array([q, q, 0.1]))
+    return _mode_bounds(prob, wn_modes, res)
+
+
+def _mode_bounds(prob: Problem, wn_modes: FloatArray, res: FloatArray) -> Bounds:
+    """A SECOND resonance from the residual's strongest peak away from the baseline modes.
+
+    Kept on its side of the baseline modes, at least 25 % away, so it cannot turn into a beat
+    with the main mode that mimics an amplitude-dependent envelope; damping ratio ≤ 0.3.
+    """
+    c, amp = prob.carts, prob.amplitude
+    w3 = float(spectral_peaks(res, prob.dt, 1, exclude=wn_modes, exclude_rel=0.3)[0])
+    s3 = 0.01 * w3
+    coef, _ = project(prob.tau, res, np.array([w3]), np.array([s3]))
+    a3, b3 = coef[1], coef[2]
+    nyq_hz = 0.5 / prob.dt
+    f_lo, f_hi = float(np.min(wn_modes)) / (2 * np.pi), float(np.max(wn_modes)) / (2 * np.pi)
+    above = w3 / (2 * np.pi) > f_hi
+    # a resonance within a factor ~3 of the main mode (slower drifts are no mode of the rig)
+    band = (1.25 * f_hi, 0.98 * nyq_hz) if above else (0.33 * f_lo, 0.8 * f_lo)
+    start = np.concatenate([[float(np.clip(w3 / (2 * np.pi), *band)),
+                             min(s3, 0.15 * 2 * np.pi * band[0])], a3, b3])
+    lower = np.concatenate([[band[0], 0.0], np.full(2 * c, -np.inf)])
+    upper = np.concatenate([[band[1], 0.3 * 2 * np.pi * band[0]], np.full(2 * c, np.inf)])
+    typical = np.concatenate([[w3 / (2 * np.pi), 0.1 * w3], np.full(2 * c, 0.01 * amp)])
+    return start, lower, upper, typical
+
+
+def available(effect: str, current: ModelSpec, prob: Problem, ev: EvidenceResult) -> bool:
+    """Whether `effect` can be added to `current` (not there yet, and its prerequisites)."""
+    if effect in current.effects:
+        return False
+    if effect == "presliding":
+        return "coulomb_friction" in current.effects
+    if effect == "held_cart_motion":
+        return prob.held is not None
+    return True
+
+
+@dataclass(frozen=True)
+class Trial:
+    """An extension being fitted: its quick fit and the bounds to refine it within."""
+
+    effect: str
+    result: FitResult
+    lower: FloatArray
+    upper: FloatArray
+    typical: FloatArray
+
+
+#: Function evaluations of the quick (screening) fit and of the refinement.
+SCREEN_NFEV = 10
+REFINE_NFEV = 25
+
+
+def screen(prob: Problem, current: FitResult, effect: str, ev: EvidenceResult, wn_modes: FloatArray) -> Trial:
+    """The current model with `effect` added, fitted quickly from the current parameters."""
+    spec = current.spec.with_effect(effect)
+    res = prob.y - current.prediction
+    theta0, lower, upper, typical = _assemble(prob, current, spec, effect, ev, wn_modes, res)
+    at = spec.block(effect).start
+    wn2 = float(wn_modes[0]) ** 2
+    if effect == "quantization":
+        if ev.lattice is None:   # no exact lattice: noise after the encoder; search q and offset
+            theta0[at:at + 3] = search_lattice(current.prediction, prob.y, prob.amplitude)
+        theta0 = _best_on_grid(spec, prob, theta0, at + 2, (0.03, 0.1, 0.2, 0.3, 0.45))
+        fixed = {**spec.fixed, "quantum_m": float(theta0[at]), "lattice_offset_m": float(theta0[at + 1])}
+        spec = ModelSpec(spec.effects, spec.carts, fixed, spec.inputs, spec.held)
+    if effect == "presliding":
+        theta0 = _best_on_grid(spec, prob, theta0, at, tuple(wn2 * g for g in (0.3, 1, 3, 10, 30, 50)))
+    if effect == "held_cart_motion":
+        theta0 = _best_on_grid(spec, prob, theta0, at, tuple(wn2 * g for g in (0.0, 0.05, 0.2, 0.5)))
+    if effect == "coulomb_friction":
+        result = _fit_friction(spec, prob, theta0, lower, upper, typical, ev, SCREEN_NFEV)
+    else:
+        result = fit(spec, theta0, lower, upper, typical, prob.dt, prob.y, prob.train, max_nfev=SCREEN_NFEV)
+    return Trial(effect, result, lower, upper, typical)
+
+
+def refine(prob: Problem, trial: Trial) -> FitResult:
+    """The screened extension fitted on to convergence, with its blocked cross-validation."""
+    return fit(trial.result.spec, trial.result.theta, trial.lower, trial.upper, trial.typical, prob.dt, prob.y,
+               prob.train, max_nfev=REFINE_NFEV, cross_validate=True)
+
+
+#: Encoder quanta searched when the samples lie on no exact lattice (m), and offsets per quantum.
+LATTICE_GRID = np.geomspace(5e-6, 5e-3, 121)
+LATTICE_OFFSETS = 8
+
+
+def search_lattice(prediction: FloatArray, y: FloatArray, amplitude: float) -> FloatArray:
+    """(q, offset, blur) of the smoothed staircase through which `prediction` (N, c) best
+    reads as `y`: a grid of quanta (below a fifth of the swing) × offsets, blur 0.15."""
+    best, best_cost = np.array([1e-3 * amplitude, 0.0, 0.45]), np.inf
+    x = prediction[None]
+    for q in LATTICE_GRID[LATTICE_GRID < 0.2 * amplitude]:
+        offsets = q * np.arange(LATTICE_OFFSETS) / LATTICE_OFFSETS
+        stairs = smoothed_staircase(np.repeat(x, offsets.size, axis=0), np.full(offsets.size, q), offsets,
+                                    np.full(offsets.size, 0.15))
+        cost = np.sum((stairs - y[None]) ** 2, axis=(1, 2))
+        k = int(np.argmin(cost))
+        if cost[k] < best_cost:
+            best, best_cost = np.array([q, offsets[k], 0.15]), float(cost[k])
+    return best
+
+
+def _assemble(prob: Problem, current: FitResult, spec: ModelSpec, effect: str, ev: EvidenceResult,
+              wn_modes: FloatArray, res: FloatArray) -> Bounds:
+    """Parameter vector and bounds of `spec`: the current values, the new effect's start."""
+    n_base = spec.n_base
+    lower0, upper0 = starts.linear_bounds(current.theta, prob.carts)
+    typical0 = starts.linear_typical(current.theta, prob.carts, prob.amplitude)
+    extra = n_base - lower0.size
+    parts = [[current.theta[:n_base]],
+             [np.concatenate([lower0, np.full(extra, -np.inf)])],
+             [np.concatenate([upper0, np.full(extra, np.inf)])],
+             [np.concatenate([typical0, np.maximum(np.abs(current.theta[lower0.size:n_base]), 1e-6)])]]
+    for e in spec.effects:
+        start, lo, hi, typ = _bounds_of(e, prob, ev, wn_modes, current.theta, res)
+        if e != effect:
+            start = current.theta[current.spec.block(e)]
+        for part, value in zip(parts, (start, lo, hi, typ)):
+            part.append(value)
+    out = tuple(np.concatenate(p) for p in parts)
+    return out[0], out[1], out[2], out[3]
+
+
+def _best_on_grid(spec: ModelSpec, prob: Problem, theta: FloatArray, index: int,
+                  values: tuple[float, ...]) -> FloatArray:
+    """`theta` with parameter `index` set to the grid value of least cost (one batch)."""
+    rows = np.repeat(theta[None, :], len(values), axis=0)
+    rows[:, index] = values
+    for i, name in enumerate(spec.names):
+        if name in spec.fixed:
+            rows[:, i] = spec.fixed[name]
+    with np.errstate(all="ignore"):
+        pred = spec.predict(rows, prob.dt, prob.y.shape[0])
+    cost = np.nan_to_num(np.sum((pred - prob.y[None]) ** 2, axis=(1, 2)), nan=np.inf)
+    return np.asarray(rows[int(np.argmin(cost))], dtype=np.float64)
+
+
+def _fit_friction(spec: ModelSpec, prob: Problem, theta0: FloatArray, lower: FloatArray, upper: FloatArray,
+                  typical: FloatArray, ev: EvidenceResult, max_nfev: int) -> FitResult:
     """Friction fits in two stages, from two starts.
 
     The linear fit has put the extra loss into viscous damping, and where a frictional cart
     stops depends discontinuously on the parameters; so each start is first fitted on the
     large-amplitude part of the run (until the half-cycle peaks fall below 30 % of the
-    first), where the cost is smooth, then on every training sample. Starts: the baseline
-    damping and the damping implied by the envelope ratio (one cart).
+    first), where the cost is smooth, then on every sample. Starts: the current damping and
+    the damping implied by the envelope ratio (one cart).
     """
     n_cut = _large_amplitude_samples(prob, ev)
     candidates = [theta0]
@@ -90,12 +281,16 @@ def _fit_friction(spec: ModelSpec, prob: Problem, theta0: FloatArray, lower: Flo
         half_period = np.pi / theta0[0]
         zeta_env = -np.log(max(ev.envelope_ratio, 1e-3)) / half_period / theta0[0]
         alt = theta0.copy()
-        alt[1] = float(np.clip(zeta_env, 1e-4, 0.9 * theta0[1]))
+        alt[1] = float(np.clip(zeta_env, 1e-4, 0.9 * max(theta0[1], 1e-4)))
         candidates.append(alt)
+    short = ModelSpec(spec.effects, spec.carts, spec.fixed,
+                      None if spec.inputs is None else spec.inputs[:n_cut],
+                      None if spec.held is None else spec.held[:n_cut])
     best: FitResult | None = None
     for start in candidates:
-        first = fit(spec, start, lower, upper, typical, prob.dt, prob.y[:n_cut], prob.train[:n_cut])
-        result = fit(spec, first.theta, lower, upper, typical, prob.dt, prob.y, prob.train)
+        first = fit(short, start, lower, upper, typical, prob.dt, prob.y[:n_cut], prob.train[:n_cut],
+                    max_nfev=2 * max_nfev)
+        result = fit(spec, first.theta, lower, upper, typical, prob.dt, prob.y, prob.train, max_nfev=max_nfev)
         if best is None or result.sse_train < best.sse_train:
             best = result
     assert best is not None
@@ -113,74 +308,13 @@ def _large_amplitude_samples(prob: Problem, ev: EvidenceResult) -> int:
     return int(min(n, max(np.searchsorted(prob.tau, last + quarter), 40)))
 
 
-BLURS = (0.01, 0.03, 0.06, 0.1, 0.15, 0.2, 0.25, 0.3, 0.35, 0.45)
+def effect_parameters(result: FitResult, effect: str) -> tuple[dict[str, float], dict[str, float]]:
+    """(values, 1-sigma) of `effect`'s parameters in a fit."""
+    names = effect_names(effect, result.spec.carts)
+    values = {k: v for k, v in result.parameters().items() if k in names}
+    std = {k: v for k, v in result.parameter_std().items() if k in names}
+    return values, std
 
 
-def _fit_staircase(spec: ModelSpec, prob: Problem, base: FitResult, ev: EvidenceResult) -> FitResult:
-    """The linear model read through the measured lattice (q and offset from the data).
-
-    The linear parameters are refitted through the smoothed staircase at decreasing blur
-    (0.3, 0.15, 0.08 quanta; each from the previous), so that they are not the baseline's,
-    tuned to the training samples' rounding errors; then the blur is chosen on a grid.
-    """
-    assert ev.lattice is not None
-    q, off = ev.lattice.quantum_m, ev.lattice.offset_m
-    q_std = q * 1e-3 / max(ev.lattice.levels, 1)
-    n = base.theta.size
-    lower, upper = starts.linear_bounds(base.theta, prob.carts)
-    typical = starts.linear_typical(base.theta, prob.carts, prob.amplitude)
-    lower, upper = np.concatenate([lower, np.full(3, -np.inf)]), np.concatenate([upper, np.full(3, np.inf)])
-    typical = np.concatenate([typical, [q, q, 0.1]])
-    theta = np.concatenate([base.theta, [q, off, 0.3]])
-    for blur in (0.3, 0.15, 0.08):
-        fixed = {**spec.fixed, n: q, n + 1: off, n + 2: blur}
-        staged = ModelSpec(spec.effect, spec.carts, fixed)
-        theta = fit(staged, theta, lower, upper, typical, prob.dt, prob.y, prob.train, max_nfev=20).theta
-    best: FitResult | None = None
-    for lin in (theta[:n], base.theta):
-        for blur in BLURS:
-            std = np.concatenate([base.std, [q_std, 0.0, 0.0]])
-            result = evaluate(spec, np.concatenate([lin, [q, off, blur]]), prob.dt, prob.y, prob.train, std)
-            if best is None or result.sse_train < best.sse_train:
-                best = result
-    assert best is not None
-    return best
-
-
-def _effect_start(effect: str, prob: Problem, base: FitResult, ev: EvidenceResult,
-                  wn_modes: FloatArray, wn: float) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
-    """(start, lower, upper, typical) of the effect parameters."""
-    c, amp = prob.carts, prob.amplitude
-    # bounds: effects no larger than stopping the cart within a cycle or shifting the
-    # frequency by ~25 % at the largest amplitude (beyond that the model is not linear-ish)
-    if effect == "coulomb_friction":
-        f_max = wn * wn * amp
-        f0 = float(np.clip(0.5 * ev.envelope_step_m * wn * wn, 1e-3 * f_max, 0.5 * f_max))
-        return (np.full(c, f0), np.zeros(c), np.full(c, f_max), np.full(c, 0.01 * f_max))
-    if effect == "quadratic_drag":
-        d_max = 10.0 / amp
-        d0 = float(np.clip(0.75 * ev.drag_beta_per_m, 0.01 / amp, 0.5 * d_max))
-        return np.array([d0]), np.zeros(1), np.array([d_max]), np.array([0.1 / amp])
-    if effect == "cubic_stiffness":
-        k_max = 0.7 * wn * wn / (amp * amp)
-        k0 = float(np.clip(ev.cubic_start_per_m2_s2, -0.5 * k_max, 0.5 * k_max))
-        return (np.array([k0]), np.array([-k_max]), np.array([k_max]), np.array([0.01 * k_max]))
-    # coupled_mode: the residual's strongest peak away from the baseline modes
-    # a SECOND resonance: kept on its side of the baseline modes, at least 25 % away, so it
-    # cannot turn into a beat with the main mode that mimics an amplitude-dependent envelope
-    res = prob.y - base.prediction
-    w3 = float(spectral_peaks(res, prob.dt, 1, exclude=wn_modes, exclude_rel=0.3)[0])
-    s3 = 0.01 * w3
-    coef, _ = project(prob.tau, res, np.array([w3]), np.array([s3]))
-    a3, b3 = coef[1], coef[2]
-    nyq_hz = 0.5 / prob.dt
-    f_lo, f_hi = float(np.min(wn_modes)) / (2 * np.pi), float(np.max(wn_modes)) / (2 * np.pi)
-    above = w3 / (2 * np.pi) > f_hi
-    band = (1.25 * f_hi, 0.98 * nyq_hz) if above else (0.05, 0.8 * f_lo)
-    start = np.concatenate([[float(np.clip(w3 / (2 * np.pi), *band)),
-                             min(s3, 0.15 * 2 * np.pi * band[0])], a3, b3])
-    # a resonance, not a transient: damping ratio at most 0.3 (σ ≤ 0.3·2π f at the lowest f)
-    lower = np.concatenate([[band[0], 0.0], np.full(2 * c, -np.inf)])
-    upper = np.concatenate([[band[1], 0.3 * 2 * np.pi * band[0]], np.full(2 * c, np.inf)])
-    typical = np.concatenate([[w3 / (2 * np.pi), 0.1 * w3], np.full(2 * c, 0.01 * amp)])
-    return start, lower, upper, typical
+__all__ = ["Problem", "Trial", "available", "base_spec", "effect_parameters", "evaluate", "fit_baseline",
+           "refine", "screen"]

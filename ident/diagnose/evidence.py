@@ -26,7 +26,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ident.diagnose.lattice import Lattice
-from ident.diagnose.modal import spectral_peaks
+from ident.physics.measures import noise_std as _noise_std
+from ident.physics.measures import spectral_peaks, spectrum
 
 FloatArray = NDArray[np.float64]
 
@@ -54,9 +55,8 @@ class EvidenceResult:
 
 
 def noise_std(residual: FloatArray) -> float:
-    """White-noise scale from first differences: std(Δr)/√2 (robust, MAD-based)."""
-    d = np.diff(residual)
-    return float(1.4826 * np.median(np.abs(d - np.median(d))) / np.sqrt(2.0))
+    """White-noise scale (m) of a residual: the one estimate of `ident.physics.measures`."""
+    return float(_noise_std(residual)[0])
 
 
 def collect(tau: FloatArray, y: FloatArray, y_hat: FloatArray, rest: FloatArray,
@@ -148,8 +148,6 @@ def _stuck_for(y: FloatArray, sigma: float, lattice: Lattice | None) -> int:
 
 def _second_frequency(res: FloatArray, dt: float, wn_modes: FloatArray) -> float | None:
     """A residual spectral peak (Hz) ≥ 10× the median level, away from baseline harmonics."""
-    from ident.diagnose.modal import spectrum
-
     w, p = spectrum(res[:, None], dt)
     harmonics = np.concatenate([k * wn_modes for k in range(1, 6)])
     near = np.any(np.abs(w[:, None] - harmonics[None, :]) < 0.12 * harmonics[None, :], axis=1)

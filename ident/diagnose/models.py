@@ -1,22 +1,26 @@
-"""The linear baseline and its physical extensions, each a model of its own.
+"""The linear baseline and its physical extensions: one model may carry several effects.
 
 Parameter vector (one row of a (P, p) array, so a Jacobian is one batched simulation):
 
-    linear (chain.LINEAR_NAMES) | x0_i (m) | v0_i (m/s) | rest_i (m) | effect parameters
+    linear (chain.LINEAR_NAMES) | x0_i (m) | v0_i (m/s) | rest_i (m) | input gains | effects
 
-with i over the carts, the state (x0, v0) at the window start τ = 0 and rest the spring
-equilibrium (the step, when `--step` is not given). Effect parameters:
+with i over the carts, the state (x0, v0) at the window start τ = 0, rest the spring
+equilibrium, one gain per cart for a measured force input (`input_gain_i`, m/s² per unit
+of the input column, only with `--input`), then each effect's block in `EFFECTS` order:
 
-    none               -
-    coulomb_friction   f_i = coulomb_accel_m_s2[_cart2]   (friction force / mass, per cart)
-    quadratic_drag     drag_per_m             (c_q / m, the same on every cart)
-    cubic_stiffness    cubic_per_m2_s2        (k3 / m on each cart's x_i - rest_i)
+    coulomb_friction   F_i = coulomb_accel_m_s2[_cart2]   (kinetic friction force / mass)
+    presliding         presliding_per_s2 σ: the friction is Dahl's (w' = σ(v - |v| w/F));
+                       only on top of coulomb_friction
+    quadratic_drag     drag_per_m             (drag / m, the same on every cart)
+    cubic_stiffness    cubic_per_m2_s2 κ: a_i = -κ (x_i - rest_i)³ on every cart (one cart:
+                       a spring k (e + γ e³) with κ = wn² γ)
+    held_cart_motion   held_cart_gain_per_s2 β: a = β (u_h(τ) - u_h(0)), u_h the held cart's
+                       measured position (the spring between the carts, k2/m)
     coupled_mode       mode_hz, mode_decay_1_s, mode_cos_m_j, mode_sin_m_j (per output j):
                        + e^{-σ τ}(a_j cos 2π f τ + b_j sin 2π f τ) added to output j
     quantization       quantum_m, lattice_offset_m, quantization_blur: the expected reading
                        E[offset + q·round((x + e - offset)/q)], e ~ N(0, (b q)²), a smoothed
-                       staircase; b -> 0 is the bare encoder, b ≈ 0.45 is nearly the identity,
-                       so the linear model is nested and b absorbs jitter and model error
+                       staircase (b -> 0 the bare encoder, b ≈ 0.45 nearly the identity)
 
 The model predicts positions (P, N, carts) on τ_k = k·dt. No fitting and no I/O here.
 """
@@ -34,8 +38,9 @@ from ident.physics.free import NonlinearTerms, simulate_free
 
 FloatArray = NDArray[np.float64]
 
-EFFECTS: tuple[str, ...] = ("coulomb_friction", "quadratic_drag", "cubic_stiffness",
-                            "quantization", "coupled_mode")
+#: Canonical order of the effect blocks in a parameter vector.
+EFFECTS: tuple[str, ...] = ("coulomb_friction", "presliding", "quadratic_drag", "cubic_stiffness",
+                            "held_cart_motion", "coupled_mode", "quantization")
 
 
 def state_names(carts: int) -> tuple[str, ...]:
@@ -47,13 +52,17 @@ def state_names(carts: int) -> tuple[str, ...]:
 def effect_names(effect: str, carts: int) -> tuple[str, ...]:
     if effect == "coulomb_friction":
         return ("coulomb_accel_m_s2",) + (("coulomb_accel_m_s2_cart2",) if carts == 2 else ())
+    if effect == "presliding":
+        return ("presliding_per_s2",)
     if effect == "quadratic_drag":
         return ("drag_per_m",)
     if effect == "cubic_stiffness":
         return ("cubic_per_m2_s2",)
+    if effect == "held_cart_motion":
+        return ("held_cart_gain_per_s2",)
     if effect == "coupled_mode":
-        return ("mode_hz", "mode_decay_1_s", *(f"mode_cos_m_{j}" for j in range(1, carts + 1)),
-                *(f"mode_sin_m_{j}" for j in range(1, carts + 1)))
+        return (("mode_hz", "mode_decay_1_s") + tuple(f"mode_cos_m_{j}" for j in range(1, carts + 1))
+                + tuple(f"mode_sin_m_{j}" for j in range(1, carts + 1)))
     if effect == "quantization":
         return ("quantum_m", "lattice_offset_m", "quantization_blur")
     return ()
@@ -61,23 +70,48 @@ def effect_names(effect: str, carts: int) -> tuple[str, ...]:
 
 @dataclass(frozen=True)
 class ModelSpec:
-    """A model: its effect, cart count and parameter names; `fixed` maps index -> value."""
+    """A model: its effects (in `EFFECTS` order), cart count, measured inputs and parameter
+    names; `fixed` maps parameter name -> value; `inputs` (N, m) force inputs, `held` (N,) the held
+    cart's measured motion from its first sample (both on the work grid)."""
 
-    effect: str
+    effects: tuple[str, ...]
     carts: int
-    fixed: dict[int, float] = field(default_factory=dict)
+    fixed: dict[str, float] = field(default_factory=dict)
+    inputs: FloatArray | None = None
+    held: FloatArray | None = None
+
+    def with_effect(self, effect: str) -> ModelSpec:
+        effects = tuple(e for e in EFFECTS if e in self.effects or e == effect)
+        return ModelSpec(effects, self.carts, dict(self.fixed), self.inputs, self.held)
+
+    @property
+    def n_inputs(self) -> int:
+        return 0 if self.inputs is None else int(self.inputs.reshape(self.inputs.shape[0], -1).shape[1])
 
     @property
     def names(self) -> tuple[str, ...]:
-        return LINEAR_NAMES[self.carts] + state_names(self.carts) + effect_names(self.effect, self.carts)
+        inputs = tuple(f"input_gain_{i}_{q}" for q in range(1, self.n_inputs + 1) for i in range(1, self.carts + 1))
+        return (LINEAR_NAMES[self.carts] + state_names(self.carts) + inputs
+                + tuple(n for e in self.effects for n in effect_names(e, self.carts)))
 
     @property
     def n_linear(self) -> int:
         return len(LINEAR_NAMES[self.carts])
 
     @property
-    def n_effect(self) -> int:
-        return len(effect_names(self.effect, self.carts))
+    def n_base(self) -> int:
+        """Parameters before the first effect block."""
+        return self.n_linear + 3 * self.carts + self.n_inputs * self.carts
+
+    def block(self, effect: str) -> slice:
+        """Where `effect`'s parameters sit in a parameter vector."""
+        start = self.n_base
+        for e in self.effects:
+            size = len(effect_names(e, self.carts))
+            if e == effect:
+                return slice(start, start + size)
+            start += size
+        raise KeyError(effect)
 
     def predict(self, theta: FloatArray, dt: float, n_samples: int) -> FloatArray:
         """Positions (P, N, carts) for parameter rows `theta` (P, p)."""
@@ -86,28 +120,43 @@ class ModelSpec:
         x0 = theta[:, nl:nl + c]
         v0 = theta[:, nl + c:nl + 2 * c]
         rest = theta[:, nl + 2 * c:nl + 3 * c]
-        extra = theta[:, nl + 3 * c:]
         z0 = np.concatenate([x0 - rest, v0], axis=1)
-        terms = self._terms(extra, lin)
-        z = simulate_free(lin, z0, dt, n_samples, c, terms)
-        x = z + rest[:, None, :]
-        if self.effect == "coupled_mode":
-            x = x + _extra_mode(extra, dt, n_samples, c)
-        elif self.effect == "quantization":
-            x = smoothed_staircase(x, extra[:, 0], extra[:, 1], extra[:, 2])
+        terms, u = self._terms(theta, lin, n_samples)
+        x = simulate_free(lin, z0, dt, n_samples, c, terms, u) + rest[:, None, :]
+        if "coupled_mode" in self.effects:
+            x = x + _extra_mode(theta[:, self.block("coupled_mode")], dt, n_samples, c)
+        if "quantization" in self.effects:
+            q = theta[:, self.block("quantization")]
+            x = smoothed_staircase(x, q[:, 0], q[:, 1], q[:, 2])
         return x
 
-    def _terms(self, extra: FloatArray, lin: FloatArray) -> NonlinearTerms:
-        c = self.carts
-        if self.effect == "coulomb_friction":
-            return NonlinearTerms(friction_m_s2=np.abs(extra[:, :c]))
-        if self.effect == "quadratic_drag":
-            return NonlinearTerms(drag_per_m=np.repeat(extra[:, :1], c, axis=1))
-        if self.effect == "cubic_stiffness":
-            # κ = wn² γ for one cart (per cart deviation); γ relative for the chain
-            kt0 = lin[:, 0] ** 2 if c == 1 else np.ones(lin.shape[0])
-            return NonlinearTerms(cubic_per_m2=extra[:, 0] / kt0)
-        return NonlinearTerms()
+    def _terms(self, theta: FloatArray, lin: FloatArray, n: int) -> tuple[NonlinearTerms, FloatArray | None]:
+        c, p = self.carts, theta.shape[0]
+        kw: dict[str, FloatArray] = {}
+        if "coulomb_friction" in self.effects:
+            kw["friction_m_s2"] = np.abs(theta[:, self.block("coulomb_friction")])
+        if "presliding" in self.effects:
+            kw["presliding_per_s2"] = np.repeat(theta[:, self.block("presliding")], c, axis=1)
+        if "quadratic_drag" in self.effects:
+            kw["drag_per_m"] = np.repeat(theta[:, self.block("quadratic_drag")], c, axis=1)
+        if "cubic_stiffness" in self.effects:
+            kw["cubic_per_m2_s2"] = np.repeat(theta[:, self.block("cubic_stiffness")], c, axis=1)
+        columns: list[FloatArray] = []
+        gains: list[FloatArray] = []
+        if self.n_inputs:
+            assert self.inputs is not None
+            columns.append(self.inputs.reshape(n, -1))
+            start = self.n_linear + 3 * c
+            g = theta[:, start:start + self.n_inputs * c].reshape(p, self.n_inputs, c)
+            gains.append(np.transpose(g, (0, 2, 1)))
+        if "held_cart_motion" in self.effects and self.held is not None:
+            columns.append(self.held.reshape(n, 1))
+            beta = theta[:, self.block("held_cart_motion")][:, 0]
+            gains.append(np.repeat(beta[:, None, None], c, axis=1))
+        if not columns:
+            return NonlinearTerms(**kw), None
+        kw["input_gain"] = np.concatenate(gains, axis=2)
+        return NonlinearTerms(**kw), np.concatenate(columns, axis=1)
 
 
 def smoothed_staircase(x: FloatArray, q: FloatArray, offset: FloatArray, blur: FloatArray) -> FloatArray:

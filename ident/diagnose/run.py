@@ -1,15 +1,21 @@
-"""`diagnose(t, y)`: baseline, evidence, candidates, choice, extended model, gain.
+"""`diagnose(t, y)`: baseline, evidence, forward selection of effects, the extended model.
 
 Steps (arrays in, a `Diagnosis` out; no files, clocks or printing):
 1. window (`window.find_window`): hold level, where the hand's influence ends, release time;
-   the window is decimated to at most `MAX_WORK_SAMPLES` work samples;
-2. split: even work samples train every fit, odd work samples validate (held out);
-3. baseline: the linear physical model (one cart or the chain) from the window start with
-   its state (x0, v0) and rest positions (= the step, unless given) as parameters;
-4. evidence from the baseline residual and the measured extrema (`evidence.collect`);
-5. every extension fitted to the training samples from evidence-based start values
-   (`candidates`);
-6. choice on validation by likelihood ratio against the noise (`select`).
+   the window is decimated to at most `MAX_WORK_SAMPLES` work samples (with a force input
+   the window is the whole record: the input, not a hand, starts the motion);
+2. baseline: the linear physical model (one cart or the chain) from the window start with
+   its state (x0, v0) and rest positions (= the step, unless given) as parameters, fitted
+   on every work sample (simulated output error);
+3. evidence from the baseline residual and the measured extrema (`evidence.collect`);
+4. forward selection (`select.forward`): each available effect added to the current model
+   and refitted; the best by blocked cross-validation kept while it beats the noise;
+5. the report: every accepted effect ranked by its own gain, the headline (largest material
+   effect), the whole-window fit of the final model.
+
+A single-cart diagnosis of a record with a second, held cart (its swing under
+`HELD_FRACTION` of the free cart's) offers that cart's measured motion as an input
+(`held_cart_motion`).
 """
 
 from __future__ import annotations
@@ -20,22 +26,25 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from ident.diagnose import candidates as cands
 from ident.diagnose import explain
-from ident.diagnose.candidates import Problem, fit_baseline, fit_candidates
+from ident.diagnose.candidates import Problem, fit_baseline
 from ident.diagnose.evidence import EvidenceResult, collect
 from ident.diagnose.fitting import FitResult
 from ident.diagnose.lattice import find_lattice
-from ident.diagnose.models import effect_names
-from ident.diagnose.select import fit_percent, likelihood_ratio, thresholds
-from ident.diagnose.window import Window, find_window
+from ident.diagnose.models import EFFECTS, effect_names
+from ident.diagnose.select import Judgement, Step, forward, is_material, threshold
+from ident.diagnose.window import MAX_WORK_SAMPLES, Window, find_window, hold_level
 from ident.errors import IdentDimensionError, IdentValueError
 from ident.physics.chain import LINEAR_NAMES, modes
-from schemas.diagnosis import Candidate, DiagnosisReport, Evidence, ModelFit
+from ident.physics.measures import fit_percent
+from schemas.diagnosis import Candidate, DiagnosisReport, EffectFit, Evidence, ModelFit
 
 FloatArray = NDArray[np.float64]
 
 MODEL_NAMES = {1: "single cart m x'' + c x' + k (x - rest) = 0",
                2: "two-cart chain M x'' + C x' + K (x - rest) = 0"}
+HELD_FRACTION = 0.3
 
 
 @dataclass(frozen=True)
@@ -52,33 +61,79 @@ class Diagnosis:
 
 
 def diagnose(t: FloatArray, y: FloatArray, carts: int | None = None, step_m: float | None = None,
-             source: str = "") -> Diagnosis:
-    """Diagnose a release run: `t` (N,) s uniform, `y` (N,) or (N, n_out) m."""
+             source: str = "", u: FloatArray | None = None, start_s: float | None = None,
+             stop_s: float | None = None) -> Diagnosis:
+    """Diagnose a release run: `t` (N,) s uniform, `y` (N,) or (N, n_out) m, `u` (N,) or
+    (N, m) a measured force input (any unit), `start_s`/`stop_s` the stretch to use (a
+    release window on the run's time base; default the whole record)."""
     started = time.perf_counter()
     t_arr, y_arr = _check(t, y)
+    u_arr = _check_input(u, t_arr.size)
+    keep = _stretch(t_arr, start_s, stop_s)
+    t_arr, y_arr = t_arr[keep], y_arr[keep]
+    u_arr = None if u_arr is None else u_arr[keep]
     carts = carts or min(y_arr.shape[1], 2)
-    y_arr = _select_outputs(y_arr, carts)
-    win = find_window(t_arr, y_arr, carts)
+    y_all = y_arr
+    y_arr, other = _select_outputs(y_arr, carts)
+    win = _window(t_arr, y_arr, carts, u_arr)
     idx = np.arange(win.start, t_arr.size, win.decimation)
+    held = None if other is None else y_all[idx, other] - y_all[idx[0], other]
     prob = Problem(t_arr[idx] - t_arr[win.start], y_arr[idx], float(t_arr[1] - t_arr[0]) * win.decimation,
-                    np.arange(idx.size) % 2 == 0, carts, float(np.max(np.ptp(y_arr[idx], axis=0))))
+                   np.ones(idx.size, dtype=bool), carts, float(np.max(np.ptp(y_arr[idx], axis=0))),
+                   held, None if u_arr is None else u_arr[idx] - u_arr[idx[0]])
     fixed = _fixed_rest(win, carts, step_m)
     base = fit_baseline(prob, fixed)
     lattice, coherence = find_lattice(y_arr[win.start:])
-    wn_modes = np.array([w for w, _ in modes(base.theta[None, :len(LINEAR_NAMES[carts])], carts)])
-    rest = base.theta[len(LINEAR_NAMES[carts]) + 2 * carts:len(LINEAR_NAMES[carts]) + 3 * carts]
+    n_lin = len(LINEAR_NAMES[carts])
+    wn_modes = np.array([w for w, _ in modes(base.theta[None, :n_lin], carts)])
+    rest = base.theta[n_lin + 2 * carts:n_lin + 3 * carts]
     ev = collect(prob.tau, prob.y, base.prediction, rest, wn_modes, lattice)
-    fits = fit_candidates(prob, base, ev, fixed, wn_modes)
-    candidates = [_candidate(prob, base, f, effect) for effect, f in fits.items()]
-    if "quantization" not in fits:
-        candidates.insert(3, _no_lattice(prob, base))
-    chosen = _choose(candidates)
-    ext = fits[chosen] if chosen != "none" else base
-    report = _report(prob, win, t_arr, base, ext, candidates, chosen, ev, coherence, step_m,
+    steps, first_round = forward(
+        base, lambda cur: [e for e in EFFECTS if cands.available(e, cur.spec, prob, ev)],
+        lambda cur, e: cands.screen(prob, cur, e, ev, wn_modes), lambda trial: cands.refine(prob, trial), carts)
+    ext = steps[-1].judgement.result if steps else base
+    effects = _ranked(prob, steps)
+    cause = next((e.effect for e in effects if e.material), "none")
+    report = _report(prob, win, t_arr, base, ext, first_round, effects, cause, ev, coherence, step_m,
                      source, time.perf_counter() - started)
     extrema = ev.extrema.copy()
     extrema[:, 0] += t_arr[win.start]
     return Diagnosis(report, t_arr[idx], prob.y, base.prediction, ext.prediction, prob.train, extrema)
+
+
+def _check_input(u: FloatArray | None, n: int) -> FloatArray | None:
+    if u is None:
+        return None
+    u_arr = np.asarray(u, dtype=np.float64)
+    u_arr = u_arr.reshape(u_arr.shape[0], -1) if u_arr.ndim else u_arr.reshape(1, 1)
+    if u_arr.shape[0] != n:
+        raise IdentDimensionError("u", f"{n} input samples (one per time)", u_arr.shape[0])
+    if not np.all(np.isfinite(u_arr)):
+        raise IdentValueError("u", "finite input values", "NaN or inf")
+    return u_arr
+
+
+def _stretch(t: FloatArray, start_s: float | None, stop_s: float | None) -> NDArray[np.bool_]:
+    keep = np.ones(t.size, dtype=bool)
+    if start_s is not None:
+        keep &= t >= start_s
+    if stop_s is not None:
+        keep &= t <= stop_s
+    if keep.sum() < 50:
+        raise IdentValueError("window", "at least 50 samples between start and stop",
+                              f"{int(keep.sum())} samples in [{start_s}, {stop_s}] s")
+    return keep
+
+
+def _window(t: FloatArray, y: FloatArray, carts: int, u: FloatArray | None) -> Window:
+    """The release window; with a force input the whole record (the input drives the motion)."""
+    if u is None:
+        return find_window(t, y, carts)
+    hold, noise, _ = hold_level(y)
+    moved = np.flatnonzero(np.any(np.abs(u - u[0]) > 0, axis=1))
+    release = float(t[moved[0]]) if moved.size else float(t[0])
+    decimation = max(1, int(np.ceil(t.size / MAX_WORK_SAMPLES)))
+    return Window(0, decimation, hold, noise, release, float("nan"))
 
 
 def _check(t: FloatArray, y: FloatArray) -> tuple[FloatArray, FloatArray]:
@@ -100,76 +155,88 @@ def _check(t: FloatArray, y: FloatArray) -> tuple[FloatArray, FloatArray]:
     return t_arr, y_arr
 
 
-def _select_outputs(y: FloatArray, carts: int) -> FloatArray:
+def _select_outputs(y: FloatArray, carts: int) -> tuple[FloatArray, int | None]:
+    """The outputs to fit, and the column of a held cart (one-cart fits of two columns)."""
     if carts not in (1, 2):
         raise IdentValueError("carts", "1 or 2", carts)
     if y.shape[1] < carts:
         raise IdentDimensionError("positions", f"{carts} position columns", y.shape[1])
     if carts == 1 and y.shape[1] > 1:
-        return y[:, [int(np.argmax(np.ptp(y, axis=0)))]]
-    return y[:, :carts]
+        swing = np.ptp(y, axis=0)
+        main = int(np.argmax(swing))
+        others = [j for j in range(y.shape[1]) if j != main and 0 < swing[j] < HELD_FRACTION * swing[main]]
+        other = max(others, key=lambda j: swing[j]) if others else None
+        return y[:, [main]], other
+    return y[:, :carts], None
 
 
-def _fixed_rest(win: Window, carts: int, step_m: float | None) -> dict[int, float]:
+def _fixed_rest(win: Window, carts: int, step_m: float | None) -> dict[str, float]:
     if step_m is None:
         return {}
-    first = len(LINEAR_NAMES[carts]) + 2 * carts
-    rest = {first: float(win.hold[0] + step_m)}
+    rest = {"rest_1_m": float(win.hold[0] + step_m)}
     if carts == 2:
-        rest[first + 1] = float(win.hold[1])
+        rest["rest_2_m"] = float(win.hold[1])
     return rest
 
 
-def _candidate(prob: Problem, base: FitResult, cand: FitResult, effect: str) -> Candidate:
-    val = ~prob.train
-    n_tr, n_val = base.n_train, base.n_val
-    extra = len(effect_names(effect, prob.carts))
-    lr_tr = likelihood_ratio(n_tr, base.sse_train, cand.sse_train)
-    lr_val = likelihood_ratio(n_val, base.sse_val, cand.sse_val)
-    th_tr, th_val = thresholds(extra, effect == "coupled_mode", n_tr)
-    fit_b = float(np.mean(fit_percent(prob.y[val], base.prediction[val])))
-    fit_c = float(np.mean(fit_percent(prob.y[val], cand.prediction[val])))
-    params = {k: v for k, v in cand.parameters().items() if k in effect_names(effect, prob.carts)}
-    std = {k: v for k, v in cand.parameter_std().items() if k in params}
-    return Candidate(effect=effect, parameters=params, parameter_std=std, fit_percent=fit_c,  # type: ignore[arg-type]
-                     gain_points=fit_c - fit_b, extra_parameters=extra, lr_train=lr_tr,
-                     lr_validation=lr_val, threshold_train=th_tr, threshold_validation=th_val,
-                     significant=bool(lr_tr > th_tr and lr_val > th_val))
+def _fit_points(prob: Problem, res: FitResult) -> float:
+    return float(np.mean(fit_percent(prob.y, res.prediction)))
+
+
+def _candidate(prob: Problem, base: FitResult, j: Judgement) -> Candidate:
+    params, std = cands.effect_parameters(j.result, j.effect)
+    fit_c = _fit_points(prob, j.result)
+    return Candidate(effect=j.effect, parameters=params, parameter_std=std, fit_percent=fit_c,  # type: ignore[arg-type]
+                     gain_points=fit_c - _fit_points(prob, base),
+                     extra_parameters=len(effect_names(j.effect, prob.carts)), lr_train=j.lr_fit,
+                     lr_validation=j.lr_cv, threshold_train=j.threshold, threshold_validation=j.threshold,
+                     significant=j.passes)
 
 
 def _no_lattice(prob: Problem, base: FitResult) -> Candidate:
     """The quantization candidate when the samples lie on no lattice: nothing to model."""
-    fit_b = float(np.mean(fit_percent(prob.y[~prob.train], base.prediction[~prob.train])))
-    th_tr, th_val = thresholds(len(effect_names("quantization", prob.carts)), False, base.n_train)
-    return Candidate(effect="quantization", parameters={}, fit_percent=fit_b, gain_points=0.0,
+    th = threshold(len(effect_names("quantization", prob.carts)), False, base.n_train)
+    return Candidate(effect="quantization", parameters={}, fit_percent=_fit_points(prob, base), gain_points=0.0,
                      extra_parameters=len(effect_names("quantization", prob.carts)), lr_train=0.0,
-                     lr_validation=0.0, threshold_train=th_tr, threshold_validation=th_val,
+                     lr_validation=0.0, threshold_train=th, threshold_validation=th,
                      significant=False, note="the measured positions lie on no lattice (no encoder steps)")
 
 
-def _choose(candidates: list[Candidate]) -> str:
-    called = [c for c in candidates if c.significant]
-    if not called:
-        return "none"
-    return max(called, key=lambda c: c.lr_validation).effect
+def _ranked(prob: Problem, steps: list[Step]) -> list[EffectFit]:
+    """Accepted effects with their own gain, largest first (parameters from the final fit)."""
+    final = steps[-1].judgement.result if steps else None
+    rows = []
+    for k, step in enumerate(steps, start=1):
+        j = step.judgement
+        gain = _fit_points(prob, j.result) - _fit_points(prob, step.before)
+        assert final is not None
+        params, std = cands.effect_parameters(final, j.effect)
+        rows.append((gain, k, j, params, std, is_material(step, gain, final)))
+    rows.sort(key=lambda r: -r[0])
+    return [EffectFit(effect=j.effect, rank=rank, step=k, parameters=params, parameter_std=std,  # type: ignore[arg-type]
+                      gain_points=gain, cv_ratio=j.lr_cv, cv_threshold=j.threshold, bic_drop=j.bic_drop,
+                      material=material)
+            for rank, (gain, k, j, params, std, material) in enumerate(rows, start=1)]
 
 
 def _model_fit(prob: Problem, res: FitResult, name: str) -> ModelFit:
-    val = ~prob.train
-    per = fit_percent(prob.y[val], res.prediction[val])
+    per = fit_percent(prob.y, res.prediction)
     return ModelFit(model=name, fit_percent=float(np.mean(per)), fit_percent_per_output=per,
                     parameters=res.parameters(), parameter_std=res.parameter_std())
 
 
 def _report(prob: Problem, win: Window, t: FloatArray, base: FitResult, ext: FitResult,
-            candidates: list[Candidate], chosen: str, ev: EvidenceResult, coherence: float,
-            step_m: float | None, source: str, elapsed: float) -> DiagnosisReport:
+            first_round: list[Judgement], effects: list[EffectFit], cause: str, ev: EvidenceResult,
+            coherence: float, step_m: float | None, source: str, elapsed: float) -> DiagnosisReport:
     carts = prob.carts
     n_lin = len(LINEAR_NAMES[carts])
     rest = ext.theta[n_lin + 2 * carts:n_lin + 3 * carts]
     base_fit = _model_fit(prob, base, MODEL_NAMES[carts])
-    ext_fit = (base_fit if chosen == "none" else
-               _model_fit(prob, ext, f"{MODEL_NAMES[carts]} + {chosen}"))
+    names = " + ".join(e.effect for e in sorted(effects, key=lambda e: e.step))
+    ext_fit = base_fit if not effects else _model_fit(prob, ext, f"{MODEL_NAMES[carts]} + {names}")
+    candidates = [_candidate(prob, base, j) for j in first_round]
+    if not any(c.effect == "quantization" for c in candidates):
+        candidates.append(_no_lattice(prob, base))
     corrected = explain.linear_summary(ext.theta[:n_lin], carts)
     evidence = Evidence(
         residual_rms_m=ev.residual_rms_m, noise_std_m=ev.noise_std_m,
@@ -182,14 +249,13 @@ def _report(prob: Problem, win: Window, t: FloatArray, base: FitResult, ext: Fit
         rest_offset_m=ev.rest_offset_m, stuck_for_s=ev.stuck_for_s,
         lattice_quantum_m=ev.lattice.quantum_m if ev.lattice is not None else None,
         lattice_coherence=coherence, second_frequency_hz=ev.second_frequency_hz)
-    gain = ext_fit.fit_percent - base_fit.fit_percent if chosen != "none" else 0.0
     report = DiagnosisReport(
         source=source, carts=carts, sample_rate_hz=1.0 / float(t[1] - t[0]),
         release_time_s=win.release_time_s, window_start_s=float(t[win.start]),
         window_end_s=float(t[-1]), step_m=[float(r - h) for r, h in zip(rest, win.hold)],
-        step_estimated=step_m is None, baseline=base_fit, candidates=candidates,
-        cause=chosen,  # type: ignore[arg-type]
-        extended=ext_fit, gain_points=gain,
+        step_estimated=step_m is None, baseline=base_fit, candidates=candidates, effects=effects,
+        cause=cause,  # type: ignore[arg-type]
+        extended=ext_fit, gain_points=ext_fit.fit_percent - base_fit.fit_percent,
         corrected_linear=corrected, evidence=evidence,
         validation=explain.validation_text(win.decimation, prob.train.size),
         explanation="", elapsed_s=elapsed)

@@ -27,8 +27,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from ident.diagnose.modal import ModalFit, fit_modes, modal_prediction, spectral_peaks
+from ident.diagnose.modal import ModalFit, fit_modes, modal_prediction
 from ident.errors import IdentValueError
+from ident.physics.measures import spectral_peaks
 
 FloatArray = NDArray[np.float64]
 

@@ -23,7 +23,14 @@ from ident.physics.lti import (
     transfer_functions,
 )
 from ident.physics.measures import fit_percent, noise_std, spectral_peaks, spectrum
-from ident.physics.steppers import Method, euler, euler_coulomb, linear_step_map, linear_step_response, rk4
+from ident.physics.steppers import (
+    Method,
+    euler,
+    euler_coulomb,
+    linear_step_map,
+    linear_step_response,
+    rk4,
+)
 
 __all__ = ["InputStructure", "Method", "Mode", "NonlinearTerms", "SingleCart", "StateSpace", "TwoCartChain",
            "describe", "euler", "euler_coulomb", "fit_percent", "linear_step_map", "linear_step_response",

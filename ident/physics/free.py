@@ -7,7 +7,8 @@ The motion in deviation coordinates `z = (x - s, x')` (n = 2·carts, s the rest 
 with the extra accelerations a_nl (m/s², per cart i)
 
     cubic springs     each spring k (e + γ e³): one cart -wn² γ e³; two carts per spring
-                      (k1 on e1, k2 on e2 - e1, k3 on e2), γ (1/m²) > 0 hardening, < 0 softening
+                      (k1 on e1, k2 on e2 - e1, k3 on e2), γ (1/m²) > 0 hardening, < 0 softening;
+                      or per cart about its rest, -κ_i e_i³ (κ in 1/(m² s²))
     quadratic drag    -d_i v_i |v_i|                      (d = drag/m, 1/m)
     inputs            Σ_q G_iq u_q(t)                     (a force per mass, or the other
                       cart's measured motion through the coupling spring: G = k2/m, 1/s²)
@@ -38,9 +39,12 @@ from ident.physics.kernel import simulate_rows
 
 FloatArray = NDArray[np.float64]
 
-#: Largest sub-step (s) and largest h·wn the nonlinear scheme is allowed.
+#: Largest sub-step (s), largest h·wn the nonlinear scheme is allowed, and largest h·√σ
+#: for pre-sliding (its small-amplitude spring σ is explicit: the mid-step rule is stable
+#: to h√σ < 2, and its O((h√σ)²) error only touches the sub-millimetre pre-sliding motion).
 MAX_SUBSTEP_S = 1.2e-2
 MAX_H_WN = 0.3
+MAX_H_SQRT_SIGMA = 0.8
 
 
 @dataclass(frozen=True)
@@ -49,7 +53,8 @@ class NonlinearTerms:
 
     `friction_m_s2` F_i ≥ 0 (kinetic); `static_friction_m_s2` Fs_i ≥ F_i (default F_i);
     `presliding_per_s2` σ_i (Dahl stiffness; > 0 turns the cart's friction into Dahl's);
-    `cubic_per_m2` γ (P,) relative cubic stiffness of every spring; `drag_per_m` d_i;
+    `cubic_per_m2` γ (P,) relative cubic stiffness of every spring; `cubic_per_m2_s2` κ_i a
+    cubic restoring term per cart about its rest; `drag_per_m` d_i;
     `input_gain` G (P, carts, m) with the inputs `u` (N, m) given to `simulate_free`.
     """
 
@@ -57,6 +62,7 @@ class NonlinearTerms:
     static_friction_m_s2: FloatArray | None = None
     presliding_per_s2: FloatArray | None = None
     cubic_per_m2: FloatArray | None = None
+    cubic_per_m2_s2: FloatArray | None = None
     drag_per_m: FloatArray | None = None
     input_gain: FloatArray | None = None
 
@@ -97,10 +103,16 @@ def substeps(dt: float, wn_max: float) -> int:
     return max(1, int(np.ceil(dt / h_max - 1e-9)))
 
 
+def _owned(a: FloatArray, shape: tuple[int, ...]) -> FloatArray:
+    """A writable C-contiguous float64 copy broadcast to `shape`: the kernel is compiled for
+    one array type only (a read-only or strided view would compile another, ~10 s)."""
+    return np.array(np.broadcast_to(np.asarray(a, dtype=np.float64), shape), dtype=np.float64, order="C")
+
+
 def _per_cart(value: FloatArray | None, p: int, carts: int, default: float = 0.0) -> FloatArray:
     if value is None:
         return np.full((p, carts), default)
-    return np.ascontiguousarray(np.broadcast_to(np.asarray(value, dtype=np.float64), (p, carts)))
+    return _owned(value, (p, carts))
 
 
 def simulate_free(lin: FloatArray, z0: FloatArray, dt: float, n_samples: int, carts: int,
@@ -116,20 +128,23 @@ def simulate_free(lin: FloatArray, z0: FloatArray, dt: float, n_samples: int, ca
     fs = np.maximum(_per_cart(terms.static_friction_m_s2, p, carts, 0.0), fk)
     sigma = np.maximum(_per_cart(terms.presliding_per_s2, p, carts), 0.0)
     drag = _per_cart(terms.drag_per_m, p, carts)
-    cubic = (np.zeros(p) if terms.cubic_per_m2 is None
-             else np.ascontiguousarray(np.broadcast_to(terms.cubic_per_m2, (p,)), dtype=np.float64))
-    u_arr = np.zeros((n_samples, 0)) if u is None else np.ascontiguousarray(u, dtype=np.float64).reshape(n_samples, -1)
+    kappa = _per_cart(terms.cubic_per_m2_s2, p, carts)
+    cubic = np.zeros(p) if terms.cubic_per_m2 is None else _owned(terms.cubic_per_m2, (p,))
+    u_arr = (np.zeros((n_samples, 0)) if u is None
+             else _owned(np.asarray(u, dtype=np.float64).reshape(n_samples, -1), (n_samples, np.size(u) // n_samples)))
     gin = (np.zeros((p, carts, u_arr.shape[1])) if terms.input_gain is None
-           else np.ascontiguousarray(np.broadcast_to(terms.input_gain, (p, carts, u_arr.shape[1])), dtype=np.float64))
+           else _owned(terms.input_gain, (p, carts, u_arr.shape[1])))
     wn_max = float(np.max(np.abs(np.linalg.eigvals(a))))
-    wn_max = max(wn_max, float(np.sqrt(np.max(sigma))) if sigma.size else 0.0)
     m = substeps(dt, wn_max)
+    if sigma.size and np.max(sigma) > 0:
+        m = max(m, int(np.ceil(dt * np.sqrt(np.max(sigma)) / MAX_H_SQRT_SIGMA - 1e-9)))
     h = dt / m
     phi, gam = _zoh(a, h, carts)
     phih, gamh = _zoh(a, 0.5 * h, carts)
-    kt = np.ascontiguousarray(-a[:, carts:, :carts])
+    kt = _owned(-a[:, carts:, :carts], (p, carts, carts))
     out = np.empty((p, n_samples, carts))
     with np.errstate(all="ignore"):
-        simulate_rows(phi, gam, phih, gamh, kt, np.ascontiguousarray(z0, dtype=np.float64), fk, fs, sigma,
-                      drag, cubic, gin, u_arr, float(dt), m, out)
+        simulate_rows(_owned(phi, phi.shape), _owned(gam, gam.shape), _owned(phih, phih.shape), _owned(gamh, gamh.shape),
+                      kt, _owned(z0, (p, 2 * carts)), fk, fs, sigma,
+                      drag, cubic, kappa, gin, u_arr, float(dt), m, out)
     return out

@@ -9,7 +9,7 @@ State of one parameter set, c carts (n = 2c): deviation from rest e = x - s and 
 (`z = (e, v)`, shape (n,)), and the pre-sliding friction state w (c,). One sub-step of
 length h (see `ident.physics.free` for the derivation):
 
-    a(z, w, t) = G u(t) - d v|v| - cubic(e) - w·[σ > 0]              (c,) m/s²
+    a(z, w, t) = G u(t) - d v|v| - κ e³ - cubic springs(e) - w·[σ > 0]   (c,) m/s²
     z_mid = Φ_{h/2} z + Γ_{h/2} a(z, w, t)
     z⁺    = Φ_h z + Γ_h a(z_mid, w_mid, t + h/2)                      (exact linear part)
     w⁺    = F sgn v + (w - F sgn v) e^{-σ|v|h/F}   (v at mid-step; Dahl, exact for v fixed)
@@ -28,11 +28,11 @@ FloatArray = NDArray[np.float64]
 
 @numba.njit(cache=True)
 def _accel(z: FloatArray, w: FloatArray, inp: FloatArray, c: int, kt: FloatArray, drag: FloatArray,
-           cubic: float, sigma: FloatArray, out: FloatArray) -> None:
+           cubic: float, kappa: FloatArray, sigma: FloatArray, out: FloatArray) -> None:
     """Extra accelerations (beyond the linear chain) at state z into `out` (c,)."""
     for i in range(c):
         v = z[c + i]
-        out[i] = inp[i] - drag[i] * v * abs(v)
+        out[i] = inp[i] - drag[i] * v * abs(v) - kappa[i] * z[i] ** 3
         if sigma[i] > 0.0:
             out[i] -= w[i]
     if cubic != 0.0:
@@ -131,12 +131,12 @@ def _coulomb(z: FloatArray, wz: FloatArray, gam: FloatArray, kt: FloatArray, c: 
 @numba.njit(cache=True)
 def simulate_rows(phi: FloatArray, gam: FloatArray, phih: FloatArray, gamh: FloatArray, kt: FloatArray,
                   z0: FloatArray, fk: FloatArray, fs: FloatArray, sigma: FloatArray, drag: FloatArray,
-                  cubic: FloatArray, gin: FloatArray, u: FloatArray, dt: float, substeps: int,
+                  cubic: FloatArray, kappa: FloatArray, gin: FloatArray, u: FloatArray, dt: float, substeps: int,
                   out: FloatArray) -> None:
     """Deviations e (P, N, c) into `out` for every parameter row.
 
     phi/phih (P, n, n), gam/gamh (P, n, c): zero-order-hold maps over h and h/2; kt (P, c, c)
-    mass-normalised stiffness; z0 (P, n); fk, fs, sigma, drag (P, c); cubic (P,); gin
+    mass-normalised stiffness; z0 (P, n); fk, fs, sigma, drag, kappa (P, c); cubic (P,); gin
     (P, c, m) input gains; u (N, m) inputs at the samples (linear between them); dt the
     sample step (s), split into `substeps`.
     """
@@ -157,7 +157,8 @@ def simulate_rows(phi: FloatArray, gam: FloatArray, phih: FloatArray, gamh: Floa
         sgn = np.zeros(c)
         held = np.zeros(c, dtype=np.bool_)
         has_input = m_in > 0 and np.any(gin[p] != 0.0)
-        smooth = has_input or np.any(drag[p] != 0.0) or cubic[p] != 0.0 or np.any(sigma[p] > 0.0)
+        smooth = (has_input or np.any(drag[p] != 0.0) or cubic[p] != 0.0 or np.any(kappa[p] != 0.0)
+                  or np.any(sigma[p] > 0.0))
         coulomb = np.any((fk[p] > 0.0) & (sigma[p] <= 0.0))
         for i in range(c):
             out[p, 0, i] = z[i]
@@ -172,7 +173,7 @@ def simulate_rows(phi: FloatArray, gam: FloatArray, phih: FloatArray, gamh: Floa
                         inp[i] += gin[p, i, q] * (u[k - 1, q] + (u[k, q] - u[k - 1, q]) * frac0)
                 _matvec_add(phi[p], z, wz, False)
                 if smooth:
-                    _accel(z, w, inp, c, kt[p], drag[p], cubic[p], sigma[p], acc)
+                    _accel(z, w, inp, c, kt[p], drag[p], cubic[p], kappa[p], sigma[p], acc)
                     _matvec_add(phih[p], z, mid, False)
                     _matvec_add(gamh[p], acc, mid, True)
                     _dahl(w, z, c, fk[p], sigma[p], 0.5 * h, w_mid)
@@ -180,7 +181,7 @@ def simulate_rows(phi: FloatArray, gam: FloatArray, phih: FloatArray, gamh: Floa
                         inp[i] = 0.0
                         for q in range(m_in):
                             inp[i] += gin[p, i, q] * (u[k - 1, q] + (u[k, q] - u[k - 1, q]) * (frac0 + 0.5 * step))
-                    _accel(mid, w_mid, inp, c, kt[p], drag[p], cubic[p], sigma[p], acc)
+                    _accel(mid, w_mid, inp, c, kt[p], drag[p], cubic[p], kappa[p], sigma[p], acc)
                     _matvec_add(gam[p], acc, wz, True)
                 if coulomb:
                     _coulomb(z, wz, gam[p], kt[p], c, fk[p], fs[p], sigma[p], inp, h, af, sgn, held)

@@ -45,7 +45,7 @@ def _judge(case: HiddenCase, report: DiagnosisReport) -> str:
         return "" if report.gain_points == 0.0 else f"gain {report.gain_points} on a linear run"
     if not report.gain_points > 0.0:
         return f"gain {report.gain_points}"
-    chosen = next(c for c in report.candidates if c.effect == case.effect)
+    chosen = next(e for e in report.effects if e.effect == case.effect)
     for name, truth in case.truth.items():
         got = chosen.parameters.get(name)
         if got is None or abs(got - truth) > REL_TOL * abs(truth):

@@ -6,10 +6,11 @@ import numpy as np
 import pytest
 
 from ident.diagnose.lattice import find_lattice
-from ident.diagnose.select import fit_percent, thresholds
+from ident.diagnose.select import threshold
 from ident.errors import IdentValueError
 from ident.physics.chain import linear_free_response
 from ident.physics.free import NonlinearTerms, simulate_free
+from ident.physics.measures import fit_percent
 from schemas.diagnosis import DiagnosisReport
 
 
@@ -58,9 +59,8 @@ def test_fit_percent_and_noise_bounds() -> None:
     y = np.column_stack([np.sin(np.linspace(0, 10, 100))])
     assert fit_percent(y, y) == [100.0]
     assert fit_percent(y, np.full_like(y, y.mean())) == [pytest.approx(0.0)]
-    train, val = thresholds(1, False, 500)
-    assert train == pytest.approx(15.137, abs=1e-3) and val == pytest.approx(10.828, abs=1e-3)
-    assert thresholds(4, True, 500)[0] > thresholds(4, False, 500)[0]
+    assert threshold(1, False, 500) == pytest.approx(10.828, abs=1e-3)   # χ²_1(0.999)
+    assert threshold(4, True, 500) == pytest.approx(18.467 + 2 * np.log(250), abs=1e-3)
 
 
 def test_bad_input_is_named() -> None:
@@ -81,4 +81,6 @@ def test_the_record_round_trips_and_has_a_schema() -> None:
                 "validation", "explanation"):
         assert key in schema["properties"]
     assert set(schema["$defs"]["Candidate"]["properties"]["effect"]["enum"]) == {
-        "coulomb_friction", "quadratic_drag", "cubic_stiffness", "quantization", "coupled_mode", "none"}
+        "coulomb_friction", "quadratic_drag", "cubic_stiffness", "quantization", "coupled_mode", "presliding",
+        "held_cart_motion", "none"}
+    assert "effects" in schema["properties"] and DiagnosisReport.SCHEMA_VERSION == 2
