@@ -5,6 +5,13 @@ file killed mid-write yields every complete chunk (`complete` is then False).
 
 Time base of exports: `time_s = (t_ns - t_ns[0]) / 1e9`, the device clock (unwrapped) in
 seconds from the run's first sample; `release_time_s` is on that same base.
+
+Every export carries the run's metadata (`export_metadata`: release time, pulled cart, lab
+case, run id, bench, calibration, UTC of the first sample, the full `RunMetadata` as JSON):
+the CSV as `# key: value` comment lines before its column header (pandas `comment="#"`,
+MATLAB `readtable(..., "CommentStyle", "#")`, `ident.load` read it; `ident.load` also takes
+the release time and pulled cart from it), the MAT file as a struct `metadata`, the JSON
+export under `metadata`.
 """
 
 from __future__ import annotations
@@ -87,9 +94,39 @@ def run_info(run: RunData, path: Path) -> dict[str, Any]:
     }
 
 
+#: Scalar fields of `RunMetadata` copied into every export (the rest is in `metadata_json`).
+_EXPORTED_FIELDS = ("run_id", "bench", "pulled_cart", "lab_case", "dialect", "port", "counts_per_m",
+                    "n_channels", "rate_hz", "device_model", "firmware", "detector_method",
+                    "pre_trigger_s", "software_version", "started_utc", "ended_utc")
+
+
+def export_metadata(run: RunData) -> dict[str, str | float | int | None]:
+    """Flat metadata of an export: `release_time_s` (on `time_s`), the scalar run fields,
+    `first_sample_utc` (ISO 8601, from the stream's UTC offset) and `metadata_json`."""
+    meta = run.metadata
+    out: dict[str, str | float | int | None] = {
+        "format": "cartlab run export", "time_base": "time_s = seconds from the run's first sample "
+        "(device clock)", "release_time_s": run.release_time_s, "n_samples": int(run.t_ns.size)}
+    if meta is None:
+        return out
+    dumped = meta.model_dump(mode="json")
+    out.update({name: dumped.get(name) for name in _EXPORTED_FIELDS})
+    if meta.utc_offset_ns is not None and run.t_ns.size:
+        from datetime import UTC, datetime
+
+        first_ns = int(run.t_ns[0]) + meta.utc_offset_ns
+        stamp = datetime.fromtimestamp(first_ns // 1_000_000_000, UTC).replace(
+            microsecond=(first_ns % 1_000_000_000) // 1000)
+        out["first_sample_utc"] = stamp.isoformat(timespec="microseconds")
+    out["metadata_json"] = meta.model_dump_json()
+    return out
+
+
 def export_csv(run: RunData) -> str:
-    """`time_s,pos1_m[,pos2_m]` with full float precision."""
+    """`# key: value` metadata lines, then `time_s,pos1_m[,pos2_m]` with full float precision."""
     out = io.StringIO()
+    for key, value in export_metadata(run).items():
+        out.write(f"# {key}: {'' if value is None else value}\n")
     writer = csv.writer(out, lineterminator="\n")
     writer.writerow(["time_s", "pos1_m", "pos2_m"][: 1 + run.n_channels])
     for t, row in zip(run.time_s.tolist(), run.pos_m.tolist()):
@@ -107,14 +144,20 @@ def export_json(run: RunData, path: Path) -> str:
 
 
 def export_mat(run: RunData, out_path: Path) -> None:
-    """MATLAB file with `time_s`, `pos1_m`[, `pos2_m`], `release_time_s` (NaN if unknown)."""
+    """MATLAB file with `time_s`, `pos1_m`[, `pos2_m`], `release_time_s` (NaN if unknown) and a
+    struct `metadata` (`export_metadata`; unknown numbers NaN, unknown text empty)."""
     from scipy.io import savemat  # lazy: scipy costs seconds to import
 
     release = run.release_time_s
+    numeric = {"release_time_s", "pulled_cart", "counts_per_m", "n_channels", "rate_hz", "pre_trigger_s",
+               "n_samples"}
+    struct = {key: (float("nan") if key in numeric else "") if value is None else value
+              for key, value in export_metadata(run).items()}
     data: dict[str, Any] = {
         "time_s": run.time_s[:, None],
         "pos1_m": run.pos_m[:, :1],
         "release_time_s": float("nan") if release is None else release,
+        "metadata": struct,
     }
     if run.n_channels == 2:
         data["pos2_m"] = run.pos_m[:, 1:2]

@@ -17,7 +17,7 @@ is estimated from the data (`ident.release`), which the fitters refine anyway.
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -37,10 +37,12 @@ _NUMBER = re.compile(r"^[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?$")
 
 @dataclass(frozen=True)
 class Table:
-    """A parsed text export: column names and float rows (N, n_columns)."""
+    """A parsed text export: column names, float rows (N, n_columns), and the `# key: value`
+    comment lines (`daq export` writes the run's metadata there)."""
 
     names: list[str]
     values: FloatArray
+    comments: dict[str, str] = field(default_factory=dict)
 
 
 def read_table(text: str) -> Table:
@@ -55,9 +57,15 @@ def read_table(text: str) -> Table:
     dialect = sniff(lines)
     names: list[str] = []
     rows: list[list[float]] = []
+    comments: dict[str, str] = {}
     for number, raw in enumerate(lines, start=1):
         line = clean(raw)
-        if not line or line.startswith("#"):
+        if line.startswith("#"):
+            key, colon, value = line[1:].partition(":")
+            if colon and key.strip().isidentifier():
+                comments.setdefault(key.strip(), value.strip())
+            continue
+        if not line:
             continue
         fields = [dialect.number(f) for f in dialect.split(line)]
         if fields and all(_NUMBER.match(f) for f in fields):
@@ -76,7 +84,7 @@ def read_table(text: str) -> Table:
                             f"(read as {dialect.describe()})")
     if len(names) != width:  # no header line, or one we could not split: number the columns
         names = [f"col{i}" for i in range(width)]
-    return Table(names, np.asarray(rows, dtype=np.float64))
+    return Table(names, np.asarray(rows, dtype=np.float64), comments)
 
 
 def _split_header(line: str) -> list[str]:
@@ -146,6 +154,7 @@ def load_text(path: str | Path, time_col: str | None = None, pos_cols: list[str]
     except OSError as exc:
         raise DataFileError(f"cannot read {file}: {exc}") from exc
     table = read_table(text)
+    release_time_s, pulled_cart = _from_comments(table.comments, release_time_s, pulled_cart)
     y_indices = (_default_position_columns(table.names) if pos_cols is None
                  else [_find_column(table.names, c) for c in pos_cols])
     if rate_hz is not None and time_col is None:
@@ -168,6 +177,20 @@ def load_text(path: str | Path, time_col: str | None = None, pos_cols: list[str]
     if raw:
         return IdData(t, np.zeros(t.shape), y, release_time_s, pulled_cart, file.name, (), columns)
     return replace(from_release(t, y, release_time_s, step_m, pulled_cart, file.name), columns=columns)
+
+
+def _from_comments(comments: dict[str, str], release_time_s: float | None, pulled_cart: int | None
+                   ) -> tuple[float | None, int | None]:
+    """The release time and pulled cart a `daq export` CSV states in its comments, unless given."""
+    if release_time_s is None:
+        try:
+            stated = float(comments.get("release_time_s", ""))
+        except ValueError:
+            stated = float("nan")
+        release_time_s = stated if np.isfinite(stated) else None
+    if pulled_cart is None and comments.get("pulled_cart") in ("1", "2"):
+        pulled_cart = int(comments["pulled_cart"])
+    return release_time_s, pulled_cart
 
 
 #: Largest |position| a lab track allows (m): anything beyond is a wrong scale or a broken file.

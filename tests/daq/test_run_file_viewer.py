@@ -123,3 +123,46 @@ def test_an_independent_reader_sees_every_sample_on_the_utc_axis(
             [topics.METADATA_RUN_STARTED, topics.METADATA_RUN, topics.METADATA_FINISHED])
         statistics = indexed["statistics"]
         assert int(statistics["messageStartTime"]) == int(log_times[0])
+
+
+def test_csv_export_states_the_release_and_metadata_and_ident_reads_them(
+        recorded: tuple[list[Path], Path, int, int], tmp_path: Path) -> None:
+    import ident
+    from daq.cli import main
+
+    path = recorded[0][0]
+    run = load_run(path)
+    assert run.metadata is not None and run.release_time_s is not None
+    out = tmp_path / "run.csv"
+    assert main(["export", str(path), "--format", "csv", "-o", str(out)]) == 0
+    comments = dict(line[2:].split(": ", 1) for line in out.read_text().splitlines()
+                    if line.startswith("# ") and ": " in line)
+    assert float(comments["release_time_s"]) == run.release_time_s
+    assert comments["run_id"] == run.metadata.run_id and comments["pulled_cart"] == "1"
+    assert comments["lab_case"] == run.metadata.lab_case
+    assert json.loads(comments["metadata_json"])["utc_offset_ns"] == run.metadata.utc_offset_ns
+    first_utc = np.datetime64(comments["first_sample_utc"].removesuffix("+00:00"), "ns").astype(np.int64)
+    assert abs(int(first_utc) - (int(run.t_ns[0]) + run.metadata.utc_offset_ns)) < 1000
+    data = ident.load(out)   # the comments are skipped as data and read as the run's facts
+    assert data.release_time_s == run.release_time_s and data.pulled_cart == 1
+    assert np.array_equal(data.y, run.pos_m)
+
+
+def test_mat_export_carries_a_metadata_struct(recorded: tuple[list[Path], Path, int, int],
+                                              tmp_path: Path) -> None:
+    from scipy.io import loadmat
+
+    from daq.cli import main
+
+    path = recorded[0][1]
+    run = load_run(path)
+    assert run.metadata is not None
+    out = tmp_path / "run.mat"
+    assert main(["export", str(path), "--format", "mat", "-o", str(out)]) == 0
+    mat = loadmat(str(out), squeeze_me=True, struct_as_record=False)
+    meta = mat["metadata"]
+    assert meta.run_id == run.metadata.run_id and meta.bench == "b1"
+    assert meta.release_time_s == run.release_time_s == mat["release_time_s"]
+    assert meta.pulled_cart == run.metadata.pulled_cart and meta.lab_case == run.metadata.lab_case
+    assert json.loads(meta.metadata_json)["first_t_ns"] == run.metadata.first_t_ns
+    assert np.isnan(meta.rate_hz) or meta.rate_hz > 0
