@@ -116,7 +116,8 @@ class DaqBus:
             pub = ext.declare_advanced_publisher(
                 self.session, key, encoding=JSON, congestion_control=zenoh.CongestionControl.BLOCK,
                 reliability=zenoh.Reliability.RELIABLE, cache=ext.CacheConfig(max_samples=1),
-                publisher_detection=True, sample_miss_detection=ext.MissDetectionConfig(heartbeat=None, sporadic_heartbeat=1.0))
+                publisher_detection=True,
+                sample_miss_detection=ext.MissDetectionConfig(heartbeat=None, sporadic_heartbeat=1.0))
         self._finished_pubs[key] = pub
         pub.put(record.to_json_bytes())
         while len(self._finished_pubs) > FINISHED_PUBLISHERS:

@@ -41,8 +41,8 @@ class Calibration:
         """The same calibration for `n_channels` (1 or 2) channels."""
         if n_channels not in (1, 2):
             raise DaqValueError("n_channels", "1 or 2", n_channels)
-        signs = (self.signs + (1, 1))[:n_channels]
-        offsets = (self.zero_offsets_raw + (0.0, 0.0))[:n_channels]
+        signs = ((*self.signs, 1, 1))[:n_channels]
+        offsets = ((*self.zero_offsets_raw, 0.0, 0.0))[:n_channels]
         return replace(self, signs=signs, zero_offsets_raw=offsets)
 
     def with_counts_per_m(self, counts_per_m: float) -> Calibration:

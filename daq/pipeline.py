@@ -242,7 +242,7 @@ class Acquisition:
             self.n_channels = min(2, len(raw))
             self.calibration = self.calibration.with_channels(self.n_channels)
         if len(raw) != self.n_channels:
-            raw = (tuple(raw) + (0.0, 0.0))[: self.n_channels]
+            raw = ((*tuple(raw), 0.0, 0.0))[: self.n_channels]
         t_ns = step.t_ns
         if self.utc_offset_ns is None:
             self.utc_offset_ns = _utc_ns(self._wall_clock()) - t_ns

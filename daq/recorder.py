@@ -93,7 +93,7 @@ class RunWriter:
         self.last_t_ns: int | None = None
         try:
             self.runs_dir.mkdir(parents=True, exist_ok=True)
-            self._file: BinaryIO = open(self.path, "xb")
+            self._file: BinaryIO = open(self.path, "xb")  # noqa: SIM115 - the writer's file, closed when it ends
         except OSError as exc:
             raise DaqIOError(f"cannot create run file {self.path}: {exc}") from exc
         self._writer = Writer(self._file, chunk_size=CHUNK_SIZE, compression=CompressionType.ZSTD)

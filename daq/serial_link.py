@@ -19,6 +19,7 @@ port and reports `DISCONNECTED`; later calls wait `backoff_s` (doubling up to
 
 from __future__ import annotations
 
+import contextlib
 import enum
 import time
 from collections.abc import Callable
@@ -157,7 +158,5 @@ class SerialLink:
     def _close_port(self) -> None:
         port, self._port = self._port, None
         if port is not None:
-            try:
+            with contextlib.suppress(serial.SerialException, OSError):
                 port.close()
-            except (serial.SerialException, OSError):
-                pass

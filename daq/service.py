@@ -32,8 +32,7 @@ from daq.recorder import RunWriter, final_path, finished_of, part_path, recover_
 from daq.serial_link import LinkEvent, SerialLink
 from schemas import SchemaError, keys, topics
 from schemas.bus import BusConfig
-from schemas.daq import (DaqStatus, DetectorStateMsg, RunFinished, RunList, RunMetadata, SampleBatch,
-                         ZeroReply)
+from schemas.daq import DaqStatus, DetectorStateMsg, RunFinished, RunList, RunMetadata, SampleBatch, ZeroReply
 
 log = logging.getLogger(__name__)
 SNAPSHOT_EVERY_S = 0.2

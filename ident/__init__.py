@@ -53,7 +53,7 @@ _EXPORTS: dict[str, str] = {
 # import system binds a submodule to the package attribute when the submodule is first loaded,
 # so load the submodule first and bind the function after it: the attribute stays the function.
 importlib.import_module("ident.d2c")
-from ident.lti import d2c as d2c  # the function, bound after the submodule (see above)
+from ident.lti import d2c as d2c  # noqa: E402 - the function, bound after the submodule (see above)
 
 
 def __getattr__(name: str) -> Any:

@@ -24,7 +24,7 @@ from dataclasses import replace
 import numpy as np
 from numpy.typing import NDArray
 from scipy.linalg import expm
-from scipy.optimize import least_squares
+from scipy.optimize import OptimizeResult, least_squares
 from scipy.signal import lfilter
 
 from ident import modal
@@ -48,7 +48,8 @@ class _Layout:
             rows, rhs = modal.constraint_rows(model.sigma, model.omega, model.relative_degree[j], None)
             self.null_sizes.append(modal.constrained_parametrisation(rows, rhs, 1 + self.n)[1].shape[1])
 
-    def split(self, p: FloatArray) -> tuple[float | None, FloatArray, FloatArray, list[FloatArray], FloatArray, FloatArray]:
+    def split(self, p: FloatArray
+              ) -> tuple[float | None, FloatArray, FloatArray, list[FloatArray], FloatArray, FloatArray]:
         i = 0
         release = None
         if self.free_release:
@@ -147,12 +148,12 @@ def refine(model: Model, data: IdData, max_nfev: int = 100) -> Model:
     return _with_statistics(refined, data, result, layout)
 
 
-def _with_statistics(model: Model, data: IdData, result: object, layout: _Layout) -> Model:
+def _with_statistics(model: Model, data: IdData, result: OptimizeResult, layout: _Layout) -> Model:
     from ident.compare import fit_percent
     from ident.model import ModeEstimate
 
-    jac = np.asarray(getattr(result, "jac"))
-    res = np.asarray(getattr(result, "fun"))
+    jac = np.asarray(result.jac)
+    res = np.asarray(result.fun)
     s2 = float(res @ res) / max(1, res.size - jac.shape[1])
     cov_all = s2 * np.linalg.pinv(jac.T @ jac)
     first = 1 if layout.free_release else 0

@@ -47,7 +47,7 @@ CANDIDATE_ORDERS = (2, 4, 6)
 
 
 def pem(data: IdData, order: int | None = None, *, relative_degree: int | Sequence[int] = 2,
-        dc_gain: float | None | Sequence[float | None] = None, fit_release: bool = True,
+        dc_gain: float | Sequence[float | None] | None = None, fit_release: bool = True,
         fit_offset: bool = True, noise_model: Literal["oe", "innovation"] = "oe") -> Model:
     """Identify a linear model of even `order` (2: one cart, 4: two carts; None: BIC choice).
 

@@ -31,8 +31,8 @@ class BusConfig(Record):
     """Zenoh session settings: mode, endpoints, or a config file that overrides them all."""
 
     mode: BusMode = "peer"
-    listen: list[str] = [DEFAULT_LISTEN]
-    connect: list[str] = []
+    listen: list[str] = [DEFAULT_LISTEN]  # noqa: RUF012 - pydantic copies defaults per instance
+    connect: list[str] = []  # noqa: RUF012 - pydantic copies defaults per instance
     config_file: str | None = None
     shared_memory: bool = False
 

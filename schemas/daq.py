@@ -107,11 +107,12 @@ class RunMetadata(Record):
     """Everything needed to interpret a run file, written as an MCAP metadata record.
 
     Written when the run file is opened (`cartlab.run_started`: counters so far, `ended_utc`
-    None) and when it is finished (`cartlab.run`); readers prefer the latter. `release_time_s` is on the exported time base
-    (seconds from the run's first sample, `first_t_ns`); `release_t_ns` is the same instant
-    on the device clock. `zero_offsets_raw` are the raw values subtracted by zeroing and
-    `signs` the per-channel sign applied after: `pos_m = sign * (raw - offset) / counts_per_m`
-    (csv: `counts_per_m` is 1 and raw is already metres). `utc_offset_ns` ties the device
+    None) and when it is finished (`cartlab.run`); readers prefer the latter.
+    `release_time_s` is on the exported time base (seconds from the run's first sample,
+    `first_t_ns`); `release_t_ns` is the same instant on the device clock.
+    `zero_offsets_raw` are the raw values subtracted by zeroing and `signs` the per-channel
+    sign applied after: `pos_m = sign * (raw - offset) / counts_per_m` (csv: `counts_per_m`
+    is 1 and raw is already metres). `utc_offset_ns` ties the device
     clock to UTC, `utc_ns = t_ns + utc_offset_ns`, fixed at the start of the stream from the
     host clock (None in files written before it existed).
     """

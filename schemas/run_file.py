@@ -32,22 +32,36 @@ from __future__ import annotations
 import io
 import os
 import struct
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
-from collections.abc import Callable
 from typing import BinaryIO, Final, TypeVar
 
 import numpy as np
 import numpy.typing as npt
 import zstandard
-from mcap.exceptions import EndOfFile, McapError
 from mcap.data_stream import ReadDataStream
+from mcap.exceptions import EndOfFile, McapError
 from mcap.opcode import Opcode
 from mcap.reader import SeekingReader
-from mcap.records import (Attachment, AttachmentIndex, Channel, Chunk, ChunkIndex, DataEnd, Footer,
-                          Header, McapRecord, Message, MessageIndex, Metadata, MetadataIndex, Schema,
-                          Statistics, SummaryOffset)
+from mcap.records import (
+    Attachment,
+    AttachmentIndex,
+    Channel,
+    Chunk,
+    ChunkIndex,
+    DataEnd,
+    Footer,
+    Header,
+    McapRecord,
+    Message,
+    MessageIndex,
+    Metadata,
+    MetadataIndex,
+    Schema,
+    Statistics,
+    SummaryOffset,
+)
 
 from schemas import topics
 from schemas.daq import DetectorStateMsg, RunFinished, RunMetadata, SampleBatch

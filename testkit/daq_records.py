@@ -8,7 +8,8 @@ from daq.recorder import utc_now_iso
 from schemas.daq import RunMetadata, SampleBatch
 
 
-def run_metadata(run_id: str = "r1", first_t_ns: int = 1_000_000_000, release_t_ns: int | None = 1_500_000_000) -> RunMetadata:
+def run_metadata(run_id: str = "r1", first_t_ns: int = 1_000_000_000,
+                 release_t_ns: int | None = 1_500_000_000) -> RunMetadata:
     """Metadata of a two-channel run `run_id` of bench `b1` (20000 counts/m, zero offsets 10 and 20)."""
     return RunMetadata(bench="b1", run_id=run_id, dialect="cartlab", port="sim://", counts_per_m=20000.0,
                        signs=[1, -1], zero_offsets_raw=[10.0, 20.0], n_channels=2,

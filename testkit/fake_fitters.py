@@ -11,8 +11,8 @@ import os
 import time
 from pathlib import Path
 
-from schemas.fit import FitReport
 from ident.worker.service import FitJob
+from schemas.fit import FitReport
 
 GATE_WAIT_S = 30.0
 

@@ -79,9 +79,7 @@ def kill9_trial(workdir: Path, seed: int, kill_after_s: float) -> Kill9Result:
     try:
         sub = session.declare_subscriber(keys.samples(bench), on_sample)
         wait_until(lambda: latest[0] > 0, 60, "live samples from the daq", proc)
-        parts = lambda: sorted(runs.glob("*.mcap.part"))  # noqa: E731
-        wait_until(lambda: bool(parts()), 60, "a run file to be opened", proc)
-        part = parts()[0]
+        part = wait_until(lambda: sorted(runs.glob("*.mcap.part")), 60, "a run file to be opened", proc)[0]
         deadline = time.monotonic() + kill_after_s
         wait_until(lambda: time.monotonic() >= deadline, kill_after_s + 5, "the kill moment", proc)
         proc.send_signal(signal.SIGKILL)

@@ -12,7 +12,7 @@ import subprocess
 import threading
 import time
 from collections.abc import Callable, Iterable
-from typing import Any, Protocol, TypeVar
+from typing import Any, Protocol, TypeVar, overload
 
 T = TypeVar("T")
 
@@ -44,6 +44,18 @@ def _as_list(watch: Watchable | Iterable[Watchable]) -> list[Watchable]:
     if isinstance(watch, subprocess.Popen) or not isinstance(watch, Iterable):
         return [watch]
     return list(watch)
+
+
+@overload
+def wait_until(condition: threading.Event, timeout_s: float, what: str,
+               watch: Watchable | Iterable[Watchable] = (), *,
+               progress: Callable[[], None] | None = None, poll_s: float = 0.02) -> bool: ...
+
+
+@overload
+def wait_until(condition: Callable[[], T], timeout_s: float, what: str,
+               watch: Watchable | Iterable[Watchable] = (), *,
+               progress: Callable[[], None] | None = None, poll_s: float = 0.02) -> T: ...
 
 
 def wait_until(condition: Callable[[], T] | threading.Event, timeout_s: float, what: str,

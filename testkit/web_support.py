@@ -24,8 +24,16 @@ from daq.web.server import ThreadedPageServer
 from daq.web.service import WebSettings
 from schemas import keys
 from schemas.bus import BusConfig
-from schemas.daq import (DaqCounters, DaqStatus, DetectorState, DetectorStateMsg, RunFinished,
-                         RunList, SampleBatch, ZeroReply)
+from schemas.daq import (
+    DaqCounters,
+    DaqStatus,
+    DetectorState,
+    DetectorStateMsg,
+    RunFinished,
+    RunList,
+    SampleBatch,
+    ZeroReply,
+)
 from schemas.fit import FitReport
 
 COUNTS_PER_M = 20000.0

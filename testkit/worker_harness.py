@@ -18,14 +18,13 @@ from typing import Any
 import zenoh
 import zenoh.ext
 
+from ident.worker.schedule import RunRef
 from schemas import keys
 from schemas.bus import BusConfig
 from schemas.daq import RunFinished
 from schemas.fit import FitReport
-from ident.worker.schedule import RunRef
 from testkit.repo import REPO
 from testkit.waiting import wait_until
-
 
 
 def open_session(bus: BusConfig) -> zenoh.Session:

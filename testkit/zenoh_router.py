@@ -13,7 +13,8 @@ connections and runs until SIGINT or SIGTERM. Every `daq` and `ident worker` the
 client: `--mode client --connect tcp/<router>:7447` or `--zenoh-config <client>.json5`
 (`tools/zenoh/*-client.json5`).
 
-The script `tools/zenoh_router.py` runs `main`. From Python (tests, tools): `with open_router(router_config(...)) as session: ...`;
+The script `tools/zenoh_router.py` runs `main`. From Python (tests, tools):
+`with open_router(router_config(...)) as session: ...`;
 `client_config(...)` builds a client config from a file with the endpoint and the
 credentials replaced. Multicast and gossip scouting are always turned off here.
 """

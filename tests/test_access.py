@@ -1,6 +1,7 @@
 """Access: who may join the bus and who may publish what (issue 6, part 5).
 
-A real Zenoh router (`testkit.zenoh_router`, as `tools/zenoh_router.py` runs it, router mode in this process) on an ephemeral
+A real Zenoh router (`testkit.zenoh_router`, as `tools/zenoh_router.py` runs it, router mode in
+this process) on an ephemeral
 loopback port runs the shipped `tools/zenoh/router-secure.json5` with a credentials file
 written here; clients use the shipped `tools/zenoh/*-client.json5` with the endpoint and
 password replaced. Denials are checked with an ordering argument, never a sleep: a client's
@@ -11,6 +12,7 @@ there had the router forwarded it.
 
 from __future__ import annotations
 
+import contextlib
 import ipaddress
 import json
 import queue
@@ -328,10 +330,8 @@ def test_the_allowed_flows_of_a_bench_work_through_the_secure_router(router: Rou
         deadline = time.monotonic() + WAIT_S
         while not live.seen and time.monotonic() < deadline:
             bus.publish_samples(b"{}")
-            try:
+            with contextlib.suppress(queue.Empty):
                 live.seen.append(live.queue.get(timeout=0.1))
-            except queue.Empty:
-                pass
         assert live.seen and live.seen[0][0] == keys.samples("bench1")
         # ident (real `WorkerBus`): its cached fit publisher, received by a late subscriber,
         # and its liveliness token.
@@ -358,10 +358,8 @@ def test_the_allowed_flows_of_a_bench_work_through_the_secure_router(router: Rou
             kinds: list[str] = []
             deadline = time.monotonic() + WAIT_S
             while "finished" not in kinds and time.monotonic() < deadline:
-                try:
+                with contextlib.suppress(queue.Empty):
                     kinds.append(events.get(timeout=0.1).kind)
-                except queue.Empty:
-                    pass
             assert "finished" in kinds
     finally:
         bus.close()

@@ -22,7 +22,8 @@ ROOT = Path(__file__).resolve().parents[1]
 OURS = {"daq", "ident", "schemas", "testkit", "tests", "tools"}
 #: Shipped packages (must declare their imports as runtime dependencies).
 RUNTIME_DIRS = ("daq", "ident", "schemas")
-#: Development-only code (may also use the `test` extra); testkit is installed but only for tests and tools.
+#: Development-only code (may also use the `test` extra); testkit is installed with the
+#: project but only tests and tools import it.
 DEV_DIRS = ("tests", "tools", "testkit")
 
 

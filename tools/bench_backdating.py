@@ -54,7 +54,8 @@ def main() -> int:
     args = parser.parse_args()
     for rate in (int(r) for r in args.rates.split(",")):
         for label, extra in (("tremor 50 um", ""), ("no tremor", "&tremor_m=0")):
-            errors = np.array([e for seed in range(args.seeds) for e in release_errors(rate, 13 * seed + rate + 1, extra)])
+            errors = np.array([e for seed in range(args.seeds)
+                               for e in release_errors(rate, 13 * seed + rate + 1, extra)])
             missed = int(np.isnan(errors).sum())
             ok = errors[~np.isnan(errors)]
             print(f"{rate:5d} Hz, {label:12s}: {ok.size} releases, {missed} missed; error in sample periods: "

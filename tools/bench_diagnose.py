@@ -212,7 +212,8 @@ def run_realdata() -> list[dict[str, Any]]:
                     scale=1.0 / ECP_COUNTS_PER_M, raw=True)
         for rel in find_releases(data.t, data.y, data.cart_numbers()):
             if not rel.complete:
-                print(f"  {path.name} release {rel.number} at {rel.release_time_s:.2f} s: cut by the record end, skipped")
+                print(f"  {path.name} release {rel.number} at {rel.release_time_s:.2f} s: "
+                      "cut by the record end, skipped")
                 continue
             keep = (data.t >= rel.release_time_s - 0.25) & (data.t <= rel.end_time_s)
             part = make_uniform(IdData(data.t[keep], np.zeros(int(keep.sum())), data.y[keep]), "linear")

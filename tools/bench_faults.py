@@ -38,6 +38,7 @@ import numpy as np
 
 from testkit import faultkit
 from testkit import serialfaults as sf
+
 SIM_1KHZ = ("sim://?realtime=0&rate_hz=1000&cases=both&seed=11&rest_s=1&pull_s=0.8&hold_s=1.2&c1=2&c2=2"
             "&tail_s=0.5")
 SOAK_SIM = ("sim://?realtime=0&rate_hz=1000&carts=2&cases=cart1,idle,cart2,idle,both,idle&idle_s=20"
@@ -130,7 +131,7 @@ def _try_load(path: Path, tally: Counter[str]) -> None:
 def bad_inputs(work: Path) -> dict[str, Any]:
     rng = random.Random(1)
     files: Counter[str] = Counter()
-    runs, _ = sf.run_service(SIM_1KHZ.replace("rate_hz=1000", "rate_hz=100"), work / "bad")
+    _runs, _ = sf.run_service(SIM_1KHZ.replace("rate_hz=1000", "rate_hz=100"), work / "bad")
     run_file = sorted((work / "bad").glob("*.mcap"))[0]
     data = run_file.read_bytes()
     target = work / "bad" / "x.mcap"
@@ -165,7 +166,8 @@ def bad_inputs(work: Path) -> dict[str, Any]:
         _try_load(path, files)
     messages = _bad_messages(rng)
     print(f"  bad files tried {sum(files.values())}: " + ", ".join(f"{k} {v}" for k, v in sorted(files.items())))
-    print(f"  bad messages tried {sum(messages.values())}: " + ", ".join(f"{k} {v}" for k, v in sorted(messages.items())))
+    tried = ", ".join(f"{k} {v}" for k, v in sorted(messages.items()))
+    print(f"  bad messages tried {sum(messages.values())}: {tried}")
     return {"files": dict(files), "messages": dict(messages)}
 
 

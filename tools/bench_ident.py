@@ -28,7 +28,7 @@ import os
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
-import argparse  # noqa: E402
+import argparse
 import statistics
 import sys
 import time
@@ -153,7 +153,8 @@ def accuracy_table(repeats: int) -> None:
                 zeta_err = 100 * np.max(np.abs(est.zeta / zeta_true - 1))
                 print(f"{case.name:<18} {'known' if known else 'unknown':<8} {method:<6} "
                       f"{'/'.join(f'{f:.2f}' for f in est.fit):>14} {'/'.join(f'{f:.2f}' for f in floor):>14} "
-                      f"{wn_err:>9.4f} {zeta_err:>10.3f} {1e3 * (est.release - case.t_r):>10.3f} {1e3 * wall:>8.1f} {1e3 * cpu:>7.1f}")
+                      f"{wn_err:>9.4f} {zeta_err:>10.3f} {1e3 * (est.release - case.t_r):>10.3f} "
+                      f"{1e3 * wall:>8.1f} {1e3 * cpu:>7.1f}")
     print(f"median wall time per fit: {1e3 * statistics.median(walls):.1f} ms "
           f"(max {1e3 * max(walls):.1f} ms), median CPU time {1e3 * statistics.median(cpus):.1f} ms, "
           f"over {len(walls)} fits; load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")

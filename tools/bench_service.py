@@ -50,7 +50,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             url = sim_url(["both"], friction_n=0.0, rate_hz=args.rate_hz, seed=100 + i,
                           c1=args.damping, c2=args.damping)
             daq = bench.start_daq(f"daq-{i}", url, "bench", runs)
-            wait_until(lambda: len(bench.watcher.final_reports()) > i, 120, f"fit of run {i + 1}",
+            wait_until(lambda i=i: len(bench.watcher.final_reports()) > i, 120, f"fit of run {i + 1}",
                        [worker], poll_s=0.02)
             daq.stop()
             key = sorted(bench.watcher.fit_at)[i]

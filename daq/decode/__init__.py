@@ -28,9 +28,21 @@ from daq.errors import DaqValueError
 from daq.frames import DIALECTS, Decoder, Dialect, Frame, InfoFrame
 
 __all__ = [
-    "CartlabDecoder", "CsvDecoder", "EcpDecoder", "make_decoder", "encode_data", "encode_frame",
-    "encode_info", "encode_query_command", "encode_rate_command", "parse_host_command",
-    "xor_checksum", "encode_csv", "encode_csv_header", "encode_ecp", "encode",
+    "CartlabDecoder",
+    "CsvDecoder",
+    "EcpDecoder",
+    "encode",
+    "encode_csv",
+    "encode_csv_header",
+    "encode_data",
+    "encode_ecp",
+    "encode_frame",
+    "encode_info",
+    "encode_query_command",
+    "encode_rate_command",
+    "make_decoder",
+    "parse_host_command",
+    "xor_checksum",
 ]
 
 

@@ -5,7 +5,7 @@
 | `GET /` | the page (`static/index.html`; JS and CSS under `/static/`, no CDN) |
 | `GET /api/events?bench=B` | server-sent events: `snapshot`, then `samples`, `state`, `status`, `run`, `benches` |
 | `GET /api/snapshot?bench=B` | the same snapshot as JSON |
-| `POST /api/bench/B/zero`, `POST /api/bench/B/arm` | call the daq's queryable; `{ok, message, reply}` (header `X-Cartlab-Action: 1`) |
+| `POST /api/bench/B/zero` and `/arm` | the daq's queryable; `{ok, message, reply}` (header `X-Cartlab-Action: 1`) |
 | `GET /api/stats` | counters of the display path (samples in, events sent, pages) |
 | `GET /files/R/mcap?bench=B` | the run's MCAP file (from the runs dir, else the daq's `run` queryable) |
 | `GET /files/R/fit/F` | a file of the run's fit folder (report, figures) |

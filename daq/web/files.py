@@ -16,7 +16,8 @@ from pathlib import Path
 
 from schemas import keys
 from schemas.run_file import FIT_SUFFIX as FIT_DIR_SUFFIX
-from schemas.run_file import REPORT_NAME, run_file_name
+from schemas.run_file import run_file_name
+
 #: File kinds listed as a run's figures and documents.
 LISTED_SUFFIXES = (".png", ".svg", ".pdf", ".json", ".html", ".md", ".csv")
 

@@ -19,7 +19,6 @@ from daq.web.runs_view import fit_summary, run_row
 from schemas.daq import DaqStatus, DetectorStateMsg, RunFinished, RunList, SampleBatch
 from schemas.fit import FitReport
 
-
 NO_DAQ = ("no daq found on Zenoh: start one (`daq run --port ... --bench NAME`) and check that "
           "this server connects to it (--connect ENDPOINT, default tcp/127.0.0.1:7447)")
 

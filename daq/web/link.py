@@ -16,6 +16,7 @@ server calls them from worker threads, never from a Zenoh callback.
 
 from __future__ import annotations
 
+import contextlib
 import queue
 from dataclasses import dataclass
 from typing import Any, Literal
@@ -84,10 +85,9 @@ class WebLink:
 
     def close(self) -> None:
         for handle in reversed(self._handles):
-            try:
+            # closing anyway: whatever undeclare raises, the session close cleans up
+            with contextlib.suppress(Exception):
                 handle.undeclare()
-            except Exception:  # noqa: BLE001 - closing anyway; session close cleans up
-                pass
         self._handles.clear()
         self._followed.clear()
         if self._session is not None:

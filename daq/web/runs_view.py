@@ -16,6 +16,7 @@ from schemas.diagnosis import DiagnosisReport
 from schemas.errors import SchemaError
 from schemas.fit import FitReport
 
+
 def diagnosis_summary(diagnosis: DiagnosisReport | None) -> dict[str, Any] | None:
     """The diagnosed cause, its gain in fit-% points and the baseline and extended fit %."""
     if diagnosis is None:

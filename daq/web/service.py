@@ -16,6 +16,7 @@ loop (it does not wait on the network).
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import logging
 import queue
 from dataclasses import dataclass
@@ -25,7 +26,7 @@ from typing import Any
 import anyio.to_thread
 
 from daq.web.broadcast import Broadcaster
-from daq.web.files import REPORT_NAME, RunFileError, fit_dir, list_fit_files
+from daq.web.files import RunFileError, fit_dir, list_fit_files
 from daq.web.hub import Hub
 from daq.web.link import InboxItem, QueryFailed, WebLink
 from daq.web.live import DEFAULT_DISPLAY_HZ
@@ -33,6 +34,7 @@ from schemas import keys
 from schemas.bus import BusConfig
 from schemas.daq import DetectorStateMsg, RunFinished, SampleBatch
 from schemas.fit import FitReport
+from schemas.run_file import REPORT_NAME
 
 log = logging.getLogger(__name__)
 
@@ -79,10 +81,8 @@ class WebService:
         for task in self._tasks:
             task.cancel()
         for task in self._tasks:
-            try:
+            with contextlib.suppress(asyncio.CancelledError):
                 await task
-            except asyncio.CancelledError:
-                pass
         self.broadcaster.close_all()
         await anyio.to_thread.run_sync(self.link.close)
 

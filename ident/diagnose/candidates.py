@@ -57,7 +57,8 @@ def fit_baseline(prob: Problem, fixed: dict[str, float]) -> FitResult:
         if n_in:
             gain = _input_gain_start(prob, theta0)
             theta0 = np.concatenate([theta0, gain])
-            lower, upper = np.concatenate([lower, np.full(n_in, -np.inf)]), np.concatenate([upper, np.full(n_in, np.inf)])
+            lower = np.concatenate([lower, np.full(n_in, -np.inf)])
+            upper = np.concatenate([upper, np.full(n_in, np.inf)])
             typical = np.concatenate([typical, np.maximum(np.abs(gain), 1e-6)])
         result = fit(spec, theta0, lower, upper, typical, prob.dt, prob.y, prob.train, max_nfev=80,
                      cross_validate=True)
@@ -219,7 +220,7 @@ def search_lattice(prediction: FloatArray, y: FloatArray, amplitude: float) -> F
     reads as `y`: a grid of quanta (below a fifth of the swing) × offsets, blur 0.15."""
     best, best_cost = np.array([1e-3 * amplitude, 0.0, 0.45]), np.inf
     x = prediction[None]
-    for q in LATTICE_GRID[LATTICE_GRID < 0.2 * amplitude]:
+    for q in LATTICE_GRID[0.2 * amplitude > LATTICE_GRID]:
         offsets = q * np.arange(LATTICE_OFFSETS) / LATTICE_OFFSETS
         stairs = smoothed_staircase(np.repeat(x, offsets.size, axis=0), np.full(offsets.size, q), offsets,
                                     np.full(offsets.size, 0.15))

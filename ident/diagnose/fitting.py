@@ -191,7 +191,7 @@ def _jacobians(spec: ModelSpec, full: Callable[[FloatArray], FloatArray], xs: Fl
     with np.errstate(all="ignore"):
         pred = spec.predict(full(rows), dt, n)
     out = []
-    base = np.empty((b_count,) + pred.shape[1:])
+    base = np.empty((b_count, *pred.shape[1:]))
     for b in range(b_count):
         block = pred[b * (p + 1):(b + 1) * (p + 1)].reshape(p + 1, -1)
         out.append(_finite(((block[1:] - block[0]) / hs[b][:, None]).T))

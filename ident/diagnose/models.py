@@ -61,8 +61,8 @@ def effect_names(effect: str, carts: int) -> tuple[str, ...]:
     if effect == "held_cart_motion":
         return ("held_cart_gain_per_s2",)
     if effect == "coupled_mode":
-        return (("mode_hz", "mode_decay_1_s") + tuple(f"mode_cos_m_{j}" for j in range(1, carts + 1))
-                + tuple(f"mode_sin_m_{j}" for j in range(1, carts + 1)))
+        return ("mode_hz", "mode_decay_1_s", *(f"mode_cos_m_{j}" for j in range(1, carts + 1)),
+                *(f"mode_sin_m_{j}" for j in range(1, carts + 1)))
     if effect == "quantization":
         return ("quantum_m", "lattice_offset_m", "quantization_blur")
     return ()

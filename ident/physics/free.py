@@ -144,7 +144,7 @@ def simulate_free(lin: FloatArray, z0: FloatArray, dt: float, n_samples: int, ca
     kt = _owned(-a[:, carts:, :carts], (p, carts, carts))
     out = np.empty((p, n_samples, carts))
     with np.errstate(all="ignore"):
-        simulate_rows(_owned(phi, phi.shape), _owned(gam, gam.shape), _owned(phih, phih.shape), _owned(gamh, gamh.shape),
-                      kt, _owned(z0, (p, 2 * carts)), fk, fs, sigma,
+        simulate_rows(_owned(phi, phi.shape), _owned(gam, gam.shape), _owned(phih, phih.shape),
+                      _owned(gamh, gamh.shape), kt, _owned(z0, (p, 2 * carts)), fk, fs, sigma,
                       drag, cubic, kappa, gin, u_arr, float(dt), m, out)
     return out

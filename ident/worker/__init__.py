@@ -21,8 +21,9 @@ reset), or after the Zenoh lease (10 s) for a hung host.
    `<run_id>.fit/report.json` (written atomically before it is published; a stored report
    is republished, not refitted), or remembered by another alive worker: each answers a
    queryable on `keys.ALL_FITS` with every complete report it has seen and asks it at
-   start, so a run fitted by a worker that is gone stays done while any witness lives. An early report (transfer functions published while the
-   diagnosis runs, `pending` not empty) is not done: it counts as its worker's claim.
+   start, so a run fitted by a worker that is gone stays done while any witness lives. An
+   early report (transfer functions published while the diagnosis runs, `pending` not
+   empty) is not done: it counts as its worker's claim.
 3. Claim, settle, check. Before fitting, the owner publishes a `fitting` claim on the
    run's fit key, handles events for `settle_s` (0.2 s by default; claims cross a LAN in
    milliseconds), then fits only if it is the highest-scoring alive claimant and no final

@@ -19,6 +19,7 @@ that fitted a run is gone still learns that the run is done, from any survivor.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import queue
 from dataclasses import dataclass
@@ -111,10 +112,9 @@ class WorkerBus:
 
     def close(self) -> None:
         for handle in [*self._fit_publishers.values(), *reversed(self._handles)]:
-            try:
+            # closing anyway: whatever undeclare raises, the session close cleans up
+            with contextlib.suppress(Exception):
                 handle.undeclare()
-            except Exception:  # noqa: BLE001 - closing anyway; the session close cleans up
-                pass
         self._fit_publishers.clear()
         self._handles.clear()
         if self._session is not None:

@@ -87,10 +87,10 @@ class Finisher:
                 return
             try:
                 report = job.finish()
-            except Exception as exc:  # noqa: BLE001 - any failure becomes a failed report
+            except Exception as exc:
                 log.exception("second stage of a fit failed")
                 report = job.on_error(f"{type(exc).__name__}: {exc}")
             self._out.put(Completed(job.fit_dir, report))
 
 
-__all__ = ["Completed", "FitOutcome", "Finisher", "Pending"]
+__all__ = ["Completed", "Finisher", "FitOutcome", "Pending"]

@@ -20,16 +20,15 @@ from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from pathlib import Path
 
+from ident.worker.bus import BusEvent, WorkerBus
+from ident.worker.finisher import Completed, Finisher, FitOutcome, Pending
+from ident.worker.runs_dir import find_run_file, fit_dir_for, read_report, scan_runs, write_report
+from ident.worker.schedule import RunRef, Scheduler
 from schemas import keys
 from schemas.bus import BusConfig
 from schemas.daq import RunFinished
 from schemas.errors import SchemaError
 from schemas.fit import FitReport
-from ident.worker.bus import BusEvent, WorkerBus
-from ident.worker.finisher import Completed, Finisher, FitOutcome, Pending
-from ident.worker.runs_dir import (find_run_file, fit_dir_for, read_report, scan_runs,
-                                   write_report)
-from ident.worker.schedule import RunRef, Scheduler
 
 log = logging.getLogger("ident.worker")
 
@@ -249,7 +248,7 @@ class Worker:
                 dest = self.options.runs_dir / finished.bench / Path(finished.file).name
                 run_file = self.bus.fetch_run(finished.bench, finished.run_id, dest)
             outcome = self.fitter(FitJob(finished, run_file, fit_dir, name))
-        except Exception as exc:  # noqa: BLE001 - any failure becomes a failed report
+        except Exception as exc:
             log.exception("%s/%s: fit failed", finished.bench, finished.run_id)
             outcome = failed_report(finished, name, f"{type(exc).__name__}: {exc}")
         if isinstance(outcome, FitReport) and outcome.timings.total_s == 0.0:

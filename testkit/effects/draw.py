@@ -217,8 +217,8 @@ def add_mode(rng: np.random.Generator, spec: Spec, noise: float) -> Spec:
         k_total = w_e * w_e * m_e
         k_c = log_uniform(rng, 0.05, 0.7) * k_total
         c_e = 2 * rng.uniform(0.003, 0.03) * w_e * m_e
-        new = Layout(lay.masses + (m_e,), lay.springs + ((last, e, k_c), (e, None, k_total - k_c)),
-                     lay.dampers + (c_e,), lay.pulled, lay.observed, lay.still)
+        new = Layout((*lay.masses, m_e), (*lay.springs, (last, e, k_c), (e, None, k_total - k_c)),
+                     (*lay.dampers, c_e), lay.pulled, lay.observed, lay.still)
         drawn = Spec(new, spec.release, spec.wn, spec.amplitude, model=spec.model)
         rig = new.rig({})
         amp, hz, decay = mode_amplitudes(rig, release_state(rig, drawn), new.observed)

@@ -135,7 +135,7 @@ def _phase(rig: Rig, phase: Phase, state: FloatArray, t_out: FloatArray, inside:
     for _ in range(MAX_EVENTS):
         events, owners = _events(rig, phase, mode)
         todo = inside & (t_out >= t0)
-        if t0 >= phase.end or np.all((mode == STUCK) | (mode == PRESCRIBED)) and not _moving_hand(rig, phase):
+        if t0 >= phase.end or (np.all((mode == STUCK) | (mode == PRESCRIBED)) and not _moving_hand(rig, phase)):
             _fill(phase, t_out, todo, _constant(z), out, n)
             return _apply(phase, phase.end, z, n)
         sol = solve_ivp(_rhs(rig, phase, mode), (t0, phase.end), z, method="DOP853", rtol=RTOL,

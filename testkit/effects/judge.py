@@ -85,9 +85,6 @@ def judge(case: Case, report: Any) -> Verdict:
     material = tuple(f.effect for f in fits if getattr(f, "material", True))
     errors = parameter_errors(case, report)
     all_found = set(truth.effects) <= set(found)
-    if truth.family == "none":
-        false_positive = report.cause != "none" or bool(material)
-    else:
-        false_positive = False
+    false_positive = truth.family == "none" and (report.cause != "none" or bool(material))
     headline = None if truth.headline is None else report.cause == truth.headline
     return Verdict(truth.family, str(report.cause), found, material, headline, all_found, errors, false_positive)

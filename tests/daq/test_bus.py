@@ -71,7 +71,8 @@ def first_run(live: Live) -> RunFinished:
     try:
         return live.finished.get(timeout=40)
     except queue.Empty:
-        raise AssertionError("no finished record within 40 s: " + (live.runs_dir.parent / "daq.log").read_text())
+        log = (live.runs_dir.parent / "daq.log").read_text()
+        raise AssertionError("no finished record within 40 s: " + log) from None
 
 
 def test_a_subscriber_in_another_process_gets_samples_and_the_finished_record(live: Live,

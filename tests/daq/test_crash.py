@@ -44,9 +44,7 @@ def test_kill_9_loses_at_most_half_a_second_and_restart_recovers(tmp_path: Path)
     session = _connect(endpoint)
     try:
         sub = session.declare_subscriber(keys.samples(BENCH), on_sample)
-        parts = lambda: list(runs.glob("*.mcap.part"))  # noqa: E731
-        wait_until(lambda: bool(parts()), 30, "a run file to be opened")
-        part = parts()[0]
+        part = wait_until(lambda: list(runs.glob("*.mcap.part")), 30, "a run file to be opened")[0]
         start_size = part.stat().st_size
         wait_until(lambda: part.stat().st_size > start_size + 20_000, 30, "the run file to grow")
         # growth is seen right after a flush: let 0.15 s more of samples go out so the kill

@@ -4,8 +4,15 @@ from __future__ import annotations
 
 import pytest
 
-from daq.decode import encode_data, encode_info, encode_query_command, encode_rate_command, make_decoder
-from daq.decode import parse_host_command, xor_checksum
+from daq.decode import (
+    encode_data,
+    encode_info,
+    encode_query_command,
+    encode_rate_command,
+    make_decoder,
+    parse_host_command,
+    xor_checksum,
+)
 from daq.frames import DataFrame, InfoFrame
 
 

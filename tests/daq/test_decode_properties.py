@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import asdict
 
 from hypothesis import given, settings
@@ -30,7 +31,7 @@ def feed_in_pieces(dialect: str, stream: bytes, cuts: list[int]) -> tuple[list[F
     decoder = make_decoder(dialect)
     frames: list[Frame] = []
     bounds = sorted({0, len(stream), *(c % (len(stream) + 1) for c in cuts)})
-    for a, b in zip(bounds, bounds[1:]):
+    for a, b in itertools.pairwise(bounds):
         frames += decoder.feed(stream[a:b])
     return frames, asdict(decoder.counters)
 

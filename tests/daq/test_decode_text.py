@@ -2,11 +2,11 @@
 
 from __future__ import annotations
 
+import pytest
+
 from daq.decode import encode_csv, encode_csv_header, encode_ecp, make_decoder
 from daq.errors import DaqValueError
 from daq.frames import DataFrame
-
-import pytest
 
 
 def test_csv_transcript() -> None:

@@ -5,8 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from daq.detector import (Armed, DetectorSettings, Disarmed, Rejected, Released, ReleaseDetector, Settled,
-                          fit_onset)
+from daq.detector import Armed, DetectorSettings, Disarmed, Rejected, Released, ReleaseDetector, Settled, fit_onset
 from daq.errors import DaqValueError
 from testkit.synth_runs import LAB_CASES, Trace, idle_handling, lab_run
 
@@ -93,7 +92,7 @@ def test_fit_onset_recovers_a_clean_parabola_onset() -> None:
 
 
 def test_settings_reject_a_short_pre_trigger() -> None:
-    with pytest.raises(DaqValueError, match="pre_trigger_s: expected >= 0.5 s"):
+    with pytest.raises(DaqValueError, match=r"pre_trigger_s: expected >= 0\.5 s"):
         DetectorSettings(pre_trigger_s=0.2)
 
 
@@ -214,8 +213,9 @@ def test_a_hold_moved_after_start_up_still_gives_the_first_release() -> None:
     tau = np.maximum(t - release, 0.0)
     ease = np.clip((t - 1.0) / 1.5, 0.0, 1.0)
     held = -0.15 + 0.05 * (10 * ease**3 - 15 * ease**4 + 6 * ease**5)
-    free = -0.10 * np.exp(-zeta * omega * tau) * (np.cos(omega * np.sqrt(1 - zeta**2) * tau)
-                                                  + zeta / np.sqrt(1 - zeta**2) * np.sin(omega * np.sqrt(1 - zeta**2) * tau))
+    omega_d = omega * np.sqrt(1 - zeta**2)
+    free = -0.10 * np.exp(-zeta * omega * tau) * (np.cos(omega_d * tau)
+                                                  + zeta / np.sqrt(1 - zeta**2) * np.sin(omega_d * tau))
     x = np.where(t < release, held, free) + rng.normal(0.0, 2e-5, t.size)
     detector = ReleaseDetector()
     events = [e for ti, xi in zip(t.tolist(), np.round(x * 20000) / 20000) for e in detector.feed(ti, (float(xi),))]

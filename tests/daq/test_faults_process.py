@@ -22,7 +22,6 @@ from daq.run_file import load_run
 from schemas import keys
 from schemas.bus import BusConfig
 from schemas.daq import RunFinished
-
 from testkit.faultkit import PERIOD_NS, RATE_HZ, daq_process, kill9_trials
 from testkit.ports import endpoint as free_endpoint
 from testkit.repo import REPO

@@ -30,7 +30,6 @@ from testkit.serialfaults import (
     unwrap_us,
 )
 
-
 SIM_1KHZ = ("sim://?realtime=0&rate_hz=1000&cases=both&seed=11&rest_s=1&pull_s=0.8&hold_s=1.2&c1=2&c2=2"
             "&tail_s=0.5")
 

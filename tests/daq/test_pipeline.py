@@ -96,7 +96,7 @@ def test_stream_cut_mid_run_finishes_it_as_aborted() -> None:
     assert trace.release_t_s is not None
     cut = int(np.searchsorted(trace.t_s, trace.release_t_s + 1.0))
     out = _acquire(data[: data.index(b"$D,%d," % cut)])
-    (meta, done), = out.finished
+    (_meta, done), = out.finished
     assert done.status == "aborted" and done.reason == "end of stream"
     assert done.n_samples == pytest.approx(150, abs=3)
 

@@ -118,7 +118,8 @@ BAD_RUN_IDS = ["..", ".", "../secret", "..%2fsecret", "%2e%2e%2fsecret", "%2e%2e
                "-rf", "\u202e" + "secret"]
 
 
-def test_run_ids_that_walk_out_of_the_runs_directory_are_refused(running: Running, caplog: pytest.LogCaptureFixture) -> None:
+def test_run_ids_that_walk_out_of_the_runs_directory_are_refused(running: Running,
+                                                                 caplog: pytest.LogCaptureFixture) -> None:
     absolute = str(running.secret.with_suffix(""))
     for run_id in [*BAD_RUN_IDS, absolute]:
         for selector, payload in ((f"{keys.daq_query(BENCH, 'run')}?id={run_id}", None),

@@ -24,7 +24,6 @@ from testkit.daq_records import sample_batches as _batches
 from testkit.repo import REPO
 
 
-
 def test_round_trip_keeps_every_sample_and_the_metadata(tmp_path: Path) -> None:
     batches = _batches(30)
     writer = RunWriter(tmp_path, _meta(), now_s=0.0)
@@ -117,5 +116,5 @@ def test_recovering_a_header_only_part_gives_an_empty_recovered_run(tmp_path: Pa
 
 
 def test_recover_refuses_a_file_that_is_not_a_part(tmp_path: Path) -> None:
-    with pytest.raises(DaqIOError, match="expected \\*.mcap.part"):
+    with pytest.raises(DaqIOError, match=r"expected \*\.mcap\.part"):
         recover_part(tmp_path / "x.mcap")

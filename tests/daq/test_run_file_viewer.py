@@ -87,7 +87,8 @@ def _node_reader(path: Path) -> dict[str, object]:
     node = shutil.which("node")
     if node is None:
         pytest.skip("node is not installed: the independent MCAP reader cannot run (apt-get install nodejs)")
-    if not (NODE_DIR / "node_modules" / "@mcap" / "core").is_dir() or not (NODE_DIR / "node_modules" / "fzstd").is_dir():
+    modules = NODE_DIR / "node_modules"
+    if not (modules / "@mcap" / "core").is_dir() or not (modules / "fzstd").is_dir():
         pytest.skip("@mcap/core and fzstd are not installed in tests/node: run `make node`")
     proc = subprocess.run([node, str(NODE_DIR / "check_mcap.mjs"), str(path)], capture_output=True,
                           text=True, timeout=60, check=False)

@@ -116,7 +116,7 @@ def test_cubic_spring_stiffens_at_large_amplitude() -> None:
 
 
 def test_script_runs_cases_in_order_with_releases_between_samples() -> None:
-    t, counts, rig = run_rig("sim://?realtime=0&seed=1&cases=cart1,cart2,both&ring_max_s=5&rate_hz=100")
+    t, _counts, rig = run_rig("sim://?realtime=0&seed=1&cases=cart1,cart2,both&ring_max_s=5&rate_hz=100")
     releases = [e for e in rig.events if e.kind == "release"]
     assert [e.case for e in releases] == ["cart1", "cart2", "both"]
     assert all(abs(e.t_s * 100 - round(e.t_s * 100)) > 1e-6 for e in releases)

@@ -3,12 +3,13 @@
 from __future__ import annotations
 
 import importlib
+import itertools
 from pathlib import Path
 
 import pytest
 import serial
 
-import daq  # noqa: F401
+import daq  # noqa: F401 - registers sim:// and replay://
 from daq.decode import encode_query_command, encode_rate_command
 from daq.frames import InfoFrame
 from daq.serial_handlers import EndOfStream
@@ -84,7 +85,7 @@ def test_commands_query_and_rate() -> None:
     infos = [f for f in frames if isinstance(f, InfoFrame)]
     assert [i.rate_hz for i in infos] == [100.0, 250.0, 250.0]
     times = [f.t_us for f in data_frames(frames)]
-    steps = {b - a for a, b in zip(times, times[1:])}
+    steps = {b - a for a, b in itertools.pairwise(times)}
     assert steps == {10000, 4000}
     assert times[-1] <= 1_000_000 and counters.rejected == 0
 
@@ -226,7 +227,7 @@ def test_reboot_on_reconnect_restarts_seq_and_clock_and_sends_info() -> None:
         stream += got.data
         if got.event is LinkEvent.EOF:
             break
-    frames, counters = decode(bytes(stream))
+    frames, _counters = decode(bytes(stream))
     assert [type(f).__name__ for f in frames].count("InfoFrame") == 2
     data = data_frames(frames)
     assert [f.seq for f in data] == list(range(200)) + list(range(51))
@@ -234,7 +235,7 @@ def test_reboot_on_reconnect_restarts_seq_and_clock_and_sends_info() -> None:
     timeline = Timeline()
     steps = [timeline.push(f.seq, f.t_us) for f in data]
     assert steps[200].anomaly == "seq_reset" and timeline.counters.clock_backwards == 1
-    assert all(b.t_ns > a.t_ns for a, b in zip(steps, steps[1:]))
+    assert all(b.t_ns > a.t_ns for a, b in itertools.pairwise(steps))
 
 
 def test_rate_command_before_the_first_sample() -> None:

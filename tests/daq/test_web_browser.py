@@ -26,8 +26,7 @@ from schemas.daq import DaqStatus, RunFinished, RunList
 from schemas.fit import FitReport, ModeRec, PemFitRec, SimpleFitRec, TransferFunctionRec
 from testkit import ports
 from testkit.waiting import wait_until
-from testkit.web_support import (DaqProcess, FakeDaq, PageServer, chromium_driver, chromium_paths,
-                                 diagnosis_record)
+from testkit.web_support import DaqProcess, FakeDaq, PageServer, chromium_driver, chromium_paths, diagnosis_record
 
 BROWSER, DRIVER = chromium_paths()
 pytestmark = [
@@ -81,7 +80,8 @@ def browser(page: PageServer, workdir: Path) -> Iterator[Any]:
         driver.execute_script("""
             window.badgeTexts = [document.getElementById('state-text').textContent];
             new MutationObserver(() => window.badgeTexts.push(document.getElementById('state-text').textContent))
-              .observe(document.getElementById('state-text'), {childList: true, characterData: true, subtree: true});""")
+              .observe(document.getElementById('state-text'),
+                       {childList: true, characterData: true, subtree: true});""")
         yield driver
     finally:
         driver.quit()
@@ -92,7 +92,7 @@ def daq(browser: Any, page: PageServer, runs_dir: Path, endpoints: dict[str, str
     """`daq run` on the simulated rig, started once the page is open; linked to the page."""
     proc = DaqProcess(SIM_URL, BENCH, runs_dir, endpoints["daq"], ("--connect", endpoints["page"]))
     try:
-        wait_until(lambda: BENCH in page.service.hub.benches and page.service.hub.benches[BENCH].alive
+        wait_until(lambda: (BENCH in page.service.hub.benches and page.service.hub.benches[BENCH].alive)
                  or proc.proc.poll() is not None, 30, "the daq to come alive")
         assert proc.proc.poll() is None, "daq run exited"
         yield proc

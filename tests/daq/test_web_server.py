@@ -4,6 +4,7 @@ No browser here (see test_web_browser.py)."""
 
 from __future__ import annotations
 
+import itertools
 import json
 import os
 import signal
@@ -82,7 +83,7 @@ def test_sse_delivers_decimated_batches_of_the_live_samples(
     raw = sum(e.data["n_raw"] for e in batches)
     # 1 kHz shown at 250 points/s: one point in four, evenly spaced, values as published
     assert len(points) == pytest.approx(raw / 4, abs=len(batches))
-    steps = {round((b[0] - a[0]) * 1e3, 6) for a, b in zip(points, points[1:])}
+    steps = {round((b[0] - a[0]) * 1e3, 6) for a, b in itertools.pairwise(points)}
     assert steps == {4.0}
     for t, p1, p2 in points:
         assert p1 == pytest.approx(position_m(t, 1), abs=1e-12)
@@ -152,7 +153,7 @@ def test_runs_and_fits_reach_the_page_with_a_failed_fit_reason(
                        and e.data["fit"] is not None, 10, "r2's failed fit").data
     assert row["fit"]["status"] == "failed" and "too short" in row["fit"]["reason"]
     # a page that connects later gets both rows in its snapshot
-    status, snap = page.json("GET", "/api/snapshot?bench=bench1")
+    _status, snap = page.json("GET", "/api/snapshot?bench=bench1")
     assert [r["run_id"] for r in snap["runs"]] == ["r1", "r2"]
 
 

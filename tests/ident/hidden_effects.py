@@ -109,7 +109,7 @@ def _coulomb(chain: Chain, z0: FloatArray, tau: FloatArray, f: FloatArray) -> Fl
     for _ in range(20000):
         m = mode.copy()
 
-        def rhs(_: float, s: FloatArray) -> FloatArray:
+        def rhs(_: float, s: FloatArray, m: FloatArray = m) -> FloatArray:
             a = spring(s) - f * m
             v = s[n:].copy()
             a[m == 0] = 0.0
@@ -120,15 +120,17 @@ def _coulomb(chain: Chain, z0: FloatArray, tau: FloatArray, f: FloatArray) -> Fl
         for i in range(n):
             if m[i] != 0:
                 # fires just past the velocity zero (scipy may report a zero at the start point)
-                ev = (lambda _t, s, i=i: s[n + i] * m[i] + 1e-12)
-                ev.terminal, ev.direction = True, -1          # type: ignore[attr-defined]
-                events.append(ev)
+                def stops(_t: float, s: FloatArray, i: int = i, m: FloatArray = m) -> float:
+                    return float(s[n + i] * m[i] + 1e-12)
+                stops.terminal, stops.direction = True, -1    # type: ignore[attr-defined]
+                events.append(stops)
                 owners.append((i, 0.0))
             elif f[i] > 0:
                 for sgn in (1.0, -1.0):
-                    ev = (lambda _t, s, i=i, sgn=sgn: sgn * spring(s)[i] - f[i])
-                    ev.terminal, ev.direction = True, 1       # type: ignore[attr-defined]
-                    events.append(ev)
+                    def breaks_away(_t: float, s: FloatArray, i: int = i, sgn: float = sgn) -> float:
+                        return float(sgn * spring(s)[i] - f[i])
+                    breaks_away.terminal, breaks_away.direction = True, 1  # type: ignore[attr-defined]
+                    events.append(breaks_away)
                     owners.append((i, sgn))
         todo = tau >= t0
         if np.all(m == 0):

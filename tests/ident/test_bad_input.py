@@ -68,8 +68,8 @@ def test_a_good_export_loads(tmp_path: Path) -> None:
 
 
 @pytest.mark.parametrize(("change", "message"), [
-    (lambda rows: rows[:100] + [rows[100]] + rows[100:], "duplicate time"),
-    (lambda rows: rows[:100] + [rows[50]] + rows[101:], "decreasing time"),
+    (lambda rows: [*rows[:100], rows[100], *rows[100:]], "duplicate time"),
+    (lambda rows: [*rows[:100], rows[50], *rows[101:]], "decreasing time"),
     (lambda rows: rows[:1], "at least"),
     (lambda rows: rows[:5], "at least"),
     (lambda rows: [], "numeric rows"),
@@ -117,7 +117,7 @@ def test_a_run_without_a_release_fails_the_fit_command_cleanly(tmp_path: Path,
 
 
 def test_absurd_amplitudes_are_refused(tmp_path: Path) -> None:
-    with pytest.raises(IdentValueError, match="amplitude|metres| m"):
+    with pytest.raises(IdentValueError, match=r"amplitude|metres| m"):
         load(_export(tmp_path / "huge.csv", _good_rows(amplitude_m=1.5e11)))
 
 

@@ -6,13 +6,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from testkit.ident_synth import cart1_run, cart2_run
 
 from ident.cli import main
 from ident.io import load
 from ident.pem import pem
 from ident.simple import fit_simple
 from schemas.fit import FitReport
+from testkit.ident_synth import cart1_run, cart2_run
 
 COUNTS_TO_M = 1 / 560 / 100  # the students' (unverified) 560 counts per cm
 

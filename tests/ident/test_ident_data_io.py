@@ -6,13 +6,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from testkit.ident_synth import cart1_run, cart2_run
-from testkit.mcap_runs import write_mcap_run
 
 from ident.data import IdData, check_arrays, make_uniform, step_input
 from ident.errors import DataFileError, IdentDimensionError, IdentValueError
 from ident.io import load, read_table
 from ident.release import estimate_release_time
+from testkit.ident_synth import cart1_run, cart2_run
+from testkit.mcap_runs import write_mcap_run
 
 T = np.arange(0.0, 2.0, 0.02)
 Y = np.sin(T)
@@ -40,7 +40,7 @@ def test_shapes_are_normalised_and_frozen() -> None:
     with pytest.raises(ValueError):
         data.y[0, 0] = 1.0
     assert isinstance(IdentDimensionError("a", "b", "c"), ValueError)
-    t, u, y = check_arrays(T, None, np.column_stack([Y, Y]))
+    _t, u, y = check_arrays(T, None, np.column_stack([Y, Y]))
     assert y.shape == (100, 2) and not np.any(u)
 
 
@@ -130,7 +130,7 @@ def test_unreadable_files_are_data_file_errors(tmp_path: Path) -> None:
 def test_mcap_run_gives_release_time_and_pulled_cart_from_metadata(tmp_path: Path) -> None:
     run = cart1_run(200.0)
     first = 5_000_000_000
-    t_ns = [first + int(round(x * 1e9)) for x in run.t]
+    t_ns = [first + round(x * 1e9) for x in run.t]
     path = tmp_path / "r1.mcap"
     write_mcap_run(path, t_ns, [float(v) for v in run.y[:, 0]], run.release_time_s)
     data = load(path)
@@ -165,7 +165,7 @@ def test_positions_beyond_a_lab_track_are_a_scale_error(tmp_path: Path) -> None:
 
 def test_a_damaged_run_file_loads_up_to_the_damage_and_says_so(tmp_path: Path) -> None:
     run = cart1_run(200.0)
-    t_ns = [int(round(x * 1e9)) for x in run.t]
+    t_ns = [round(x * 1e9) for x in run.t]
     path = tmp_path / "r1.mcap"
     write_mcap_run(path, t_ns, [float(v) for v in run.y[:, 0]], run.release_time_s)
     blob = bytearray(path.read_bytes())

@@ -4,12 +4,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from testkit.ident_synth import cart1_run, step
 
 from ident.compare import residual_test
 from ident.data import IdData
 from ident.errors import IdentValueError
 from ident.pem import pem
+from testkit.ident_synth import cart1_run, step
 
 
 def _disturbed_run(fs: float, seed: int) -> tuple[IdData, float, float, float]:

@@ -4,12 +4,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from testkit.ident_synth import PULL_M, Run, cart1_run, cart2_run, step
 
 from ident.compare import compare, fit_percent
 from ident.data import IdData, from_release
 from ident.errors import IdentValueError
 from ident.pem import pem
+from testkit.ident_synth import PULL_M, Run, cart1_run, cart2_run, step
 
 
 def _check(run: Run, model_modes: tuple, release: float | None, fits: list[float]) -> None:
@@ -89,7 +89,7 @@ def test_simulate_matches_for_another_step_input_on_the_zoh_path() -> None:
 def test_discrete_innovation_form_has_the_continuous_poles() -> None:
     run = cart1_run(50.0, seed=6)
     model = pem(IdData(run.t, step(run.t, 0.5), run.y), 2)
-    ad, bd, c, d, k = model.discrete()
+    ad, _bd, _c, _d, k = model.discrete()
     z = np.sort_complex(np.linalg.eigvals(ad))
     expected = np.sort_complex(np.exp(model.poles * 0.02))
     assert np.allclose(z, expected, atol=1e-12)

@@ -4,13 +4,13 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from testkit.ident_synth import cart1_run, step
 
 from ident.compare import compare, fit_percent, resid, residual_test
 from ident.data import IdData, from_release
 from ident.errors import IdentValueError
-from ident.simple import fit_simple
 from ident.physics.steppers import euler_coulomb
+from ident.simple import fit_simple
+from testkit.ident_synth import cart1_run, step
 
 
 @pytest.mark.parametrize("fs", [50.0, 200.0])

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from testkit.ident_synth import cart2_run, step
 
 from ident.d2c import c2d_zoh, d2c_zoh
 from ident.data import IdData
@@ -12,6 +11,7 @@ from ident.errors import IdentValueError
 from ident.pem import pem
 from ident.physics import TwoCartChain, modes_of
 from ident.subspace import free_response_poles, moesp, oscillatory_modes
+from testkit.ident_synth import cart2_run, step
 
 
 def test_d2c_inverts_c2d() -> None:

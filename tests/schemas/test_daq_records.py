@@ -33,7 +33,8 @@ def test_sample_batch_needs_both_channel_two_lists() -> None:
 
 
 def test_run_finished_and_list_round_trip_with_counters() -> None:
-    counters = DaqCounters(lines=10, bad_lines=1, gap_intervals=[GapInterval(start_t_ns=5, end_t_ns=9, reason="disconnect")])
+    gap = GapInterval(start_t_ns=5, end_t_ns=9, reason="disconnect")
+    counters = DaqCounters(lines=10, bad_lines=1, gap_intervals=[gap])
     done = RunFinished(bench="b1", run_id="r1", status="recovered", file="r1.mcap", n_samples=7,
                        release_time_s=0.5, duration_s=1.5, counters=counters)
     listed = RunList.from_json_bytes(RunList(bench="b1", runs=[done]).to_json_bytes())

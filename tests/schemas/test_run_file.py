@@ -222,7 +222,8 @@ def test_an_unreadable_part_is_quarantined_not_deleted(tmp_path: Path, capsys: p
     assert not list(tmp_path.glob("*.mcap"))
 
 
-def test_odd_entries_named_part_are_skipped_and_the_rest_recovered(tmp_path: Path, caplog: pytest.LogCaptureFixture) -> None:
+def test_odd_entries_named_part_are_skipped_and_the_rest_recovered(tmp_path: Path,
+                                                                   caplog: pytest.LogCaptureFixture) -> None:
     (tmp_path / "d.mcap.part").mkdir()
     loop = tmp_path / "loop.mcap.part"
     loop.symlink_to(loop)

@@ -8,9 +8,9 @@ from pathlib import Path
 import pytest
 from matplotlib.figure import Figure
 
+from ident.commands.report import write_lab_report
 from ident.report import figures as figs
 from ident.report.content import CaseResult
-from ident.commands.report import write_lab_report
 from testkit.lab_runs import record_lab_runs
 
 FIGURE_STEMS = ("cart1-simple", "cart2-simple", "cart1-pem", "cart2-pem", "both-pem",

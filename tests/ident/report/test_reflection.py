@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
-from schemas.fit import FitReport, ModeRec, PemFitRec, SimpleFitRec, TransferFunctionRec
 from ident.report.reflection import reflection
+from schemas.fit import FitReport, ModeRec, PemFitRec, SimpleFitRec, TransferFunctionRec
 
 
 def _tf(output: int, num: list[float], den: list[float]) -> TransferFunctionRec:

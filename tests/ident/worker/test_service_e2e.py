@@ -14,9 +14,8 @@ from pathlib import Path
 
 import pytest
 
-from schemas.fit import FitReport
 from ident.worker.runs_dir import REPORT_NAME
-
+from schemas.fit import FitReport
 from testkit.benchkit import Bench, sim_url
 from testkit.waiting import wait_until
 

@@ -13,11 +13,19 @@ from pathlib import Path
 
 import pytest
 
-from schemas.bus import BusConfig
 from ident.worker.schedule import RunRef, owner
+from schemas.bus import BusConfig
 from testkit.waiting import wait_until
-from testkit.worker_harness import (FakeDaq, FitCollector, alive_workers, fit_log_counts, open_session,
-                                    record_sim_run, start_worker, stop)
+from testkit.worker_harness import (
+    FakeDaq,
+    FitCollector,
+    alive_workers,
+    fit_log_counts,
+    open_session,
+    record_sim_run,
+    start_worker,
+    stop,
+)
 
 pytestmark = pytest.mark.timeout(90)
 
@@ -220,7 +228,10 @@ def test_a_new_worker_learns_from_a_survivor_what_a_dead_worker_fitted(router, t
                for n in ("wa", "wb")}
     try:
         wait_until(lambda: alive_workers(session) == {"wa", "wb"}, 20, "wa and wb alive")
-        runs = [[daq.announce(i) for daq in daqs][0] for i in ids_a + ids_b]
+        runs = []
+        for i in ids_a + ids_b:
+            copies = [daq.announce(i) for daq in daqs]   # announced to every runs directory
+            runs.append(copies[0])
         FitCollector(session).wait_finals(runs, timeout_s=30)
         assert all(fit_log_counts(log)["done"][f"bench1/{i}"] == ["wa"] for i in ids_a)
         workers["wa"].send_signal(signal.SIGKILL)

@@ -6,9 +6,9 @@ from pathlib import Path
 
 import numpy as np
 
-from schemas.daq import RunFinished
 from ident.worker.pipeline import fit_to_completion as fit_run
 from ident.worker.service import FitJob
+from schemas.daq import RunFinished
 
 
 def _job(path: Path, tmp_path: Path) -> FitJob:

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import random
 
+from ident.worker.schedule import RunRef, Scheduler, owner
 from schemas.daq import RunFinished
 from schemas.fit import FitReport
-from ident.worker.schedule import RunRef, Scheduler, owner
 
 
 def _finished(run_id: str, bench: str = "b1") -> RunFinished:
@@ -79,7 +79,7 @@ def test_simultaneous_claims_resolve_to_one_winner() -> None:
 
 
 def test_final_reports_end_a_run_and_withdrawals_release_it() -> None:
-    a, b, refs = _two_schedulers(10)
+    a, _b, refs = _two_schedulers(10)
     for run in refs:
         a.fit_seen(_report(run.run_id, "wb", "ok"))
     assert a.pending() == [] and a.next_claim() is None

@@ -7,9 +7,9 @@ import queue
 from pathlib import Path
 from typing import Any
 
-from schemas.daq import RunFinished
 from ident.worker.bus import BusEvent
 from ident.worker.service import Worker, WorkerOptions
+from schemas.daq import RunFinished
 
 
 def _worker(tmp_path: Path) -> Worker:
