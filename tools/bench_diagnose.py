@@ -1,7 +1,8 @@
 """Benchmark of `ident diagnose` on runs it was not tuned to, against issue 11's targets.
 
     OPENBLAS_NUM_THREADS=1 PYTHONPATH=. .venv/bin/python tools/bench_diagnose.py [--per-family 40] [--seed 11]
-        [--families a,b] [--one-encoder 20] [--speed 8] [--baseline-commit cebba2a] [--json out.json]
+        [--families a,b] [--one-encoder 20] [--speed 8] [--baseline-commit cebba2a] [--encoder-m M]
+        [--json out.json]
         [--skip-real] [--skip-speed]
 
 Runs come from the independent generator `testkit.effects` (its own physics and integrator,
@@ -63,10 +64,10 @@ def case_seeds(seed: int, family: str, n: int) -> list[int]:
     return [int(s) for s in rng.integers(0, 2**31, n)]
 
 
-def run_family(family: str, n: int, seed: int) -> list[dict[str, Any]]:
+def run_family(family: str, n: int, seed: int, encoder_m: float | None = None) -> list[dict[str, Any]]:
     rows: list[dict[str, Any]] = []
     for k, case_seed in enumerate(case_seeds(seed, family, n)):
-        case = make_case(case_seed, family)
+        case = make_case(case_seed, family, encoder_m=encoder_m)
         try:
             report, elapsed = diagnose_case(case)
         except CASE_ERRORS as exc:  # a crash is a result of the benchmark, not its end
@@ -329,6 +330,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--one-encoder", type=int, default=20, help="two-cart one-encoder friction cases")
     parser.add_argument("--speed", type=int, default=8, help="speed cases per cart count")
     parser.add_argument("--baseline-commit", default=BASELINE_COMMIT)
+    parser.add_argument("--encoder-m", type=float, default=None,
+                        help="read every run through an encoder of this count (m), e.g. 1.786e-5 (ECP)")
     parser.add_argument("--skip-real", action="store_true")
     parser.add_argument("--skip-speed", action="store_true")
     parser.add_argument("--json", type=Path, default=None, help="also write every result here")
@@ -338,7 +341,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     for family in [f for f in args.families.split(",") if f]:
         if family not in FAMILIES:
             parser.error(f"--families: expected names from {', '.join(FAMILIES)}, got {family!r}")
-        rows += run_family(family, args.per_family, args.seed)
+        rows += run_family(family, args.per_family, args.seed, args.encoder_m)
     if rows:
         results["families"] = summarise_families(rows)
     results["cases"] = rows

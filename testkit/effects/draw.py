@@ -313,10 +313,14 @@ def phases(spec: Spec, end: float) -> list[Phase]:
 
 
 def make_case(seed: int, family: str | None = None, *, carts: int | None = None, release: str | None = None,
-              encoders: int | None = None, rate_hz: float | None = None, record_s: float | None = None) -> Case:
+              encoders: int | None = None, rate_hz: float | None = None, record_s: float | None = None,
+              encoder_m: float | None = None) -> Case:
     """One run of `family` (drawn by the seed when None). `carts` (1, 2) and `release` ('hold',
     'flick') are drawn unless given; `encoders=1` reads only cart 1 of two carts with friction;
-    `rate_hz` and `record_s` (the whole record's length) fix the sampling (speed measurements)."""
+    `rate_hz` and `record_s` (the whole record's length) fix the sampling (speed measurements);
+    `encoder_m` reads the noisy positions through an encoder of that count (m), as real rigs do
+    (the ECP's 1/56000 m): a real but immaterial lattice, not one of the case's effects (a
+    family with its own lattice keeps only that one)."""
     rng = np.random.default_rng(seed)
     family = family or str(rng.choice(FAMILIES))
     if family not in FAMILIES:
@@ -336,6 +340,9 @@ def make_case(seed: int, family: str | None = None, *, carts: int | None = None,
     obs = list(spec.layout.observed)
     clean = x[:, obs] - x[0, obs]
     y, noise = sense(rng, clean, spec.quantum, noise)
+    if encoder_m is not None and spec.quantum is None:
+        y = encoder_m * np.round(y / encoder_m)
+        spec.details["encoder_m"] = encoder_m
     details = dict(spec.details, wn_rad_s=spec.wn, amplitude_m=spec.amplitude, length_s=length,
                    release_x_m=spec.release.x, release_v_m_s=spec.release.v)
     truth = Truth(family, spec.headline, spec.present, dict(spec.parameters), spec.release.t_r,

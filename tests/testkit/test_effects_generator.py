@@ -135,3 +135,12 @@ def test_the_lattice_is_exact_or_blurred_and_spans_the_range() -> None:
     case = next(c for c in (make_case(s, "quantization") for s in range(20)) if c.truth.noise_m == 0.0)
     q = case.truth.parameters["quantum_m"]
     assert np.allclose(case.observed.y / q, np.round(case.observed.y / q), atol=1e-9)
+
+
+def test_an_encoder_count_puts_every_reading_on_its_lattice_without_changing_the_truth() -> None:
+    plain = make_case(5, "coulomb_friction")
+    read = make_case(5, "coulomb_friction", encoder_m=1 / 56000)
+    y = read.observed.y * 56000
+    assert np.allclose(y, np.round(y), atol=1e-6)
+    assert read.truth.effects == plain.truth.effects and read.truth.parameters == plain.truth.parameters
+    assert np.max(np.abs(read.observed.y - plain.observed.y)) <= 0.5 / 56000 + 1e-12
