@@ -160,6 +160,13 @@ class RunFinished(Record):
     counters: DaqCounters = Field(default_factory=DaqCounters)
     reason: str | None = None
 
+    def digest(self) -> str:
+        """A short hash of this record (blake2b-64 of its JSON, hex): a fit report carries it,
+        so that it counts only for the run the daq recorded (`FitReport.run_digest`)."""
+        import hashlib
+
+        return hashlib.blake2b(self.to_json_bytes(), digest_size=8).hexdigest()
+
 
 class DaqStatus(Record):
     """Reply of the `status` (and `arm`) queryable: a snapshot of the service."""

@@ -8,7 +8,14 @@ subscribers get it) and written as `<run_id>.fit/report.json` beside the figures
 - `fitting`: the claim a worker announces before it starts (`worker` names it). It is not
   a result: consumers that want results keep only `final` reports. A claim is void once
   its worker's liveliness token is gone.
-- `withdrawn`: that worker takes its claim back (it lost the tie-break with another claim).
+- `withdrawn`: that worker takes its claim back (it lost the tie-break with another claim,
+  or the run is not available yet: it will be claimed again).
+
+Fencing: a claim carries `epoch`, one more than any claim seen for the run, so a worker that
+takes over the run of a vanished (or paused) worker outranks it; a worker publishes a final
+report only if no alive claim of a higher epoch and no final report from another worker has
+been seen. `run_digest` is the `RunFinished.digest()` of the run fitted: a final report counts
+as done only when it matches the daq's record of the run.
 - `ok`: the fits ran; the result fields are filled in. While `pending` names stages still
   running (`diagnosis`, `figures`), the report is a partial result published early (the
   transfer functions within a second of the run's end) and still counts as the worker's
@@ -130,6 +137,9 @@ class FitReport(Record):
     software_version: str = ""
     notes: list[str] = Field(default_factory=list, description="what the loader noticed")
     extra: dict[str, Any] = Field(default_factory=dict)
+    epoch: int = Field(default=0, ge=0, description="the claim's fencing epoch")
+    run_digest: str | None = Field(default=None, max_length=64,
+                                   description="RunFinished.digest() of the run fitted")
 
     @field_validator("bench", "run_id", "worker")
     @classmethod

@@ -109,6 +109,19 @@ class FakeDaq:
         self._publishers.append(pub)
         return RunRef(self.bench, run_id)
 
+    def come_back(self, files: dict[str, bytes]) -> None:
+        """Leave and come back (a new liveliness token), now answering `run` queries from `files`."""
+        def on_run(query: zenoh.Query) -> None:
+            run_id = query.selector.parameters.get("id")
+            if run_id in files:
+                query.reply(query.key_expr, files[run_id])
+            else:
+                query.reply_err(f"no run {run_id!r}")
+
+        self._publishers.append(self.session.declare_queryable(keys.daq_query(self.bench, "run"), on_run))
+        self.token.undeclare()
+        self.token = self.session.liveliness().declare_token(keys.daq_alive(self.bench))
+
 
 def start_worker(name: str, bus_args: list[str], runs_dir: Path, log_dir: Path,
                  fitter: str | None = None, env: dict[str, str] | None = None) -> subprocess.Popen[bytes]:

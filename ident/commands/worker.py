@@ -66,8 +66,9 @@ def run(args: argparse.Namespace) -> int:
     stop = threading.Event()
 
     def _stop(signum: int, frame: object) -> None:
-        # Leave at once, also in the middle of a fit: the session closes on the way out, the
-        # worker's token and claims vanish with it, and another worker takes the run over.
+        # Leave at once, also in the middle of a fit: the fit's child process is ended, the
+        # session closes on the way out, the worker's token and claims vanish with it, and
+        # another worker takes the run over.
         if not stop.is_set():
             stop.set()
             raise SystemExit(0)
@@ -84,12 +85,5 @@ def run(args: argparse.Namespace) -> int:
         print(f"ident worker: {exc}", file=sys.stderr)
         return 2
     except SystemExit:
-        pass   # raised by `_stop`; the session was closed on the way out
-    if stop.is_set():
-        # A diagnosis may still run on the finisher's daemon thread. Interpreter shutdown would
-        # race it for the stdio locks and abort (SIGABRT, seen in CI); end the process here.
-        logging.shutdown()
-        sys.stdout.flush()
-        sys.stderr.flush()
-        os._exit(0)
+        pass   # raised by `_stop`; the fit process and the session were closed on the way out
     return 0

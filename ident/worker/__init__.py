@@ -1,8 +1,8 @@
 """`ident worker`: fit every finished run of every bench, exactly once, over Zenoh.
 
 Modules: `schedule` (pure: who fits what), `bus` (Zenoh adapter, callbacks only enqueue),
-`runs_dir` (files), `service` (the loop), `finisher` (the slow second stage on one
-thread), `pipeline` (the default fitter: simple ID with RK4 and Euler, PEM of order 2 or 4
+`runs_dir` (files), `service` (the loop), `fitproc` (fits in a child process, so a stop
+cancels them cleanly), `pipeline` (the default fitter: simple ID with RK4 and Euler, PEM of order 2 or 4
 published at once, then the diagnosis and the figures).
 
 How a run is fitted exactly once
@@ -39,9 +39,23 @@ reset), or after the Zenoh lease (10 s) for a hung host.
    that restarts recovers its state from history, the runs directory and each daq's
    `runs` queryable. SIGTERM/SIGINT make a worker leave at once, even mid-fit.
 
-Limits: the argument assumes claims reach the other workers within `settle_s`, and that
-a worker whose token vanished (a network partition, not a crash) is really gone; after a
-partition that outlasts the lease, both sides may fit the same run once each.
+5. Fencing. A worker whose token vanished may not be gone: a process stopped (SIGSTOP) or
+   cut off for longer than the lease comes back mid-fit. Each claim carries an epoch, one
+   more than any claim seen for the run, so the take-over outranks the stale claim. Before
+   publishing a final report a worker handles pending events, asks the other workers' fit
+   queryables about that run (they answer with final reports and their claims in progress),
+   and after a stall of its own loop first waits for its session to reconnect and catches
+   up; it publishes only if no other worker's final report and no alive claim of a higher
+   epoch was seen. A fenced result is dropped.
+6. At least once. A run whose file cannot be had (no local file, the daq does not answer)
+   is deferred, never failed for that: the claim is withdrawn and the run tried again when
+   the daq's token comes back, or after `retry_s`. A final report counts only if its
+   `run_digest` matches the daq's record of the run, so a forged report for a run (sent
+   before the run existed, or naming another record) does not stop it being fitted.
+
+Limits: the argument assumes claims and queries reach the other workers within `settle_s`
+and the query timeout. Anyone who can publish on `cartlab/**` can still forge a report with
+the right digest: a router with access control (docs) is what keeps forged records away.
 
 Late start and restarts: finished records come from the daq's advanced publishers
 (history), from the `runs` queryable of every alive daq (asked at start and whenever a

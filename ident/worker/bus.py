@@ -13,8 +13,14 @@ scheduling happen on the worker's own thread (`ident.worker.service`). Subscript
 Published: liveliness token `keys.ident_alive(name)`, and per run an advanced publisher with
 a cache on `keys.run_fit(bench, run_id)` (claim first, then the report). A queryable on
 `keys.ALL_FITS` answers with every complete report this worker has seen (its own and the
-others'), from an immutable snapshot the loop replaces: a worker that starts after the one
-that fitted a run is gone still learns that the run is done, from any survivor.
+others') and with its own claims in progress, from immutable snapshots the loop replaces: a
+worker that starts after the one that fitted a run is gone still learns that the run is done,
+from any survivor, and a worker about to publish learns of a claim that fences it.
+
+Bounds: a payload larger than `MAX_PAYLOAD_BYTES` is dropped in the callback (never copied);
+the event queue holds at most `MAX_QUEUED` events, and one that does not fit is dropped and
+counted (`take_dropped`), so the loop catches up by asking again. A fetched run file larger
+than `MAX_FETCH_BYTES` is refused before it touches the disk; every query has a timeout.
 """
 
 from __future__ import annotations
@@ -22,6 +28,7 @@ from __future__ import annotations
 import contextlib
 import json
 import queue
+import time
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
@@ -29,8 +36,9 @@ from typing import Any, Literal
 import zenoh
 import zenoh.ext
 
-from ident.errors import IdentValueError
-from schemas import keys
+from ident.errors import IdentError, IdentValueError
+from ident.worker.runs_dir import write_atomic
+from schemas import MAX_PAYLOAD_BYTES, keys
 from schemas.bus import BusConfig
 from schemas.daq import RunList
 from schemas.fit import FitReport
@@ -41,6 +49,16 @@ EventKind = Literal["finished", "fit", "worker", "daq"]
 HISTORY_SAMPLES = 64
 #: Most fit publishers a worker keeps (their caches answer late subscribers); oldest go first.
 MAX_FIT_PUBLISHERS = 512
+#: Most events waiting for the loop; beyond, events are dropped and counted (then caught up).
+MAX_QUEUED = 2048
+#: Largest run file fetched from a daq (bytes): the reader's own file limit.
+MAX_FETCH_BYTES = 1 << 30
+#: Longest a fetch may take (s): a replier that never answers costs at most this.
+FETCH_TIMEOUT_S = 5.0
+
+
+class RunUnavailable(IdentError, ConnectionError):
+    """A run's file could not be had now (no daq answered, or it refused): retry later."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -72,6 +90,9 @@ class WorkerBus:
         self._handles: list[Any] = []
         self._fit_publishers: dict[str, Any] = {}
         self._fit_snapshot: tuple[tuple[str, bytes], ...] = ()
+        self._claims: dict[str, bytes] = {}
+        self._claim_snapshot: tuple[tuple[str, bytes], ...] = ()
+        self._dropped = 0
 
     # -- lifecycle ----------------------------------------------------------------------
     def __enter__(self) -> WorkerBus:
@@ -122,30 +143,60 @@ class WorkerBus:
             self._session = None
 
     # -- callbacks: enqueue only --------------------------------------------------------
+    def _enqueue(self, event: BusEvent) -> None:
+        try:
+            self._events.put_nowait(event)
+        except queue.Full:
+            self._dropped += 1   # an int add: atomic enough under the GIL for a counter
+
+    def _payload(self, sample: zenoh.Sample) -> bytes | None:
+        if len(sample.payload) > MAX_PAYLOAD_BYTES:
+            self._dropped += 1
+            return None
+        return sample.payload.to_bytes()
+
     def _on_finished(self, sample: zenoh.Sample) -> None:
-        self._events.put(BusEvent("finished", str(sample.key_expr), sample.payload.to_bytes()))
+        payload = self._payload(sample)
+        if payload is not None:
+            self._enqueue(BusEvent("finished", str(sample.key_expr), payload))
 
     def _on_fit(self, sample: zenoh.Sample) -> None:
-        self._events.put(BusEvent("fit", str(sample.key_expr), sample.payload.to_bytes()))
+        payload = self._payload(sample)
+        if payload is not None:
+            self._enqueue(BusEvent("fit", str(sample.key_expr), payload))
 
     def _on_worker(self, sample: zenoh.Sample) -> None:
-        self._events.put(BusEvent("worker", str(sample.key_expr),
-                                  up=sample.kind == zenoh.SampleKind.PUT))
+        self._enqueue(BusEvent("worker", str(sample.key_expr),
+                               up=sample.kind == zenoh.SampleKind.PUT))
 
     def _on_daq(self, sample: zenoh.Sample) -> None:
-        self._events.put(BusEvent("daq", str(sample.key_expr),
-                                  up=sample.kind == zenoh.SampleKind.PUT))
+        self._enqueue(BusEvent("daq", str(sample.key_expr),
+                               up=sample.kind == zenoh.SampleKind.PUT))
+
+    def take_dropped(self) -> int:
+        """How many events were dropped since the last call (a flood, or oversized)."""
+        dropped, self._dropped = self._dropped, 0
+        return dropped
 
     def _on_fit_query(self, query: zenoh.Query) -> None:
-        # Answered from an immutable snapshot: no lock, no Zenoh call but the replies.
+        # Answered from immutable snapshots: no lock, no Zenoh call but the replies.
         asked = query.key_expr
-        for key, payload in self._fit_snapshot:
+        for key, payload in (*self._fit_snapshot, *self._claim_snapshot):
             if asked.intersects(zenoh.KeyExpr(key)):
                 query.reply(key, payload, encoding=zenoh.Encoding.APPLICATION_JSON)
 
     def set_fit_snapshot(self, reports: dict[str, bytes]) -> None:
         """Replace what the fit queryable answers: key -> complete report JSON."""
         self._fit_snapshot = tuple(reports.items())
+
+    def set_claim(self, bench: str, run_id: str, claim: FitReport | None) -> None:
+        """Answer (or stop answering) the fit queryable with my claim on a run."""
+        key = keys.run_fit(bench, run_id)
+        if claim is None:
+            self._claims.pop(key, None)
+        else:
+            self._claims[key] = claim.to_json_bytes()
+        self._claim_snapshot = tuple(self._claims.items())
 
     # -- publishing ---------------------------------------------------------------------
     def publish_fit(self, report: FitReport) -> None:
@@ -194,20 +245,44 @@ class WorkerBus:
                 return RunList.from_json_bytes(reply.ok.payload.to_bytes())
         return None
 
-    def fetch_run(self, bench: str, run_id: str, dest: Path, timeout_s: float = 10.0) -> Path:
-        """Fetch a run's MCAP bytes from its daq's `run` queryable into `dest`."""
+    def fit_state(self, bench: str, run_id: str, timeout_s: float = 2.0) -> list[bytes]:
+        """What the other workers answer for one run: their complete report or live claim."""
+        return [reply.ok.payload.to_bytes()
+                for reply in self.session.get(keys.run_fit(bench, run_id), timeout=timeout_s)
+                if reply.ok is not None and len(reply.ok.payload) <= MAX_PAYLOAD_BYTES]
+
+    def wait_connected(self, timeout_s: float) -> bool:
+        """Wait (bounded) until the session has a peer or router again (after a stall)."""
+        deadline = time.monotonic() + timeout_s
+        info = self.session.info
+        while not (list(info.peers_zid()) or list(info.routers_zid())):
+            if time.monotonic() > deadline:
+                return False
+            time.sleep(0.05)   # polling Zenoh's own state: no event exists for it
+        return True
+
+    def fetch_run(self, bench: str, run_id: str, dest: Path, timeout_s: float = FETCH_TIMEOUT_S,
+                  max_bytes: int = MAX_FETCH_BYTES) -> Path:
+        """Fetch a run's MCAP bytes from its daq's `run` queryable into `dest`.
+
+        Raises `RunUnavailable` when no reply comes within `timeout_s`, or every reply is an
+        error or larger than `max_bytes` (refused before anything is written).
+        """
         selector = f"{keys.daq_query(bench, 'run')}?id={keys.check_name('run_id', run_id)}"
         errors = []
         for reply in self.session.get(selector, timeout=timeout_s):
             if reply.ok is not None:
-                from ident.worker.runs_dir import write_atomic
-
+                size = len(reply.ok.payload)
+                if size > max_bytes:
+                    errors.append(f"a reply of {size} bytes (at most {max_bytes})")
+                    continue
                 write_atomic(dest, reply.ok.payload.to_bytes())
                 return dest
-            errors.append(reply.err.payload.to_string() if reply.err is not None else "?")
-        raise FileNotFoundError(
-            f"run {bench}/{run_id}: expected its MCAP bytes from {selector}, got "
+            errors.append(reply.err.payload.to_string()[:200] if reply.err is not None else "?")
+        raise RunUnavailable(
+            f"run {bench}/{run_id}: expected its MCAP bytes from {selector} within {timeout_s:g} s, got "
             + (json.dumps(errors) if errors else "no reply"))
 
 
-__all__ = ["BusEvent", "WorkerBus", "zenoh_config"]
+__all__ = ["FETCH_TIMEOUT_S", "MAX_FETCH_BYTES", "MAX_QUEUED", "BusEvent", "RunUnavailable",
+           "WorkerBus", "zenoh_config"]

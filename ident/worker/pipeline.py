@@ -2,7 +2,7 @@
 
 `fit_run(job)` returns, as soon as PEM is done, `Pending`: an `ok` report with the transfer
 functions and `pending: [diagnosis, figures]`, and the callable that runs those (the worker
-runs it on its finisher thread). It never raises for a bad run: a file that cannot be read, a run
+runs it in its fit process, right after sending the first results). It never raises for a bad run: a file that cannot be read, a run
 too short or without motion, or fits that all fail give a report with status `failed` and
 the reason; whatever was computed still goes in. Figures go to `job.fit_dir` (PNG + SVG).
 """
@@ -14,7 +14,7 @@ from functools import partial
 
 from ident.fitrun import RunFit, RunIdentity, complete, fit_first, with_pending
 from ident.report.figures import write_figures
-from ident.worker.finisher import FitOutcome, Pending
+from ident.worker.fitproc import FitOutcome, Pending
 from ident.worker.service import FitJob
 from schemas.fit import FitReport
 

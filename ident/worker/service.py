@@ -1,11 +1,21 @@
-"""The worker's main loop: drain events, claim, fit, report.
+"""The worker's main loop: drain events, claim, fit (in a child process), fence, report.
 
-Zenoh callbacks (`ident.worker.bus`) only enqueue `BusEvent`s; this loop parses them,
-updates the `Scheduler`, runs the fitter (a plug-in: `FitJob -> FitReport | Pending`) and
-publishes. A `Pending` outcome's first results are published at once and its second stage
-runs on the `Finisher` thread, whose `Completed` comes back through the same queue: only
-this loop publishes, writes reports and touches the scheduler. Waits are bounded by the
-injected clock; the loop ends when `stop` is set.
+Zenoh callbacks (`ident.worker.bus`) only enqueue `BusEvent`s on a bounded queue; this loop
+parses them, updates the `Scheduler`, hands claimed runs to the `FitProcess` (a child process
+running the fitter, a plug-in: `FitJob -> FitReport | Pending`) and publishes what comes back
+(`FitResult`s, through the same queue): only this loop publishes, writes reports and touches
+the scheduler. Waits are bounded by the injected clock; the loop ends when `stop` is set.
+
+Faults handled here (issue 14):
+- A run whose file cannot be had (no local file and the daq does not answer) is deferred,
+  not failed: the claim is withdrawn and the run retried when the bench's daq comes back,
+  or after `retry_s`.
+- Before a final report goes out the loop syncs (pending events, and after a stall longer
+  than `stall_s`, e.g. a SIGSTOP past the lease, the other workers' fit queryables) and
+  publishes only if it is not fenced (`Scheduler.fenced`): no final report of another
+  worker, no alive claim of a higher epoch. A fenced result is dropped, never published.
+- Events dropped by the bounded queue (a flood) are made up by a catch-up: every alive
+  daq's `runs` list is asked again.
 """
 
 from __future__ import annotations
@@ -18,10 +28,11 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
+from functools import partial
 from pathlib import Path
 
-from ident.worker.bus import BusEvent, WorkerBus
-from ident.worker.finisher import Completed, Finisher, FitOutcome, Pending
+from ident.worker.bus import MAX_QUEUED, BusEvent, RunUnavailable, WorkerBus
+from ident.worker.fitproc import DEFAULT_MAX_FIT_S, FitOutcome, FitProcess, FitResult
 from ident.worker.runs_dir import find_run_file, fit_dir_for, read_report, scan_runs, write_report
 from ident.worker.schedule import RunRef, Scheduler
 from schemas import keys
@@ -47,25 +58,32 @@ class FitJob:
 
 #: A fitter returns the complete report, or `Pending` (first results + the slow rest).
 Fitter = Callable[[FitJob], FitOutcome]
-Event = BusEvent | Completed
+Event = BusEvent | FitResult
 
 
 @dataclass
 class WorkerOptions:
-    """Settings of one worker. `settle_s` is how long a claim waits for rival claims."""
+    """Settings of one worker. `settle_s` is how long a claim waits for rival claims;
+    `retry_s` how long a run whose file could not be had waits before it is tried again;
+    `stall_s` the gap between two turns of the loop that means the process was stopped."""
 
     name: str
     runs_dir: Path
     bus: BusConfig = field(default_factory=BusConfig.connector)
-    fitter: str = DEFAULT_FITTER
+    fitter: str | Fitter = DEFAULT_FITTER
     settle_s: float = 0.2
     sync_s: float = 0.3
     poll_s: float = 0.05
     max_backlog: int = 4
+    retry_s: float = 30.0
+    stall_s: float = 2.0
+    max_fit_s: float = DEFAULT_MAX_FIT_S
 
 
-def load_fitter(spec: str) -> Fitter:
-    """`"package.module:function"` -> the function."""
+def load_fitter(spec: str | Fitter) -> Fitter:
+    """`"package.module:function"` (or the function itself) -> the function."""
+    if callable(spec):
+        return spec
     module_name, _, attr = spec.partition(":")
     if not module_name or not attr:
         raise ValueError(f"fitter: expected 'module:function', got {spec!r}")
@@ -75,8 +93,15 @@ def load_fitter(spec: str) -> Fitter:
 
 def failed_report(finished: RunFinished, worker: str, reason: str) -> FitReport:
     return FitReport(bench=finished.bench, run_id=finished.run_id, worker=worker,
-                     status="failed", reason=reason, release_time_s=finished.release_time_s,
+                     status="failed", reason=reason[:2000], release_time_s=finished.release_time_s,
                      fitted_utc=datetime.now(UTC).isoformat())
+
+
+@dataclass(frozen=True)
+class _InFlight:
+    run: RunRef
+    fit_dir: Path
+    started: float
 
 
 class Worker:
@@ -84,16 +109,25 @@ class Worker:
 
     def __init__(self, options: WorkerOptions, bus: WorkerBus, events: queue.Queue[Event],
                  fitter: Fitter, clock: Callable[[], float] = time.monotonic,
-                 finisher: Finisher | None = None) -> None:
+                 fits: FitProcess | None = None) -> None:
         self.options = options
         self.bus = bus
         self.events = events
         self.fitter = fitter
         self.clock = clock
-        self.finisher = finisher if finisher is not None else Finisher(events)
+        self._fits = fits
         self.sched = Scheduler(options.name)
         self.fitted: list[FitReport] = []
+        self.fenced: list[FitReport] = []
         self._complete_reports: dict[str, bytes] = {}
+        self._in_flight: dict[int, _InFlight] = {}
+        self._last_turn = clock()
+
+    @property
+    def fits(self) -> FitProcess:
+        if self._fits is None:
+            self._fits = FitProcess(self.fitter, self.events, self.options.max_fit_s, self.clock)
+        return self._fits
 
     # -- events -------------------------------------------------------------------------
     def pump(self, duration_s: float) -> None:
@@ -109,31 +143,35 @@ class Worker:
             self.handle(event)
 
     def handle(self, event: Event) -> None:
-        if isinstance(event, Completed):
-            self.finisher.done()
-            self._complete(event.fit_dir, event.report)
+        if isinstance(event, FitResult):
+            self._fit_result(event)
             return
         try:
             if event.kind == "finished":
                 finished = RunFinished.from_json_bytes(event.payload)
-                # names become keys and paths: refuse `..`, `/` and the like
-                keys.check_name("bench", finished.bench)
-                keys.check_name("run_id", finished.run_id)
+                # the key is what access control checks: a payload that contradicts it is forged
+                bench, run_id, _ = keys.parse_run_key(event.key)
+                if (bench, run_id) != (finished.bench, finished.run_id):
+                    raise SchemaError("finished record", f"bench {bench!r} and run {run_id!r} as its key",
+                                      f"{finished.bench!r}/{finished.run_id!r}")
                 self.sched.run_announced(finished)
             elif event.kind == "fit":
                 self._fit_seen(FitReport.from_json_bytes(event.payload))
             elif event.kind == "worker":
                 self._worker_event(event.key.rsplit("/", 1)[-1], event.up)
             elif event.kind == "daq" and event.up:
-                self.catch_up_bench(keys.bench_of(event.key))
+                bench = keys.bench_of(event.key)
+                self.sched.retry_now(bench)
+                self.catch_up_bench(bench)
         except SchemaError as exc:
             log.warning("ignored a message on %s: %s", event.key, exc)
 
     def _fit_seen(self, report: FitReport) -> None:
-        self.sched.fit_seen(report)
+        run = self.sched.fit_seen(report)
         key = keys.run_fit(report.bench, report.run_id)
-        if report.final and key not in self._complete_reports:
-            self._complete_reports[key] = report.to_json_bytes()
+        done = self.sched.runs[run].final
+        if done is not None and key not in self._complete_reports:
+            self._complete_reports[key] = done.to_json_bytes()
             self.bus.set_fit_snapshot(self._complete_reports)
 
     def _worker_event(self, name: str, up: bool) -> None:
@@ -152,32 +190,53 @@ class Worker:
             log.warning("ignored the run list of %s: %s", bench, exc)
             return
         for finished in runs.runs if runs is not None else []:
-            self.handle(BusEvent("finished", keys.run_finished(bench, "runs"),
+            self.handle(BusEvent("finished", keys.run_finished(bench, finished.run_id),
                                  finished.to_json_bytes()))
 
-    def start(self) -> None:
-        """Learn who is alive and which runs the others know are done, scan the runs
-        directory, ask each daq, gather history."""
+    def catch_up(self) -> None:
+        """Learn again what the others know: alive workers, their complete reports, every
+        alive daq's runs (after dropped events or a stall)."""
         for name in self.bus.alive_workers():
             self.sched.worker_up(name)
         for payload in self.bus.known_fits():
             self.handle(BusEvent("fit", keys.ALL_FITS, payload))
-        for _, finished in scan_runs(self.options.runs_dir):
-            self.sched.run_announced(finished)
         for bench in sorted(self.bus.alive_benches()):
             self.catch_up_bench(bench)
+
+    def start(self) -> None:
+        """Learn who is alive and which runs the others know are done, scan the runs
+        directory, ask each daq, gather history."""
+        for _, finished in scan_runs(self.options.runs_dir):
+            self.sched.run_announced(finished)
+        self.catch_up()
         self.pump(self.options.sync_s)
+        self._last_turn = self.clock()
 
     # -- one step -----------------------------------------------------------------------
     def step(self) -> bool:
-        """Handle queued events, then claim and fit one run if one is mine. True if fitted."""
+        """Handle queued events, then claim and start one run if one is mine. True if started."""
+        self._notice_stall()
+        if self.bus.take_dropped():
+            log.warning("events were dropped (a flood); catching up with the daqs and workers")
+            self.catch_up()
         self.pump(0.0)
-        busy = self.finisher.backlog >= self.options.max_backlog
-        run = None if busy else self.sched.next_claim()
+        if self._fits is not None:
+            self._fits.check_time()
+        busy = len(self._in_flight) >= self.options.max_backlog
+        run = None if busy else self.sched.next_claim(self.clock())
         if run is None:
             self.pump(self.options.poll_s)
             return False
         return self.process(run)
+
+    def _notice_stall(self) -> None:
+        now = self.clock()
+        gap, self._last_turn = now - self._last_turn, now
+        if gap > self.options.stall_s:
+            log.warning("the loop stalled %.1f s (stopped, or starved): syncing before publishing", gap)
+            self.bus.wait_connected(timeout_s=max(self.options.stall_s, 5.0))
+            self.catch_up()
+            self.pump(self.options.sync_s)
 
     def process(self, run: RunRef) -> bool:
         finished = self.sched.runs[run].finished
@@ -185,86 +244,112 @@ class Worker:
         run_file = find_run_file(self.options.runs_dir, run.bench, finished.file)
         fit_dir = fit_dir_for(self.options.runs_dir, run.bench, run.run_id, run_file)
         stored = read_report(fit_dir)
-        if stored is not None:
+        if stored is not None and stored.run_digest == finished.digest():
             log.info("%s: already fitted (%s); republishing the stored report", run, fit_dir)
             self._fit_seen(stored)
             self.bus.publish_fit(stored)
             return False
-        if not self._claim(run, finished):
+        epoch = self._claim(run)
+        if epoch is None:
             return False
-        outcome = self._fit(finished, run_file, fit_dir)
-        if isinstance(outcome, Pending):
-            partial = self._checked(finished, outcome.partial)
-            if partial.final:      # a partial that does not round-trip became a failure
-                self._complete(fit_dir, partial)
-                return True
-            self.bus.publish_fit(partial)
-            log.info("%s: fitted in %.2f s; %s next", run, partial.timings.total_s,
-                     " and ".join(partial.pending))
-            self.finisher.submit(fit_dir, outcome.finish, lambda reason: failed_report(
-                finished, self.options.name, reason))
-        else:
-            self._complete(fit_dir, outcome)
+        if run_file is None:
+            run_file = self._fetch(run, finished, epoch)
+            if run_file is None:
+                return False
+        job = FitJob(finished, run_file, fit_dir, self.options.name)
+        job_id = self.fits.submit(job, partial(failed_report, finished, self.options.name))
+        self._in_flight[job_id] = _InFlight(run, fit_dir, self.clock())
         return True
 
-    def _complete(self, fit_dir: Path, report: FitReport) -> None:
-        finished = self.sched.runs[RunRef(report.bench, report.run_id)].finished
-        if finished is not None:
-            report = self._checked(finished, report)
-        write_report(fit_dir, report)
+    def _fetch(self, run: RunRef, finished: RunFinished, epoch: int) -> Path | None:
+        """The run's bytes from its daq, or None (deferred: the daq is away or refused)."""
+        dest = self.options.runs_dir / finished.bench / Path(finished.file).name
+        try:
+            return self.bus.fetch_run(finished.bench, finished.run_id, dest)
+        except RunUnavailable as exc:
+            log.warning("%s: %s; retried when its daq is back (or in %.0f s)", run, exc,
+                        self.options.retry_s)
+            self.sched.defer(run, self.clock() + self.options.retry_s)
+            self.bus.publish_fit(FitReport(bench=run.bench, run_id=run.run_id, worker=self.options.name,
+                                           status="withdrawn", epoch=epoch))
+            return None
+
+    def _fit_result(self, result: FitResult) -> None:
+        flight = self._in_flight.get(result.job_id)
+        if flight is None:
+            return
+        finished = self.sched.runs[flight.run].finished
+        assert finished is not None
+        report = result.report.model_copy(update={"run_digest": finished.digest(),
+                                                  "epoch": self.sched.runs[flight.run].claims.get(
+                                                      self.options.name, 0)})
+        if report.timings.total_s == 0.0 and not result.partial:
+            timings = report.timings.model_copy(update={"total_s": self.clock() - flight.started})
+            report = report.model_copy(update={"timings": timings})
+        if result.partial:
+            if self.sched.fenced(flight.run) is None:
+                self.bus.publish_fit(report)
+                log.info("%s: first results in %.2f s; %s next", flight.run,
+                         self.clock() - flight.started, " and ".join(report.pending))
+            return
+        del self._in_flight[result.job_id]
+        self._complete(flight, report)
+
+    def _complete(self, flight: _InFlight, report: FitReport) -> None:
+        """Publish a final report unless fenced (synced first: pending events, the others'
+        view of the run)."""
+        self.pump(0.0)
+        self._sync_run(flight.run)
+        why = self.sched.fenced(flight.run)
+        self.bus.set_claim(flight.run.bench, flight.run.run_id, None)
+        if why is not None:
+            log.warning("%s: not publishing my report: %s (fenced)", flight.run, why)
+            self.fenced.append(report)
+            self.sched.withdraw(flight.run)
+            return
+        write_report(flight.fit_dir, report)
         self.bus.publish_fit(report)
         self._fit_seen(report)
         self.fitted.append(report)
         log.info("%s/%s: %s in %.2f s%s", report.bench, report.run_id, report.status,
                  report.timings.total_s, f" ({report.reason})" if report.reason else "")
 
-    def _checked(self, finished: RunFinished, report: FitReport) -> FitReport:
-        """The report as subscribers will parse it (a NaN, written as null, would not)."""
-        try:
-            return FitReport.from_json_bytes(report.to_json_bytes())
-        except SchemaError as exc:
-            return failed_report(finished, self.options.name,
-                                 f"the fit report does not round-trip: {exc}")
+    def _sync_run(self, run: RunRef) -> None:
+        """Ask the other workers what they know of `run` (final reports, live claims)."""
+        for payload in self.bus.fit_state(run.bench, run.run_id):
+            self.handle(BusEvent("fit", keys.run_fit(run.bench, run.run_id), payload))
 
-    def _claim(self, run: RunRef, finished: RunFinished) -> bool:
+    def _claim(self, run: RunRef) -> int | None:
         name = self.options.name
-        self.sched.claim(run)
+        epoch = self.sched.claim(run)
         self.bus.publish_fit(FitReport(bench=run.bench, run_id=run.run_id, worker=name,
-                                       status="fitting"))
+                                       status="fitting", epoch=epoch))
+        self.bus.set_claim(run.bench, run.run_id, FitReport(
+            bench=run.bench, run_id=run.run_id, worker=name, status="fitting", epoch=epoch))
         self.pump(self.options.settle_s)
         if self.sched.claim_won(run):
-            return True
+            return epoch
         self.sched.withdraw(run)
+        self.bus.set_claim(run.bench, run.run_id, None)
         self.bus.publish_fit(FitReport(bench=run.bench, run_id=run.run_id, worker=name,
-                                       status="withdrawn"))
+                                       status="withdrawn", epoch=epoch))
         log.info("%s: another worker claimed it first; withdrawn", run)
-        return False
-
-    def _fit(self, finished: RunFinished, run_file: Path | None, fit_dir: Path) -> FitOutcome:
-        name = self.options.name
-        started = self.clock()
-        try:
-            if run_file is None:
-                dest = self.options.runs_dir / finished.bench / Path(finished.file).name
-                run_file = self.bus.fetch_run(finished.bench, finished.run_id, dest)
-            outcome = self.fitter(FitJob(finished, run_file, fit_dir, name))
-        except Exception as exc:
-            log.exception("%s/%s: fit failed", finished.bench, finished.run_id)
-            outcome = failed_report(finished, name, f"{type(exc).__name__}: {exc}")
-        if isinstance(outcome, FitReport) and outcome.timings.total_s == 0.0:
-            timings = outcome.timings.model_copy(update={"total_s": self.clock() - started})
-            outcome = outcome.model_copy(update={"timings": timings})
-        return outcome
+        return None
 
     def serve(self, stop: threading.Event) -> None:
         self.start()
         while not stop.is_set():
             self.step()
 
+    def close(self) -> None:
+        if self._fits is not None:
+            self._fits.close()
+
 
 def run_worker(options: WorkerOptions, stop: threading.Event) -> list[FitReport]:
-    """Open the bus, serve until `stop` is set, close. Returns the reports this worker made."""
-    events: queue.Queue[Event] = queue.Queue()
+    """Open the bus, serve until `stop` is set, close (a fit in progress is cancelled).
+    Returns the reports this worker published."""
+    events: queue.Queue[Event] = queue.Queue(maxsize=MAX_QUEUED)
     fitter = load_fitter(options.fitter)
     options.runs_dir.mkdir(parents=True, exist_ok=True)
     with WorkerBus(options.bus, options.name, events) as bus:
@@ -272,7 +357,7 @@ def run_worker(options: WorkerOptions, stop: threading.Event) -> list[FitReport]
         try:
             worker.serve(stop)
         finally:
-            worker.finisher.close()
+            worker.close()
         return worker.fitted
 
 

@@ -106,7 +106,7 @@ def test_kill_9_mid_fit_the_other_worker_takes_over(router, tmp_path: Path) -> N
     assert {r[0].worker for r in finals.values()} == {"wb"}
 
 
-def test_unloadable_run_gets_a_failed_report_and_the_worker_goes_on(router, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
+def test_a_run_whose_file_cannot_be_had_is_retried_when_its_daq_comes_back(router, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
     endpoint, session = router
     runs_dir = tmp_path / "runs"
     runs_dir.mkdir()
@@ -117,14 +117,20 @@ def test_unloadable_run_gets_a_failed_report_and_the_worker_goes_on(router, tmp_
     try:
         missing = daq.announce("gone", content=None)   # no file, and no `run` queryable answers
         good = daq.announce("fine")
-        finals = collector.wait_finals([missing, good], timeout_s=30)
+        finals = collector.wait_finals([good], timeout_s=30)
+        def withdrawn() -> bool:
+            collector.drain()
+            return any(r.run_id == "gone" and r.status == "withdrawn" for r in collector.messages)
+
+        wait_for(withdrawn, 30, "the unavailable run withdrawn")
+        assert missing not in collector.finals()        # transient: not failed for good
+        daq.come_back({"gone": b"fake-run gone, served by the daq"})
+        finals = collector.wait_finals([missing, good], timeout_s=60)
         assert worker.poll() is None
     finally:
         assert stop(worker) == 0
-    failed = finals[missing][0]
-    assert failed.status == "failed" and "gone" in (failed.reason or "")
-    assert "no reply" in (failed.reason or "")
-    assert finals[good][0].status == "ok"
+    assert [r.status for r in finals[missing]] == ["ok"] and finals[good][0].status == "ok"
+    assert (runs_dir / "bench1" / "gone.mcap").read_bytes().startswith(b"fake-run gone")
 
 
 def test_real_pipeline_reports_corrupted_and_truncated_runs_and_goes_on(router, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
