@@ -37,7 +37,13 @@ from mcap.writer import CompressionType, Writer
 import daq
 from daq.errors import DaqIOError
 from schemas import Record, SchemaError, run_file, topics
-from schemas.daq import DetectorStateMsg, PositionSample, RunFinished, RunMetadata, SampleBatch
+from schemas.daq import (
+    DetectorStateMsg,
+    PositionSample,
+    RunFinished,
+    RunMetadata,
+    SampleBatch,
+)
 
 log = logging.getLogger(__name__)
 CHUNK_SIZE = 32 * 1024

@@ -16,8 +16,8 @@ from __future__ import annotations
 
 import logging
 import multiprocessing
-import os
 import multiprocessing.connection
+import os
 import queue
 import threading
 import time
@@ -91,7 +91,7 @@ def _child_main(fitter: Callable[[Any], FitOutcome], conn: multiprocessing.conne
                 conn.send(("partial", job_id, outcome.partial.to_json_bytes()))
                 outcome = outcome.finish()
             conn.send(("final", job_id, outcome.to_json_bytes()))
-        except Exception as exc:  # noqa: BLE001 - any failure becomes a failed report
+        except Exception as exc:
             log.exception("fit failed")
             conn.send(("final", job_id, on_error(f"{type(exc).__name__}: {exc}").to_json_bytes()))
 

@@ -33,7 +33,13 @@ from pathlib import Path
 
 from ident.worker.bus import MAX_QUEUED, BusEvent, RunUnavailable, WorkerBus
 from ident.worker.fitproc import DEFAULT_MAX_FIT_S, FitOutcome, FitProcess, FitResult
-from ident.worker.runs_dir import find_run_file, fit_dir_for, read_report, scan_runs, write_report
+from ident.worker.runs_dir import (
+    find_run_file,
+    fit_dir_for,
+    read_report,
+    scan_runs,
+    write_report,
+)
 from ident.worker.schedule import RunRef, Scheduler
 from schemas import keys
 from schemas.bus import BusConfig

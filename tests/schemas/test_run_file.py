@@ -169,8 +169,9 @@ _READ_IN_CHILD = textwrap.dedent("""
 def test_memory_to_read_a_run_stays_within_twice_its_arrays_and_file(tmp_path: Path) -> None:
     path = tmp_path / "long.mcap"
     _bomb(path, n_chunks=30, batches_per_chunk=20)   # 1.2 M samples, one channel
-    probe = subprocess.run([sys.executable, "-c", "import resource; from schemas import run_file; "
-                            "print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024)"],
+    code = ("import resource; from schemas import run_file; "
+            "print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024)")
+    probe = subprocess.run([sys.executable, "-c", code],
                            capture_output=True, text=True, cwd=REPO, check=True, timeout=120)
     base = int(probe.stdout)
     out = subprocess.run([sys.executable, "-c", _READ_IN_CHILD, str(path), str(base)], capture_output=True,

@@ -122,7 +122,7 @@ def test_a_run_whose_file_cannot_be_had_is_retried_when_its_daq_comes_back(route
             collector.drain()
             return any(r.run_id == "gone" and r.status == "withdrawn" for r in collector.messages)
 
-        wait_for(withdrawn, 30, "the unavailable run withdrawn")
+        wait_until(withdrawn, 30, "the unavailable run withdrawn", worker)
         assert missing not in collector.finals()        # transient: not failed for good
         daq.come_back({"gone": b"fake-run gone, served by the daq"})
         finals = collector.wait_finals([missing, good], timeout_s=60)

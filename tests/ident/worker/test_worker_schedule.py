@@ -95,7 +95,7 @@ def test_final_reports_end_a_run_and_withdrawals_release_it() -> None:
 
 
 def test_a_take_over_outranks_the_stale_claim_of_a_worker_that_comes_back() -> None:
-    a, b, refs = _two_schedulers(20)
+    a, b, _ = _two_schedulers(20)
     run = b.my_share()[0]
     epoch_b = b.claim(run)                          # b claims, then is stopped past the lease
     a.fit_seen(_report(run.run_id, "wb", "fitting", epoch=epoch_b))
