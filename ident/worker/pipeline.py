@@ -2,9 +2,10 @@
 
 `fit_run(job)` returns, as soon as PEM is done, `Pending`: an `ok` report with the transfer
 functions and `pending: [diagnosis, figures]`, and the callable that runs those (the worker
-runs it in its fit process, right after sending the first results). It never raises for a bad run: a file that cannot be read, a run
-too short or without motion, or fits that all fail give a report with status `failed` and
-the reason; whatever was computed still goes in. Figures go to `job.fit_dir` (PNG + SVG).
+runs it in its fit process, right after sending the first results). It never raises for a bad
+run: a file that cannot be read, a run too short or without motion, or fits that all fail give
+a report with status `failed` and the reason; whatever was computed still goes in. Figures go
+to `job.fit_dir` (PNG + SVG).
 """
 
 from __future__ import annotations

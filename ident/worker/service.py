@@ -211,7 +211,9 @@ class Worker:
 
     def start(self) -> None:
         """Learn who is alive and which runs the others know are done, scan the runs
-        directory, ask each daq, gather history."""
+        directory, ask each daq, gather history. The fit process starts first: its imports
+        (seconds) overlap with the rest."""
+        _ = self.fits
         for _, finished in scan_runs(self.options.runs_dir):
             self.sched.run_announced(finished)
         self.catch_up()
