@@ -11,3 +11,5 @@ if _HANDLERS not in serial.protocol_handler_packages:
     serial.protocol_handler_packages.append(_HANDLERS)
 
 __version__ = "0.1.0"
+
+__all__ = ["__version__"]

@@ -149,7 +149,7 @@ def refine(model: Model, data: IdData, max_nfev: int = 100) -> Model:
 
 
 def _with_statistics(model: Model, data: IdData, result: OptimizeResult, layout: _Layout) -> Model:
-    from ident.compare import fit_percent
+    from ident.comparison import fit_percent
     from ident.model import ModeEstimate
 
     jac = np.asarray(result.jac)

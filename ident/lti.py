@@ -25,8 +25,8 @@ from typing import TYPE_CHECKING, Any, Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ident.d2c import c2d_zoh, d2c_zoh
 from ident.errors import IdentDimensionError, IdentValueError
+from ident.zoh import c2d_zoh, d2c_zoh
 
 if TYPE_CHECKING:
     import control

@@ -32,7 +32,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import least_squares
 
-from ident.compare import fit_percent
+from ident.comparison import fit_percent
 from ident.data import IdData
 from ident.errors import FitFailed, IdentValueError
 from ident.physics.free import NonlinearTerms, simulate_free

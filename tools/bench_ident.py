@@ -41,9 +41,9 @@ from numpy.typing import NDArray
 from scipy.integrate import solve_ivp
 
 from ident import varpro
-from ident.compare import fit_percent
+from ident.comparison import fit_percent
 from ident.data import IdData
-from ident.pem import pem
+from ident.prediction_error import pem
 from ident.simple import fit_simple
 
 FloatArray = NDArray[np.float64]

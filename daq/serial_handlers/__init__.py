@@ -15,3 +15,6 @@ import serial
 
 class EndOfStream(serial.SerialException):
     """A finite simulated or replayed stream has delivered its last byte."""
+
+
+__all__ = ["EndOfStream"]

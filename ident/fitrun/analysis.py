@@ -26,7 +26,7 @@ from ident.data import FloatArray, IdData
 from ident.diagnose import Diagnosis, diagnose
 from ident.errors import IdentError, IdentValueError
 from ident.model import Model
-from ident.pem import pem
+from ident.prediction_error import pem
 from ident.release import motion_amplitude, noise_std
 from ident.simple import fit_simple
 from schemas.diagnosis import DiagnosisReport

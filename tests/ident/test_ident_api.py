@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import importlib
+import pkgutil
+from types import ModuleType
 
 import numpy as np
 import pytest
@@ -11,21 +13,28 @@ import ident
 from testkit.ident_synth import cart1_run, step
 
 
-def test_every_exported_name_resolves() -> None:
-    for name, module in ident._EXPORTS.items():
-        assert getattr(importlib.import_module(module), name) is not None
+def test_every_exported_name_is_defined_and_public() -> None:
+    assert len(ident.__all__) == len(set(ident.__all__)) > 30
+    for name in ident.__all__:
         assert getattr(ident, name) is not None
+    public = {n for n, v in vars(ident).items() if not n.startswith("_") and not isinstance(v, ModuleType)}
+    assert public <= set(ident.__all__), public - set(ident.__all__)
+
+
+def test_no_public_function_shares_its_name_with_a_module() -> None:
+    modules = {m.name for m in pkgutil.iter_modules(ident.__path__)}
+    assert not modules & set(ident.__all__), modules & set(ident.__all__)
 
 
 def test_pem_and_compare_stay_callable_after_their_modules_are_imported() -> None:
-    importlib.import_module("ident.pem")
-    importlib.import_module("ident.compare")
+    importlib.import_module("ident.prediction_error")
+    importlib.import_module("ident.comparison")
     run = cart1_run(50.0, seed=61)
     data = ident.IdData(run.t, step(run.t, 0.5), run.y)
     model = ident.pem(data, 2)
     fits = ident.compare(model, data)
     assert fits == pytest.approx(list(model.fit_percent)) and fits[0] > 99.5
-    assert ident.pem.CANDIDATE_ORDERS == (2, 4, 6)  # still the module, too
+    assert callable(ident.pem) and ident.prediction_error.CANDIDATE_ORDERS == (2, 4, 6)
     assert isinstance(ident.resid(model, data)[0].white, bool)
     assert np.isfinite(ident.fit_simple(data, "rk4").wn)
 

@@ -9,7 +9,7 @@ import pytest
 
 from ident.cli import main
 from ident.io import load
-from ident.pem import pem
+from ident.prediction_error import pem
 from ident.simple import fit_simple
 from schemas.fit import FitReport
 from testkit.ident_synth import cart1_run, cart2_run

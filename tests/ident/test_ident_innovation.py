@@ -5,10 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ident.compare import residual_test
+from ident.comparison import residual_test
 from ident.data import IdData
 from ident.errors import IdentValueError
-from ident.pem import pem
+from ident.prediction_error import pem
 from testkit.ident_synth import cart1_run, step
 
 

@@ -5,10 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ident.compare import compare, fit_percent
+from ident.comparison import compare, fit_percent
 from ident.data import IdData, from_release
 from ident.errors import IdentValueError
-from ident.pem import pem
+from ident.prediction_error import pem
 from testkit.ident_synth import PULL_M, Run, cart1_run, cart2_run, step
 
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ident.compare import compare, fit_percent, resid, residual_test
+from ident.comparison import compare, fit_percent, resid, residual_test
 from ident.data import IdData, from_release
 from ident.errors import IdentValueError
 from ident.physics.steppers import euler_coulomb

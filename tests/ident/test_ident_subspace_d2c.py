@@ -5,12 +5,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ident.d2c import c2d_zoh, d2c_zoh
 from ident.data import IdData
 from ident.errors import IdentValueError
-from ident.pem import pem
 from ident.physics import TwoCartChain, modes_of
+from ident.prediction_error import pem
 from ident.subspace import free_response_poles, moesp, oscillatory_modes
+from ident.zoh import c2d_zoh, d2c_zoh
 from testkit.ident_synth import cart2_run, step
 
 

@@ -133,13 +133,14 @@ def test_d2c_refuses_what_has_no_continuous_original() -> None:
 
 
 def test_matlab_names_stay_functions_after_their_modules_load() -> None:
-    import ident.d2c as _  # noqa: F401   (the submodule of the same name)
-    import ident.pem
+    import ident.prediction_error
     import ident.simple
+    import ident.zoh
 
     run = cart1_run(50.0, seed=61)
-    ident.pem.pem(ident.IdData(run.t, step(run.t, 0.9), run.y), 2)   # loads ident.d2c lazily
-    assert callable(ident.simulate) and ident.simulate.__module__ == "ident.compare"
+    ident.prediction_error.pem(ident.IdData(run.t, step(run.t, 0.9), run.y), 2)
+    assert callable(ident.pem) and callable(ident.compare) and ident.zoh.d2c_zoh is ident.d2c_zoh
+    assert callable(ident.simulate) and ident.simulate.__module__ == "ident.comparison"
     assert callable(ident.d2c) and ident.d2c.__module__ == "ident.lti"
 
 

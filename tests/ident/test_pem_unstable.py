@@ -16,7 +16,7 @@ import pytest
 from ident.cli import main
 from ident.data import IdData
 from ident.io import load
-from ident.pem import pem
+from ident.prediction_error import pem
 
 ECP_MOTOR_PULSE = Path("ECP210_UCSD_2025_team1") / "07-Feb-2025_11_21_31.txt"
 COUNTS_PER_M = 56000.0

@@ -19,8 +19,6 @@ one per output (`ident.lti`).
 
 from __future__ import annotations
 
-import sys
-import types
 from dataclasses import dataclass
 from typing import Protocol
 
@@ -189,14 +187,3 @@ def resid(first: object, second: object, max_lag: int = 25) -> list[ResidualTest
     model, data = _model_and_data(first, second, "resid")
     errors = data.y - _checked_simulation(model, data)
     return [residual_test(errors[:, j], data.u, max_lag) for j in range(data.n_outputs)]
-
-
-class _CallableModule(types.ModuleType):
-    """Importing `ident.compare` makes the package attribute `ident.compare` this module (the
-    import system sets it), hiding the function of the same name; calling the module calls it."""
-
-    def __call__(self, first: object, second: object) -> list[float]:
-        return compare(first, second)
-
-
-sys.modules[__name__].__class__ = _CallableModule

@@ -27,8 +27,6 @@ naming the modes, never as converged.
 
 from __future__ import annotations
 
-import sys
-import types
 from collections.abc import Sequence
 from dataclasses import replace
 from typing import Any, Literal
@@ -150,7 +148,7 @@ def _noise_level(data: IdData, release0: float) -> FloatArray:
 
 def _moesp_modes(data: IdData, n_modes: int) -> list[tuple[FloatArray, FloatArray]]:
     """Start values from PO-MOESP on the whole record (any input), converted by d2c."""
-    from ident.d2c import d2c_zoh
+    from ident.zoh import d2c_zoh
 
     uniform = make_uniform(data, "auto")
     try:
@@ -279,14 +277,3 @@ def _bic(model: Model, data: IdData) -> float:
     numerators = sum(model.order + 1 - r for r in model.relative_degree)
     n_params = 2 * len(model.sigma) + 1 + numerators + model.offset.size
     return n_total * np.log(rss / n_total) + n_params * np.log(n_total)
-
-
-class _CallableModule(types.ModuleType):
-    """Importing `ident.pem` makes the package attribute `ident.pem` this module (the import
-    system sets it), hiding the function of the same name; calling the module calls it."""
-
-    def __call__(self, *args: Any, **kwargs: Any) -> Model:
-        return pem(*args, **kwargs)
-
-
-sys.modules[__name__].__class__ = _CallableModule
