@@ -66,7 +66,16 @@ def stage(label: str) -> None:
         if base is None:
             base = display.tasks[task].description
             display.update(task, base=base)
-        display.update(task, description=f"{base}: {label}")
+        # drawn now, not at the next 10 Hz tick: a stage shorter than a tick is still shown
+        display.update(task, description=f"{base}: {label}", refresh=True)
+
+
+def set_total(total: int) -> None:
+    """The number of counted steps, once the work knows it (e.g. the runs of a report)."""
+    active = _ACTIVE.get()
+    if active is not None:
+        display, task = active
+        display.update(task, total=total)
 
 
 def advance(label: str | None = None) -> None:

@@ -14,6 +14,7 @@ from functools import partial
 from pathlib import Path
 from typing import Any
 
+from ident import progress
 from ident.commands.fit import run_id_of
 from ident.errors import DataFileError
 from ident.fitrun import RunIdentity, fit_file
@@ -74,7 +75,10 @@ def fit_here(path: Path, fit_dir: Path) -> Any:
 def gather(paths: list[Path], work_dir: Path) -> list[FittedRun]:
     """The final report of each RUN, fitting those that have none (into `work_dir`)."""
     runs = []
-    for path in paths:
+    progress.set_total(len(paths))   # the terminal shows runs done of all
+    for k, path in enumerate(paths):
+        if k:
+            progress.advance()
         if path.is_dir() or path.name == REPORT_NAME:
             fit_dir = path if path.is_dir() else path.parent
             report = read_report(fit_dir)

@@ -21,11 +21,14 @@ A single-cart diagnosis of a record with a second, held cart (its swing under
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
+from typing import TypeVar
 
 import numpy as np
 from numpy.typing import NDArray
 
+from ident import progress
 from ident.diagnose import candidates as cands
 from ident.diagnose import explain
 from ident.diagnose.candidates import Problem, fit_baseline
@@ -39,6 +42,8 @@ from ident.errors import IdentDimensionError, IdentValueError
 from ident.physics.chain import LINEAR_NAMES, modes
 from ident.physics.measures import fit_percent
 from schemas.diagnosis import Candidate, DiagnosisReport, EffectFit, Evidence, ModelFit
+
+_T = TypeVar("_T")
 
 FloatArray = NDArray[np.float64]
 
@@ -82,6 +87,7 @@ def diagnose(t: FloatArray, y: FloatArray, carts: int | None = None, step_m: flo
                    np.ones(idx.size, dtype=bool), carts, float(np.max(np.ptp(y_arr[idx], axis=0))),
                    held, None if u_arr is None else u_arr[idx] - u_arr[idx[0]])
     fixed = _fixed_rest(win, carts, step_m)
+    progress.stage("diagnosis: the linear baseline")
     base = fit_baseline(prob, fixed)
     lattice, coherence = find_lattice(y_arr[win.start:])
     n_lin = len(LINEAR_NAMES[carts])
@@ -90,7 +96,8 @@ def diagnose(t: FloatArray, y: FloatArray, carts: int | None = None, step_m: flo
     ev = collect(prob.tau, prob.y, base.prediction, rest, wn_modes, lattice)
     steps, first_round = forward(
         base, lambda cur: [e for e in EFFECTS if cands.available(e, cur.spec, prob, ev)],
-        lambda cur, e: cands.screen(prob, cur, e, ev, wn_modes), lambda trial: cands.refine(prob, trial), carts)
+        lambda cur, e: _staged(f"diagnosis: screening {e}", lambda: cands.screen(prob, cur, e, ev, wn_modes)),
+        lambda trial: _staged(f"diagnosis: fitting {trial.effect}", lambda: cands.refine(prob, trial)), carts)
     ext = steps[-1].judgement.result if steps else base
     effects = _ranked(prob, steps)
     cause = next((e.effect for e in effects if e.material), "none")
@@ -99,6 +106,12 @@ def diagnose(t: FloatArray, y: FloatArray, carts: int | None = None, step_m: flo
     extrema = ev.extrema.copy()
     extrema[:, 0] += t_arr[win.start]
     return Diagnosis(report, t_arr[idx], prob.y, base.prediction, ext.prediction, prob.train, extrema)
+
+
+def _staged(label: str, work: Callable[[], _T]) -> _T:
+    """`work()` with `label` shown by a command's progress display (a no-op in library use)."""
+    progress.stage(label)
+    return work()
 
 
 def _check_input(u: FloatArray | None, n: int) -> FloatArray | None:

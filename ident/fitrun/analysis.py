@@ -136,6 +136,9 @@ def detect_case(data: IdData) -> tuple[LabCase, tuple[int, ...]]:
 
 def _timed(stage: str, timings: dict[str, float], errors: dict[str, str],
            work: Callable[[], Any]) -> Any:
+    from ident import progress
+
+    progress.stage(stage)   # what a terminal shows now (a no-op unless a command opened a display)
     started = time.perf_counter()
     try:
         return work()

@@ -97,3 +97,17 @@ def test_ident_fit_shows_progress_on_a_terminal_and_not_in_a_pipe(tmp_path: Path
     piped = subprocess.run(command, cwd=REPO, capture_output=True, text=True, timeout=120, check=False)
     assert piped.returncode == 0 and piped.stderr == ""   # nothing but the report, on stdout
     assert "mode 1: wn = 7.3" in piped.stdout   # the cart's wn = √(k/m) = 7.32 rad/s
+
+
+def test_the_fit_use_case_reports_each_stage_it_runs() -> None:
+    from ident.data import IdData, step_input
+    from ident.fitrun.analysis import FitSettings, analyse_fits
+
+    run = cart1_run(100.0, seed=22, duration=5.0)
+    data = IdData(run.t, step_input(run.t, 0.9, 0.15), run.y)
+    console, buffer = _terminal()
+    with progress.progress("ident fit run.csv", console=console):
+        analysis = analyse_fits(data, FitSettings(methods=("rk4", "pem")))
+    shown = buffer.getvalue()
+    assert analysis.pem is not None
+    assert ": simple" in shown and ": pem" in shown   # the stages of _timed, as they ran
