@@ -11,7 +11,7 @@ import os
 import time
 from pathlib import Path
 
-from ident.worker.service import FitJob
+from ident.worker.job import FitJob
 from schemas.fit import FitReport
 
 GATE_WAIT_S = 30.0

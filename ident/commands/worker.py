@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import importlib
 import logging
 import os
 import signal
@@ -10,9 +11,12 @@ import socket
 import sys
 import threading
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from schemas.bus import BusConfig
+
+if TYPE_CHECKING:
+    from ident.worker.job import Fitter
 
 
 def add_parser(sub: Any) -> None:
@@ -55,14 +59,37 @@ def default_name() -> str:
     return f"{host or 'worker'}-{os.getpid()}"
 
 
-def run(args: argparse.Namespace) -> int:
-    from ident.worker.service import DEFAULT_FITTER, WorkerOptions, run_worker
+def fitter_named(spec: str | None) -> Fitter:
+    """The function `--fitter MODULE:FUNCTION` names; the default pipeline without one.
 
+    Imported here, when the command runs, so other `ident` commands do not load the worker.
+    """
+    if spec is None:
+        from ident.worker.pipeline import fit_run
+
+        return fit_run
+    module_name, _, attr = spec.partition(":")
+    try:
+        fitter = getattr(importlib.import_module(module_name), attr) if module_name and attr else None
+    except ImportError as exc:
+        raise ValueError(f"--fitter: cannot import {module_name!r} ({exc}); expected MODULE:FUNCTION") from exc
+    if not callable(fitter):
+        raise ValueError(f"--fitter: expected MODULE:FUNCTION naming a function, got {spec!r}")
+    return fitter
+
+
+def run(args: argparse.Namespace) -> int:
+    from ident.worker.service import WorkerOptions, run_worker
+
+    try:
+        fitter = fitter_named(args.fitter)
+    except ValueError as exc:
+        print(f"ident worker: {exc}", file=sys.stderr)
+        return 2
     logging.basicConfig(level=logging.DEBUG if args.verbose else logging.INFO,
                         format="%(asctime)s ident worker %(message)s")
     options = WorkerOptions(name=args.name or default_name(), runs_dir=args.runs_dir,
-                            bus=bus_config(args), fitter=args.fitter or DEFAULT_FITTER,
-                            settle_s=args.settle_s)
+                            bus=bus_config(args), settle_s=args.settle_s)
     stop = threading.Event()
 
     def _stop(signum: int, frame: object) -> None:
@@ -80,7 +107,7 @@ def run(args: argparse.Namespace) -> int:
     logging.getLogger("ident.worker").info("worker %s serving %s", options.name,
                                            options.runs_dir)
     try:
-        run_worker(options, stop)
+        run_worker(options, fitter, stop)
     except IdentError as exc:
         print(f"ident worker: {exc}", file=sys.stderr)
         return 2

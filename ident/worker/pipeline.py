@@ -16,7 +16,7 @@ from functools import partial
 from ident.fitrun import RunFit, RunIdentity, complete, fit_first, with_pending
 from ident.report.figures import write_figures
 from ident.worker.fitproc import FitOutcome, Pending
-from ident.worker.service import FitJob
+from ident.worker.job import FitJob
 from schemas.fit import FitReport
 
 # The worker imports this module at start: pay matplotlib's imports (seconds) then, not at

@@ -20,7 +20,6 @@ Faults handled here (issue 14):
 
 from __future__ import annotations
 
-import importlib
 import logging
 import queue
 import threading
@@ -32,7 +31,8 @@ from functools import partial
 from pathlib import Path
 
 from ident.worker.bus import MAX_QUEUED, BusEvent, RunUnavailable, WorkerBus
-from ident.worker.fitproc import DEFAULT_MAX_FIT_S, FitOutcome, FitProcess, FitResult
+from ident.worker.fitproc import DEFAULT_MAX_FIT_S, FitProcess, FitResult
+from ident.worker.job import FitJob, Fitter
 from ident.worker.runs_dir import (
     find_run_file,
     fit_dir_for,
@@ -49,21 +49,6 @@ from schemas.fit import FitReport
 
 log = logging.getLogger("ident.worker")
 
-DEFAULT_FITTER = "ident.worker.pipeline:fit_run"
-
-
-@dataclass(frozen=True)
-class FitJob:
-    """One run to fit: its finished record, the local MCAP, and where figures go."""
-
-    finished: RunFinished
-    run_file: Path
-    fit_dir: Path
-    worker: str
-
-
-#: A fitter returns the complete report, or `Pending` (first results + the slow rest).
-Fitter = Callable[[FitJob], FitOutcome]
 Event = BusEvent | FitResult
 
 
@@ -76,7 +61,6 @@ class WorkerOptions:
     name: str
     runs_dir: Path
     bus: BusConfig = field(default_factory=BusConfig.connector)
-    fitter: str | Fitter = DEFAULT_FITTER
     settle_s: float = 0.2
     sync_s: float = 0.3
     poll_s: float = 0.05
@@ -84,17 +68,6 @@ class WorkerOptions:
     retry_s: float = 30.0
     stall_s: float = 2.0
     max_fit_s: float = DEFAULT_MAX_FIT_S
-
-
-def load_fitter(spec: str | Fitter) -> Fitter:
-    """`"package.module:function"` (or the function itself) -> the function."""
-    if callable(spec):
-        return spec
-    module_name, _, attr = spec.partition(":")
-    if not module_name or not attr:
-        raise ValueError(f"fitter: expected 'module:function', got {spec!r}")
-    fitter: Fitter = getattr(importlib.import_module(module_name), attr)
-    return fitter
 
 
 def failed_report(finished: RunFinished, worker: str, reason: str) -> FitReport:
@@ -354,11 +327,11 @@ class Worker:
             self._fits.close()
 
 
-def run_worker(options: WorkerOptions, stop: threading.Event) -> list[FitReport]:
+def run_worker(options: WorkerOptions, fitter: Fitter, stop: threading.Event) -> list[FitReport]:
     """Open the bus, serve until `stop` is set, close (a fit in progress is cancelled).
+    `fitter` runs in the fit process: a module-level function (it is pickled by reference).
     Returns the reports this worker published."""
     events: queue.Queue[Event] = queue.Queue(maxsize=MAX_QUEUED)
-    fitter = load_fitter(options.fitter)
     options.runs_dir.mkdir(parents=True, exist_ok=True)
     with WorkerBus(options.bus, options.name, events) as bus:
         worker = Worker(options, bus, events, fitter)
@@ -369,5 +342,4 @@ def run_worker(options: WorkerOptions, stop: threading.Event) -> list[FitReport]
         return worker.fitted
 
 
-__all__ = ["DEFAULT_FITTER", "FitJob", "Fitter", "Worker", "WorkerOptions", "failed_report",
-           "load_fitter", "run_worker"]
+__all__ = ["Worker", "WorkerOptions", "failed_report", "run_worker"]

@@ -23,7 +23,9 @@ import pytest
 import zenoh
 import zenoh.ext
 
-from ident.worker.service import FitJob, WorkerOptions, run_worker
+from ident.worker.job import FitJob
+from ident.worker.pipeline import fit_run
+from ident.worker.service import WorkerOptions, run_worker
 from schemas import keys
 from schemas.bus import BusConfig
 from schemas.fit import FitReport
@@ -55,15 +57,15 @@ def worker(tmp_path: Path, request: pytest.FixtureRequest) -> Iterator[Setup]:
     runs_dir = tmp_path / "deep" / "runs"
     runs_dir.mkdir(parents=True)
     endpoint = ports.endpoint()
-    fitter = getattr(request, "param", f"{__name__}:stand_in_fit")
+    fitter = getattr(request, "param", stand_in_fit)
     options = WorkerOptions(name="w-abuse", runs_dir=runs_dir, bus=BusConfig.listener(endpoint),
-                            fitter=fitter, settle_s=0.05, sync_s=0.1)
+                            settle_s=0.05, sync_s=0.1)
     stop = threading.Event()
     errors: list[BaseException] = []
 
     def serve() -> None:
         try:
-            run_worker(options, stop)
+            run_worker(options, fitter, stop)
         except BaseException as exc:  # noqa: BLE001 - reported by the test
             errors.append(exc)
 
@@ -206,7 +208,7 @@ def _bad_runs(runs_dir: Path) -> list[str]:
 
 
 @pytest.mark.timeout(180)
-@pytest.mark.parametrize("worker", ["ident.worker.pipeline:fit_run"], indirect=True, ids=["real-pipeline"])
+@pytest.mark.parametrize("worker", [fit_run], indirect=True, ids=["real-pipeline"])
 def test_runs_that_cannot_be_fitted_get_a_failed_report_with_a_reason_and_the_worker_goes_on(
         worker: Setup) -> None:
     names = _bad_runs(worker.runs_dir)

@@ -6,8 +6,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ident.worker.job import FitJob
 from ident.worker.pipeline import fit_to_completion as fit_run
-from ident.worker.service import FitJob
 from schemas.daq import RunFinished
 
 
