@@ -185,15 +185,23 @@ class IdData:
             rows.append((f"y{j + 1}", f"{summary.span(self.y[:, j], 'm')}, {state}"))
         if moving and len(moving) < self.n_outputs:
             rows.append(("hint", f"fit the moving outputs: data.select_outputs({moving})"))
-        step = self.step_time()
-        rows.append(("input u", "constant" if step is None else
-                     f"step of {self.step_amplitude:.4g} at {step:.4g} s"))
+        rows.append(("input u", self._input_summary()))
         if self.release_time_s is not None:
             rows.append(("release", f"{self.release_time_s:.4f} s"))
         if self.pulled_cart is not None:
             rows.append(("pulled cart", str(self.pulled_cart)))
         rows.extend(("note", note) for note in self.notes)
         return rows
+
+    def _input_summary(self) -> str:
+        """'step of A at T s' for a step, else the range and the first change of a recorded input."""
+        start = self.step_time()
+        if start is None:
+            return f"constant {self.u[0]:.4g}"
+        if self.step_amplitude != 0.0 and np.unique(self.u).size == 2 \
+                and np.all(np.diff(self.u) * self.step_amplitude >= 0):
+            return f"step of {self.step_amplitude:.4g} at {start:.4g} s"
+        return f"recorded, {float(np.min(self.u)):.4g} … {float(np.max(self.u)):.4g}, first change at {start:.4g} s"
 
     def _title(self) -> str:
         name = f" {self.name!r}" if self.name else ""

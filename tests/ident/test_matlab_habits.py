@@ -182,3 +182,10 @@ def test_transposed_arrays_and_milliseconds_are_caught_with_the_fix() -> None:
     with pytest.raises(IdentValueError, match=r"milliseconds\? pass t / 1000"):
         ident.IdData(run.t * 1000.0, u, two)
     assert ident.IdData(run.t[:, None], u, two).n_samples == run.t.size   # a column of times is fine
+
+
+def test_a_recorded_pulse_input_is_not_summarised_as_a_step() -> None:
+    run = cart1_run(100.0, seed=12)
+    pulse = np.where((run.t >= 1.0) & (run.t < 4.0), 0.6, 0.0)   # a motor voltage pulse
+    assert "input u : recorded, 0 … 0.6, first change at 1 s" in repr(ident.IdData(run.t, pulse, run.y))
+    assert "input u : step of 0.15 at 0.9 s" in repr(ident.IdData(run.t, step(run.t, 0.9), run.y))
