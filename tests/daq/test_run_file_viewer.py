@@ -167,3 +167,24 @@ def test_mat_export_carries_a_metadata_struct(recorded: tuple[list[Path], Path, 
     assert meta.pulled_cart == run.metadata.pulled_cart and meta.lab_case == run.metadata.lab_case
     assert json.loads(meta.metadata_json)["first_t_ns"] == run.metadata.first_t_ns
     assert np.isnan(meta.rate_hz) or meta.rate_hz > 0
+
+
+def test_a_recovered_run_keeps_one_metadata_record_per_name_and_every_position(tmp_path: Path) -> None:
+    from daq.recorder import RunWriter, recover_all
+    from testkit.daq_records import run_metadata, sample_batches
+
+    writer = RunWriter(tmp_path, run_metadata(), now_s=0.0)
+    batches = sample_batches(30)
+    for i, batch in enumerate(batches):
+        writer.write_samples(batch, now_s=i * 0.02)
+    writer.abandon()   # a crash: the .part stays, with only cartlab.run_started
+    (finished,) = recover_all(tmp_path)
+    path = tmp_path / finished.file
+    with open(path, "rb") as stream:
+        reader = make_reader(stream)
+        names = Counter(record.name for record in reader.iter_metadata())
+        points = [PositionSample.from_json_bytes(m.data).t_ns
+                  for _, _, m in reader.iter_messages(topics=[topics.POSITION])]
+    assert set(names.values()) == {1} and topics.METADATA_RUN in names
+    assert points == [t for b in batches for t in b.t_ns]
+    assert load_run(path).metadata is not None
