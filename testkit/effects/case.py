@@ -32,7 +32,9 @@ class Truth:
     values under the names the diagnosis report uses (`coulomb_accel_m_s2`, `drag_per_m`,
     `cubic_per_m2_s2`, `quantum_m`, `mode_hz`, `zeta`, ...), each to be recovered;
     `details`: more facts that are not to be scored (static friction, masses, ...);
-    `clean` (N, k): the positions before the sensor (no noise, no lattice).
+    `clean` (N, k): the positions before the sensor (no noise, no lattice); `immaterial`: the
+    effects present but worth under 0.05 fit-% points (a fine encoder lattice): a diagnosis
+    must list them and never make one the headline (a lone one leaves the headline `none`).
     """
 
     family: str
@@ -45,6 +47,7 @@ class Truth:
     noise_m: float
     clean: FloatArray
     details: dict[str, float] = field(default_factory=dict)
+    immaterial: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)

@@ -14,9 +14,11 @@ Families (an effect, `none`, or a pair):
   static = f·[1, 1.5]; two carts: on cart 1, cart 2 or both, seen through both encoders or
   (`encoders=1`) cart 1's only;
 - quadratic_drag: q = r·3/(4A), r ∈ [0.03, 0.15], the same per mass on every cart;
-- cubic_stiffness: every spring pulls k (e + γ e³), γ = ±r·8/(3A²), r ∈ [0.005, 0.05]
-  (hardening and softening: the frequency moves by about ±r at A); reported as κ = wn² γ
-  (`cubic_per_m2_s2`) for one cart, γ (`cubic_rel_per_m2`) for two;
+- cubic_stiffness: γ = ±r·8/(3A²), r ∈ [0.005, 0.05] (hardening and softening: the
+  frequency moves by about ±r at A); one cart: its spring pulls k (e + γ e³), reported as
+  κ = wn² γ (`cubic_per_m2_s2`); two carts: a = -κ (x_i - rest_i)³ on each cart, κ = wn² γ
+  (the diagnosis' documented two-cart effect), or with `cubic_law="springs"` every spring
+  k (e + γ e³), reported as γ (`cubic_rel_per_m2`);
 - quantization: the encoder reads Q·round(y/Q), Q ∈ [10 µm, 2 mm] (log-uniform), an exact
   lattice or with white noise of 2–30 % of Q added after it;
 - coupled_mode: an extra mass behind the last cart, m_e/m ∈ [0.05, 1.5] (log-uniform: from a
@@ -48,6 +50,8 @@ SINGLE = ("none", "coulomb_friction", "quadratic_drag", "cubic_stiffness", "quan
 PAIRS = ("viscous+coulomb", "coulomb+quantization", "coulomb+held_cart")
 FAMILIES = SINGLE + PAIRS
 NOISE_M = (5e-6, 2e-4)
+#: an effect worth less than this many fit-% points is immaterial (listed, never the headline)
+IMMATERIAL_POINTS = 0.05
 
 
 def log_uniform(rng: np.random.Generator, low: float, high: float) -> float:
@@ -169,14 +173,22 @@ def add_drag(rng: np.random.Generator, spec: Spec) -> None:
     spec.present += ("quadratic_drag",)
 
 
-def add_cubic(rng: np.random.Generator, spec: Spec) -> None:
-    """Every spring k (e + γ e³); one cart reported as κ = wn² γ (a = -κ (x - rest)³)."""
-    gamma = rng.choice([-1.0, 1.0]) * rng.uniform(0.005, 0.05) * 8 / (3 * spec.amplitude ** 2)
-    spec.effects["cubic_rel"] = float(gamma)
-    if spec.carts == 1:
-        spec.parameters["cubic_per_m2_s2"] = float(spec.wn ** 2 * gamma)
+def add_cubic(rng: np.random.Generator, spec: Spec, law: str = "carts") -> None:
+    """One cart: its spring k (e + γ e³), reported as κ = wn² γ (a = -κ (x - rest)³). Two carts,
+    `law="carts"`: a = -κ (x_i - rest_i)³ on each cart (the diagnosis' documented two-cart
+    effect, so that its coefficient can be scored); `law="springs"`: every spring k (e + γ e³),
+    reported as γ (`cubic_rel_per_m2`)."""
+    r = rng.choice([-1.0, 1.0]) * rng.uniform(0.005, 0.05)
+    gamma = float(r * 8 / (3 * spec.amplitude ** 2))
+    if spec.carts == 1 or law == "springs":
+        spec.effects["cubic_rel"] = gamma
+        name, value = ("cubic_per_m2_s2", spec.wn ** 2 * gamma) if spec.carts == 1 else ("cubic_rel_per_m2", gamma)
+    elif law == "carts":
+        spec.effects["cubic_per_mass"] = np.full(len(spec.layout.masses), spec.wn ** 2 * gamma)
+        name, value = "cubic_per_m2_s2", spec.wn ** 2 * gamma
     else:
-        spec.parameters["cubic_rel_per_m2"] = float(gamma)
+        raise ValueError(f"cubic law: expected 'carts' or 'springs', got {law!r}")
+    spec.parameters[name] = float(value)
     spec.present += ("cubic_stiffness",)
 
 
@@ -248,7 +260,7 @@ def held_cart(rng: np.random.Generator, kind: str | None) -> Spec:
 
 
 def draw_spec(rng: np.random.Generator, family: str, carts: int | None, kind: str | None,
-              encoders: int | None, noise: float) -> Spec:
+              encoders: int | None, noise: float, cubic_law: str = "carts") -> Spec:
     if family in ("viscous+coulomb", "coulomb+quantization"):
         spec = base(rng, one_cart(rng, (0.02, 0.08) if family == "viscous+coulomb" else (0.005, 0.05)), kind)
         add_coulomb(rng, spec, (0,))
@@ -276,7 +288,7 @@ def draw_spec(rng: np.random.Generator, family: str, carts: int | None, kind: st
     elif family == "quadratic_drag":
         add_drag(rng, spec)
     elif family == "cubic_stiffness":
-        add_cubic(rng, spec)
+        add_cubic(rng, spec, cubic_law)
     elif family == "quantization":
         add_lattice(rng, spec)
     elif family == "coupled_mode":
@@ -314,13 +326,13 @@ def phases(spec: Spec, end: float) -> list[Phase]:
 
 def make_case(seed: int, family: str | None = None, *, carts: int | None = None, release: str | None = None,
               encoders: int | None = None, rate_hz: float | None = None, record_s: float | None = None,
-              encoder_m: float | None = None) -> Case:
+              encoder_m: float | None = None, cubic_law: str = "carts") -> Case:
     """One run of `family` (drawn by the seed when None). `carts` (1, 2) and `release` ('hold',
     'flick') are drawn unless given; `encoders=1` reads only cart 1 of two carts with friction;
     `rate_hz` and `record_s` (the whole record's length) fix the sampling (speed measurements);
     `encoder_m` reads the noisy positions through an encoder of that count (m), as real rigs do
     (the ECP's 1/56000 m): a real but immaterial lattice, not one of the case's effects (a
-    family with its own lattice keeps only that one)."""
+    family with its own lattice keeps only that one); `cubic_law` see `add_cubic`."""
     rng = np.random.default_rng(seed)
     family = family or str(rng.choice(FAMILIES))
     if family not in FAMILIES:
@@ -329,7 +341,7 @@ def make_case(seed: int, family: str | None = None, *, carts: int | None = None,
     length = float(rng.uniform(4.0, 10.0))
     rate = rate if rate_hz is None else rate_hz
     noise = log_uniform(rng, *NOISE_M)
-    spec = draw_spec(rng, family, carts, release, encoders, noise)
+    spec = draw_spec(rng, family, carts, release, encoders, noise, cubic_law)
     if record_s is not None:
         length = record_s - spec.release.t_r
     end = spec.release.t_r + length
@@ -345,9 +357,22 @@ def make_case(seed: int, family: str | None = None, *, carts: int | None = None,
         spec.details["encoder_m"] = encoder_m
     details = dict(spec.details, wn_rad_s=spec.wn, amplitude_m=spec.amplitude, length_s=length,
                    release_x_m=spec.release.x, release_v_m_s=spec.release.v)
-    truth = Truth(family, spec.headline, spec.present, dict(spec.parameters), spec.release.t_r,
-                  spec.release.kind, rate, noise, clean, details)
+    immaterial: tuple[str, ...] = ()
+    headline = spec.headline
+    if spec.quantum is not None:
+        details["lattice_points"] = lattice_points(clean, y, spec.quantum)
+        if details["lattice_points"] < IMMATERIAL_POINTS:
+            immaterial = ("quantization",)
+            headline = "none" if headline == "quantization" else headline
+    truth = Truth(family, headline, spec.present, dict(spec.parameters), spec.release.t_r,
+                  spec.release.kind, rate, noise, clean, details, immaterial)
     return Case(seed, Observed(t, y, spec.carts), truth)
+
+
+def lattice_points(clean: FloatArray, y: FloatArray, quantum: float) -> float:
+    """What the lattice alone costs a perfect model, in fit-% points: 100 ‖Q·round(x/Q) - x‖ / ‖y - ȳ‖."""
+    lattice = quantum * np.round(clean / quantum)
+    return float(100.0 * np.linalg.norm(lattice - clean) / np.linalg.norm(y - y.mean(axis=0)))
 
 
 def sense(rng: np.random.Generator, clean: FloatArray, quantum: float | None,

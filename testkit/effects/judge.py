@@ -27,7 +27,8 @@ OWNER = {"coulomb_accel_m_s2": "coulomb_friction", "coulomb_accel_m_s2_cart2": "
 
 @dataclass(frozen=True)
 class Verdict:
-    """How one diagnosis did. `headline_right` is None for a pair (either effect may lead)."""
+    """How one diagnosis did. `headline_right` is None for a pair (either effect may lead);
+    `immaterial_listed`: every immaterial effect of the truth is among the accepted ones."""
 
     family: str
     cause: str
@@ -35,6 +36,7 @@ class Verdict:
     material: tuple[str, ...]
     headline_right: bool | None
     all_found: bool
+    immaterial_listed: bool
     errors: dict[str, float]
     false_positive: bool
 
@@ -46,7 +48,7 @@ class Verdict:
     def right(self) -> bool:
         """Headline (or, for a pair, both effects) right and every parameter within tolerance."""
         named = self.headline_right if self.headline_right is not None else self.all_found
-        return bool(named) and self.parameters_ok and not self.false_positive
+        return bool(named) and self.immaterial_listed and self.parameters_ok and not self.false_positive
 
 
 def accepted(report: Any) -> list[Any]:
@@ -87,4 +89,6 @@ def judge(case: Case, report: Any) -> Verdict:
     all_found = set(truth.effects) <= set(found)
     false_positive = truth.family == "none" and (report.cause != "none" or bool(material))
     headline = None if truth.headline is None else report.cause == truth.headline
-    return Verdict(truth.family, str(report.cause), found, material, headline, all_found, errors, false_positive)
+    listed = set(truth.immaterial) <= set(found)
+    return Verdict(truth.family, str(report.cause), found, material, headline, all_found, listed, errors,
+                   false_positive)

@@ -3,12 +3,13 @@
 Masses m_i (kg) joined by springs (to each other or to the wall) and viscous dampers to
 ground. With x the displacements from the mechanical rest (m) and v = x' (m/s):
 
-    m_i x_i'' = -(K x)_i - (C v)_i - Σ_s ±k_s γ e_s³ - m_i q_i v_i |v_i|
+    m_i x_i'' = -(K x)_i - (C v)_i - Σ_s ±k_s γ e_s³ - m_i κ_i x_i³ - m_i q_i v_i |v_i|
                 + k_h (w(t) - x_i) + c_h (w'(t) - v_i)   [a hand spring on mass i]
                 - m_i f_i sign(v_i)                       [dry friction while slipping]
 
 every spring s (stiffness k_s, extension e_s = x_i - x_j, or x_i for a spring to the wall) may
-pull with k_s (e_s + γ e_s³): γ (1/m²) > 0 hardening, < 0 softening; q_i (1/m) quadratic
+pull with k_s (e_s + γ e_s³): γ (1/m²) > 0 hardening, < 0 softening; κ_i (1/(m² s²)) is a
+cubic restoring term of mass i about its rest (a nonlinear guide or ground spring); q_i (1/m) quadratic
 drag, f_i (m/s²) kinetic Coulomb friction; a mass at rest stays stuck while the rest of its
 force per mass stays within the static level s_i ≥ f_i. A hand spring (k_h, c_h) ties a held
 cart to where the hand is, w(t): the hand holds it loosely, so it follows the other cart weakly
@@ -46,6 +47,7 @@ class Rig:
     stiffness: FloatArray
     damping: FloatArray
     cubic: tuple[tuple[int, int | None, float], ...]
+    cubic_per_mass: FloatArray
     drag: FloatArray
     kinetic: FloatArray
     static: FloatArray
@@ -66,7 +68,7 @@ class Rig:
         for hand in self.hands:
             w, w_dot = hand.target(t)
             force[hand.index] += hand.stiffness * (w - x[hand.index]) + hand.damping * (w_dot - v[hand.index])
-        return np.asarray(force / self.masses - self.drag * v * np.abs(v))
+        return np.asarray(force / self.masses - self.cubic_per_mass * x ** 3 - self.drag * v * np.abs(v))
 
     def linear_matrix(self) -> FloatArray:
         """A of z' = A z for z = (x, v), the linear part with the hands' springs (2n, 2n)."""
@@ -95,10 +97,11 @@ def stiffness_matrix(n: int, springs: Sequence[tuple[int, int | None, float]]) -
 def make_rig(masses: Sequence[float], springs: Sequence[tuple[int, int | None, float]],
              dampers: Sequence[float], *, drag: Sequence[float] | None = None,
              kinetic: Sequence[float] | None = None, static: Sequence[float] | None = None,
-             cubic_rel: float = 0.0, hands: Sequence[HandSpring] = ()) -> Rig:
+             cubic_rel: float = 0.0, cubic_per_mass: Sequence[float] | None = None,
+             hands: Sequence[HandSpring] = ()) -> Rig:
     """A rig with dampers to ground (N·s/m per mass); per-mass drag (1/m), kinetic and static
-    friction (m/s², static raised to at least kinetic) default to zero; `cubic_rel` γ (1/m²)
-    acts on every spring given."""
+    friction (m/s², static raised to at least kinetic) and cubic terms κ_i (1/(m² s²)) default to
+    zero; `cubic_rel` γ (1/m²) acts on every spring given."""
     m = np.asarray(masses, dtype=np.float64)
     n = m.size
 
@@ -108,4 +111,4 @@ def make_rig(masses: Sequence[float], springs: Sequence[tuple[int, int | None, f
     kin = per_mass(kinetic)
     cubic = tuple((i, j, k * cubic_rel) for i, j, k in springs) if cubic_rel else ()
     return Rig(m, stiffness_matrix(n, springs), np.diag(np.asarray(dampers, dtype=np.float64)),
-               cubic, per_mass(drag), kin, np.maximum(per_mass(static), kin), tuple(hands))
+               cubic, per_mass(cubic_per_mass), per_mass(drag), kin, np.maximum(per_mass(static), kin), tuple(hands))

@@ -78,11 +78,13 @@ def test_dry_friction_sticks_where_the_piecewise_exact_solution_does(static_rati
         assert np.interp(j * half, t, x) == pytest.approx(extreme, abs=1e-6)
 
 
+@pytest.mark.parametrize("law", ["spring", "mass"])
 @pytest.mark.parametrize("kappa", [3000.0, -3000.0])
-def test_an_undamped_cubic_spring_keeps_its_energy(kappa: float) -> None:
+def test_an_undamped_cubic_spring_keeps_its_energy(kappa: float, law: str) -> None:
     wn, d = 10.0, 0.08
     t = np.linspace(0.0, 4.0, 4001)
-    rig = make_rig([1.0], [(0, None, wn * wn)], [0.0], cubic_rel=kappa / wn ** 2)
+    cubic = {"cubic_rel": kappa / wn ** 2} if law == "spring" else {"cubic_per_mass": [kappa]}
+    rig = make_rig([1.0], [(0, None, wn * wn)], [0.0], **cubic)  # type: ignore[arg-type]
     z0 = np.array([-d, 0.0])
     x, _ = simulate(rig, [Phase(0.0, 4.0)], t, z0)
     v = np.gradient(x[:, 0], t, edge_order=2)
@@ -144,3 +146,12 @@ def test_an_encoder_count_puts_every_reading_on_its_lattice_without_changing_the
     assert np.allclose(y, np.round(y), atol=1e-6)
     assert read.truth.effects == plain.truth.effects and read.truth.parameters == plain.truth.parameters
     assert np.max(np.abs(read.observed.y - plain.observed.y)) <= 0.5 / 56000 + 1e-12
+
+
+def test_a_fine_lattice_is_immaterial_and_leaves_the_headline_none() -> None:
+    cases = [make_case(s, "quantization") for s in range(30)]
+    fine = [c for c in cases if c.truth.immaterial]
+    coarse = [c for c in cases if not c.truth.immaterial]
+    assert fine and coarse
+    assert all(c.truth.headline == "none" and c.truth.details["lattice_points"] < 0.05 for c in fine)
+    assert all(c.truth.headline == "quantization" and c.truth.details["lattice_points"] >= 0.05 for c in coarse)
