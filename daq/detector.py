@@ -66,10 +66,11 @@ from daq.ringing import (
     RingingLimits,
     Turn,
     Zigzag,
-    coarse_start,
     date_release,
     fit_free,
     is_ringing,
+    motion_sign,
+    slide_back,
 )
 
 State = Literal["idle", "armed", "released", "settled"]
@@ -189,6 +190,7 @@ class ReleaseDetector:
         self._first_t: float | None = None
         self._zigzags: list[Zigzag] = []
         self._muted: list[bool] = []        # ringing already judged (and turned down) on this channel
+        self._dating: tuple[float, int, Turn, Turn, Turn] | None = None   # (due time, channel, turns)
         self._run_channel = 0
         self._run_turns = 0                 # turns of the run's channel since its release
         self._run_low: list[float] = []
@@ -215,9 +217,11 @@ class ReleaseDetector:
             self._restart_anchor(t_s, sample)
             return []
         if turned:
-            ringing = self._check_ringing(t_s, turned)
-            if ringing:
-                return ringing
+            self._check_ringing(t_s, turned)
+        if self._dating is not None:
+            dated = self._due(t_s)
+            if dated:
+                return dated
         if self.state == "idle":
             return self._feed_idle(t_s, sample)
         return self._feed_armed(t_s, sample)
@@ -245,6 +249,7 @@ class ReleaseDetector:
         if self.state == "released":
             return []
         self._trigger_t = None
+        self._dating = None
         for zigzag in self._zigzags:
             zigzag.clear()
         if self.state in ("armed", "settled"):
@@ -328,6 +333,7 @@ class ReleaseDetector:
 
     def _release(self, release: Released) -> Released:
         self.state = "released"
+        self._dating = None
         self._release_t = release.t_release_s
         self._anchor = None
         self._run_channel = release.channel
@@ -364,6 +370,8 @@ class ReleaseDetector:
         if self._run_channel in turned and self._handled_again():
             self.state = "settled"
             self._unmute()
+            for zigzag in self._zigzags:   # the grown swing starts what comes next
+                zigzag.keep_last(2)
             return [Settled(t_s, "handled")]
         if self._still(t_s, sample, settings.settle_band_m, settings.settle_s, self._moving_channels()):
             self.state = "settled"
@@ -407,19 +415,45 @@ class ReleaseDetector:
     def _unmute(self) -> None:
         self._muted = [False] * len(self._muted)
 
-    def _check_ringing(self, t_s: float, channels: list[int]) -> list[Event]:
-        """A channel that rings freely: its release, dated from the data, or why it is not one."""
+    def _check_ringing(self, t_s: float, channels: list[int]) -> None:
+        """A channel that rings freely: date it once enough of its free response is in (see `_due`)."""
         for c in channels:
             turns = self._zigzags[c].turns
-            if self._muted[c] or len(turns) < 3 or not is_ringing(turns[-3], turns[-2], turns[-1], self._limits):
+            if len(turns) < 3:
+                continue
+            if self._muted[c] and self._broken(turns[-3], turns[-2], turns[-1]):
+                self._muted[c] = False   # the ringing judged before is over: a hand took the cart
+            if self._muted[c] or not is_ringing(turns[-3], turns[-2], turns[-1], self._limits):
                 continue
             self._muted[c] = True       # judged once; stillness or a new handling unmutes
-            self._trigger_t = None
-            event = self._date(t_s, c, turns[-3], turns[-2], turns[-1])
-            if isinstance(event, Released):
-                return [self._release(event)]
-            return [event]
-        return []
+            a, b, t_c = turns[-3], turns[-2], turns[-1]
+            half = 0.5 * (t_c.t_s - a.t_s)
+            # the free response is fitted from a quarter half-period after B (after any release
+            # near B) over three quarters of a period
+            due = (b.t_s + 1.75 * half, c, a, b, t_c)
+            if self._dating is None or due[0] < self._dating[0]:
+                self._dating = due
+            return
+
+    def _broken(self, a: Turn, b: Turn, c: Turn) -> bool:
+        """A swing that grew or a half-period that changed: not the same free ringing any more."""
+        limits = self._limits
+        s1, s2 = abs(b.x_m - a.x_m), abs(c.x_m - b.x_m)
+        h1, h2 = b.t_s - a.t_s, c.t_s - b.t_s
+        return s2 > limits.grow * s1 + 2.0 * limits.band_m or max(h1, h2) > limits.half_ratio * min(h1, h2)
+
+    def _due(self, t_s: float) -> list[Event]:
+        """The dating of a confirmed ringing, once its time has come."""
+        dating = self._dating
+        if dating is None or t_s < dating[0]:
+            return []
+        self._dating = None
+        self._trigger_t = None
+        _, channel, a, b, c = dating
+        event = self._date(t_s, channel, a, b, c)
+        if isinstance(event, Released):
+            return [self._release(event)]
+        return [event]
 
     def _date(self, t_s: float, channel: int, a: Turn, b: Turn, c: Turn) -> Released | Rejected:
         """Date a ringing: from a hold by the onset fit unless the free response clearly began later."""
@@ -467,27 +501,32 @@ class ReleaseDetector:
         return Released(fit.t0_s, trigger, t_s, channel, abs(fit.accel_m_s2), hold)
 
     def _date_ringing(self, t_s: float, channel: int, a: Turn, b: Turn, c: Turn) -> Released | Rejected:
-        """Fit the free response from a quarter period before B on; date where it began."""
+        """Fit the free response after B, slide the fit back while it holds; date where it began."""
         half = 0.5 * (c.t_s - a.t_s)
         s1, s2 = abs(b.x_m - a.x_m), abs(c.x_m - b.x_m)
         sigma0 = max(0.0, math.log(max(s1, 1e-12) / max(s2, 1e-12)) / half) if s2 < s1 else 0.0
         t = np.fromiter((h[0] for h in self._history), dtype=float, count=len(self._history))
         y = np.fromiter((h[1][channel] for h in self._history), dtype=float, count=len(self._history))
-        t_from = b.t_s - 0.5 * half
-        window = t >= t_from
-        free = fit_free(t[window], y[window], sigma0, math.pi / half)
+        t_from = b.t_s + 0.25 * half
+        span = 1.5 * half
+        window = (t >= t_from) & (t <= t_from + span)
+        vs = motion_sign(t, y)
+        free = fit_free(t[window], y[window], vs[window], sigma0, math.pi / half)
+        linear = fit_free(t[window], y[window], 0.0 * vs[window], sigma0, math.pi / half)
+        if linear is not None and (free is None or free.rms_m > 0.7 * linear.rms_m):
+            free, vs = linear, 0.0 * vs     # no dry friction to speak of: keep the model lean
         if free is None:
             return Rejected(t_s, 0.0, "ringing: fit failed")
         if free.rms_m > self.settings.ring_fit_max_rel * s2:
             return Rejected(t_s, 0.0, f"ringing: not a free response (fit rms {free.rms_m:.2g} m "
                                       f"for a swing of {s2:.2g} m)")
-        tol = max(5.0 * free.rms_m, 0.01 * s2)
-        t_coarse = coarse_start(t, y, free, t_from, tol)
+        limit = max(float(t[0]), a.t_s - 4.0 * half)
+        t_coarse, free = slide_back(t, y, vs, t_from, span, half, free, limit)
         started = self._first_t if self._first_t is not None else t[0]
-        if t_coarse is None or t_coarse - started < 2.0 * self.settings.fit_post_s:
+        if t_coarse - half / 8.0 < limit or t_coarse - started < 2.0 * self.settings.fit_post_s:
             return Rejected(t_s, 0.0, "ringing: in motion since the stream started (no release seen)"
-                            if t[0] <= started else "ringing: began before the kept history")
-        date = date_release(t, y, free, t_coarse, half)
+                            if t[0] <= started else "ringing: no release in view (it rang before)")
+        date = date_release(t, y, vs, free, t_coarse, half)
         if date is None:
             return Rejected(t_s, 0.0, "ringing: release fit failed")
         k0 = int(np.searchsorted(t, date.t0_s))

@@ -19,16 +19,17 @@ release, and its first swing is partial (so the test passes one turn later, on B
 
 Where the ringing began (`date_release`), two steps:
 
-1. coarse: a damped sinusoid `x(t) = c + e^{-στ} (A cos ωτ + B sin ωτ)`, τ = t - t_ref,
-   is fitted (variable projection: σ, ω by least squares, c, A, B linear) on the samples
-   from a quarter period before the middle turn on; going back in time from there, the
+1. coarse: a damped sinusoid about a drifting centre `x(t) = c + d τ + e^{-στ} (A cos ωτ +
+   B sin ωτ)`, τ = t - t_ref, is fitted (variable projection: σ, ω by least squares, c, d,
+   A, B linear) on three quarters of a period from a quarter half-period after the middle
+   turn B (after any release near B) on; going back in time from there, the
    first two samples in a row further than `tol` from the model end the free response
    (`tol` = 5 × the fit RMS, at least 1 % of the swing);
 2. fine: around that point, a piecewise model whose pieces join with the same position
    and velocity (the hand lets go: only the force jumps):
        t >= t0:  x = f(t)                              (the free response, σ, ω fixed)
        t <  t0:  x = f(t0) + f'(t0)(t - t0) + p2 (t - t0)² + p3 (t - t0)³   (the hand)
-   linear in (c, A, B, p2, p3) for a given t0; t0 by a grid at the sample spacing, then
+   linear in (c, d, A, B, p2, p3) for a given t0; t0 by a grid at the sample spacing, then
    50× finer around the best point.
 """
 
@@ -70,6 +71,11 @@ class Zigzag:
         self.turns.clear()
         self._direction = 0
         self._ext_x = self._lo = self._hi = math.nan
+
+    def keep_last(self, n: int) -> None:
+        """Forget all turns but the last `n` (what came before belongs to another motion)."""
+        while len(self.turns) > n:
+            self.turns.popleft()
 
     def push(self, t_s: float, x: float) -> bool:
         """One sample; True when it completed a new turn (appended to `turns`)."""
@@ -139,19 +145,34 @@ def is_ringing(a: Turn, b: Turn, c: Turn, limits: RingingLimits) -> bool:
 
 @dataclass(frozen=True, slots=True)
 class FreeFit:
-    """A damped sinusoid `c + e^{-σ(t - t_ref)} (A cos ω(t - t_ref) + B sin ω(t - t_ref))`."""
+    """A damped sinusoid about a drifting centre that dry friction shifts, τ = t - t_ref:
+    `c + d τ - f sgn(v) + e^{-στ} (A cos ωτ + B sin ωτ)`. The drift: a held cart's slow wander
+    moves the free cart's rest through the spring; `f = F_c / k`: Coulomb friction moves the
+    centre of each half swing against the motion (`sgn(v)` is read from the data)."""
 
     t_ref: float
     sigma: float      # 1/s
     omega: float      # rad/s (damped)
-    coef: tuple[float, float, float]   # c, A, B (m)
+    coef: tuple[float, float, float, float, float]   # c (m), d (m/s), f (m), A, B (m)
     rms_m: float
 
-    def __call__(self, t: Array) -> Array:
+    def __call__(self, t: Array, vsign: Array) -> Array:
         g1, g2, _, _ = _basis(t, self.t_ref, self.sigma, self.omega)
-        c, a, b = self.coef
-        out: Array = c + a * g1 + b * g2
+        c, d, f, a, b = self.coef
+        out: Array = c + d * (t - self.t_ref) - f * vsign + a * g1 + b * g2
         return out
+
+
+def motion_sign(t: Array, y: Array) -> Array:
+    """sgn(v) of a sampled position (shapes (N,)): slope over ±2 samples (noise at turns only)."""
+    k = 2
+    if y.size <= 2 * k:
+        return np.zeros_like(y)
+    slope = np.zeros_like(y)
+    slope[k:-k] = y[2 * k:] - y[:-2 * k]
+    slope[:k], slope[-k:] = slope[k], slope[-k - 1]
+    out: Array = np.sign(slope)
+    return out
 
 
 @dataclass(frozen=True, slots=True)
@@ -172,21 +193,21 @@ def _basis(t: Array, t_ref: float, sigma: float, omega: float) -> tuple[Array, A
     return g1, g2, -sigma * g1 - omega * g2, -sigma * g2 + omega * g1
 
 
-def fit_free(t: Array, y: Array, sigma0: float, omega0: float) -> FreeFit | None:
-    """Least-squares damped sinusoid on (t, y) (shapes (N,)), σ in [0, ω], ω within ±40 %."""
+def fit_free(t: Array, y: Array, vs: Array, sigma0: float, omega0: float, spread: float = 0.4) -> FreeFit | None:
+    """Least-squares `FreeFit` on (t, y, sgn v) (shapes (N,)), σ in [0, ω], ω within ±`spread`."""
     if t.size < 6:
         return None
     t_ref = float(t[0])
 
     def linear(params: Array) -> tuple[Array, Array]:
         g1, g2, _, _ = _basis(t, t_ref, float(params[0]), float(params[1]))
-        design = np.stack([np.ones_like(t), g1, g2], axis=1)
+        design = np.stack([np.ones_like(t), t - t_ref, -vs, g1, g2], axis=1)
         coef = np.asarray(np.linalg.lstsq(design, y, rcond=None)[0], dtype=np.float64)
         residual: Array = y - design @ coef
         return coef, residual
 
-    lo = np.array([0.0, 0.6 * omega0])
-    hi = np.array([max(omega0, 1e-6), 1.4 * omega0])
+    lo = np.array([0.0, (1.0 - spread) * omega0])
+    hi = np.array([max(omega0, 1e-6), (1.0 + spread) * omega0])
     start = np.clip(np.array([sigma0, omega0]), lo, hi - 1e-9)
     try:
         result = least_squares(lambda p: linear(p)[1], start, bounds=(lo, hi), x_scale=np.array([1.0, omega0]))
@@ -194,68 +215,93 @@ def fit_free(t: Array, y: Array, sigma0: float, omega0: float) -> FreeFit | None
         return None
     coef, residual = linear(result.x)
     rms = float(np.sqrt(np.mean(residual ** 2)))
-    return FreeFit(t_ref, float(result.x[0]), float(result.x[1]), (float(coef[0]), float(coef[1]), float(coef[2])),
-                   rms)
+    return FreeFit(t_ref, float(result.x[0]), float(result.x[1]),
+                   (float(coef[0]), float(coef[1]), float(coef[2]), float(coef[3]), float(coef[4])), rms)
 
 
-def coarse_start(t: Array, y: Array, free: FreeFit, t_from: float, tol_m: float) -> float | None:
-    """Going back from `t_from`, the earliest time the data still follows `free` (within
-    `tol_m`, two samples out in a row end it); None when it follows it back to `t[0]`."""
-    idx = np.flatnonzero(t <= t_from)[::-1]
-    if idx.size == 0:
+def refit_linear(t: Array, y: Array, vs: Array, sigma: float, omega: float) -> FreeFit | None:
+    """`FreeFit` on (t, y, sgn v) with σ and ω given: only c, d, f, A, B are fitted."""
+    if t.size < 6:
         return None
-    off = np.abs(y[idx] - free(t[idx])) > tol_m
-    earliest = float(t[idx[0]])
-    for k in range(idx.size - 1):
-        if off[k] and off[k + 1]:
-            return earliest
-        if not off[k]:
-            earliest = float(t[idx[k]])
-    return None
+    t_ref = float(t[0])
+    g1, g2, _, _ = _basis(t, t_ref, sigma, omega)
+    design = np.stack([np.ones_like(t), t - t_ref, -vs, g1, g2], axis=1)
+    coef = np.linalg.lstsq(design, y, rcond=None)[0]
+    rms = float(np.sqrt(np.mean((y - design @ coef) ** 2)))
+    return FreeFit(t_ref, sigma, omega, (float(coef[0]), float(coef[1]), float(coef[2]), float(coef[3]),
+                                          float(coef[4])), rms)
 
 
-def date_release(t: Array, y: Array, free: FreeFit, t_coarse: float, half_s: float) -> ReleaseDate | None:
+def slide_back(t: Array, y: Array, vs: Array, t_from: float, span_s: float, half_s: float, first: FreeFit,
+               t_limit: float, k_rms: float = 4.0) -> tuple[float, FreeFit]:
+    """Slide a free-response window `[ts, ts + span_s]` back from `t_from` in steps of
+    `half_s / 8` while it still fits with ω within ±4 % of `first`'s (the fit at `t_from`; a
+    hand's push is not absorbed by a changed frequency): its RMS within 1.5 × and every residual of
+    its first eighth of a period within `k_rms` × the RMS of `first`, not before `t_limit`.
+    Returns the earliest start that fits and its fit."""
+    start, fit = t_from, first
+    step = half_s / 8.0
+    limit = k_rms * first.rms_m
+    while start - step >= t_limit:
+        ts = start - step
+        window = (t >= ts) & (t <= ts + span_s)
+        trial = fit_free(t[window], y[window], vs[window], fit.sigma, first.omega, spread=0.04)
+        if trial is None or trial.rms_m > 1.5 * first.rms_m:
+            break
+        head = (t >= ts) & (t <= ts + half_s / 4.0)
+        if np.max(np.abs(y[head] - trial(t[head], vs[head]))) > limit:
+            break
+        start, fit = ts, trial
+    return start, fit
+
+
+def date_release(t: Array, y: Array, vs: Array, free: FreeFit, t_coarse: float,
+                 half_s: float) -> ReleaseDate | None:
     """Fine release instant near `t_coarse` by the joined hand/free model (see module)."""
     step = float(np.median(np.diff(t)))
-    back = max(0.08, 8 * step, 0.25 * half_s)
+    back = max(0.06, 5 * step)
     lo, hi = t_coarse - back, t_coarse + back + 0.5 * half_s
     keep = (t >= lo) & (t <= hi)
-    tw, yw = t[keep], y[keep]
+    tw, yw, vw = t[keep], y[keep], vs[keep]
     if tw.size < 10:
         return None
     candidates = np.arange(t_coarse - 0.5 * back, t_coarse + 0.75 * back, step)
     candidates = candidates[(candidates > tw[2]) & (candidates < tw[-4])]
     if candidates.size == 0:
         return None
-    best = _best_joint(tw, yw, free, candidates)
-    best = _best_joint(tw, yw, free, np.linspace(best - step, best + step, 101))
-    coef, _ = _joint_solve(tw, yw, free, best)
+    best = _best_joint(tw, yw, vw, free, candidates)
+    best = _best_joint(tw, yw, vw, free, np.linspace(best - step, best + step, 101))
+    coef, _ = _joint_solve(tw, yw, vw, free, best)
     _, _, d1, d2 = _basis(np.array([best]), free.t_ref, free.sigma, free.omega)
     # f'' of the free part at t0: (σ² - ω²) g + 2σω h-terms; from the ODE x'' = -2σ x' - (σ²+ω²)(x - c)
     g1, g2, _, _ = _basis(np.array([best]), free.t_ref, free.sigma, free.omega)
-    x_rel = coef[1] * g1[0] + coef[2] * g2[0]
-    v = coef[1] * d1[0] + coef[2] * d2[0]
+    x_rel = coef[3] * g1[0] + coef[4] * g2[0]
+    v = coef[3] * d1[0] + coef[4] * d2[0]
     accel = -2.0 * free.sigma * v - (free.sigma ** 2 + free.omega ** 2) * x_rel
-    refit = FreeFit(free.t_ref, free.sigma, free.omega, (float(coef[0]), float(coef[1]), float(coef[2])), free.rms_m)
+    refit = FreeFit(free.t_ref, free.sigma, free.omega,
+                    (float(coef[0]), float(coef[1]), float(coef[2]), float(coef[3]), float(coef[4])), free.rms_m)
     return ReleaseDate(float(best), abs(float(accel)), refit)
 
 
-def _joint_solve(t: Array, y: Array, free: FreeFit, t0: float) -> tuple[Array, float]:
-    """Coefficients (c, A, B, p2, p3) and RSS of the joined model for one `t0`."""
+def _joint_solve(t: Array, y: Array, vs: Array, free: FreeFit, t0: float) -> tuple[Array, float]:
+    """Coefficients (c, d, f, A, B, p2, p3) and RSS of the joined model for one `t0`."""
     g1, g2, _, _ = _basis(t, free.t_ref, free.sigma, free.omega)
     h1, h2, d1, d2 = _basis(np.array([t0]), free.t_ref, free.sigma, free.omega)
     before = t < t0
     dt = np.where(before, t - t0, 0.0)
     col_a = np.where(before, h1[0] + d1[0] * dt, g1)
     col_b = np.where(before, h2[0] + d2[0] * dt, g2)
+    col_d = t - free.t_ref        # the drift is linear: continuous in value and slope at t0
+    k0 = min(int(np.searchsorted(t, t0)), t.size - 1)
+    col_f = np.where(before, -vs[k0], -vs)    # friction's shift of the centre, held by the hand before t0
     scale = max(float(np.max(np.abs(dt))), 1e-9)
     u = dt / scale
-    design = np.stack([np.ones_like(t), col_a, col_b, u ** 2, u ** 3], axis=1)
+    design = np.stack([np.ones_like(t), col_d, col_f, col_a, col_b, u ** 2, u ** 3], axis=1)
     coef, *_ = np.linalg.lstsq(design, y, rcond=None)
     residual = y - design @ coef
     return coef, float(residual @ residual)
 
 
-def _best_joint(t: Array, y: Array, free: FreeFit, candidates: Array) -> float:
-    rss = [_joint_solve(t, y, free, float(c))[1] for c in candidates]
+def _best_joint(t: Array, y: Array, vs: Array, free: FreeFit, candidates: Array) -> float:
+    rss = [_joint_solve(t, y, vs, free, float(c))[1] for c in candidates]
     return float(candidates[int(np.argmin(rss))])

@@ -25,6 +25,7 @@ from daq.errors import DaqValueError
 
 CASES = ("cart1", "cart2", "both", "idle", "handle")
 DIALECT_NAMES = ("cartlab", "csv", "ecp")
+STUDENT_MODES = ("off", "releases", "handling")
 
 
 class SimOptionError(DaqValueError, serial.SerialException):
@@ -68,6 +69,14 @@ class SimOptions:
     hold_jitter: float = 0.2
     flick_mps: float = 0.0
     flick_s: float = 0.1
+    student: str = "off"
+    student_releases: int = 4
+    flick_m: float = 0.05
+    wander_m: float = 0.003
+    follow: float = 0.05
+    p_nudge: float = 0.3
+    p_touch: float = 0.3
+    p_moving: float = 0.25
     tremor_m: float = 5e-5
     settle_mps: float = 0.002
     settle_hold_s: float = 1.0
@@ -90,27 +99,33 @@ class SimOptions:
     capture: str = ""
 
 
-def _float(lo: float, hi: float, lo_open: bool = False) -> Callable[[str], float]:
+@dataclass(frozen=True, slots=True)
+class Parser:
+    """How one option's text becomes a value (`parse` raises ValueError) and what it expects."""
+
+    parse: Callable[[str], Any]
+    expected: str
+
+
+def _float(lo: float, hi: float, lo_open: bool = False) -> Parser:
     def parse(text: str) -> float:
         value = float(text)
         if not math.isfinite(value) or value < lo or value > hi or (lo_open and value == lo):
             raise ValueError
         return value
-    parse.expected = f"a number in {'(' if lo_open else '['}{lo:g}, {hi:g}]"  # type: ignore[attr-defined]
-    return parse
+    return Parser(parse, f"a number in {'(' if lo_open else '['}{lo:g}, {hi:g}]")
 
 
-def _int(lo: int, hi: int) -> Callable[[str], int]:
+def _int(lo: int, hi: int) -> Parser:
     def parse(text: str) -> int:
         value = int(text)
         if not lo <= value <= hi:
             raise ValueError
         return value
-    parse.expected = f"an integer in [{lo}, {hi}]"  # type: ignore[attr-defined]
-    return parse
+    return Parser(parse, f"an integer in [{lo}, {hi}]")
 
 
-def _bool(text: str) -> bool:
+def _parse_bool(text: str) -> bool:
     if text.lower() in ("1", "true", "yes", "on"):
         return True
     if text.lower() in ("0", "false", "no", "off"):
@@ -118,19 +133,15 @@ def _bool(text: str) -> bool:
     raise ValueError
 
 
-_bool.expected = "0 or 1"  # type: ignore[attr-defined]
-
-
-def _choice(names: tuple[str, ...]) -> Callable[[str], str]:
+def _choice(names: tuple[str, ...]) -> Parser:
     def parse(text: str) -> str:
         if text not in names:
             raise ValueError
         return text
-    parse.expected = "one of " + ", ".join(names)  # type: ignore[attr-defined]
-    return parse
+    return Parser(parse, "one of " + ", ".join(names))
 
 
-def _cases(text: str) -> tuple[str, ...]:
+def _parse_cases(text: str) -> tuple[str, ...]:
     if text in ("", "none"):
         return ()
     names = tuple(part.strip() for part in text.split(","))
@@ -139,29 +150,26 @@ def _cases(text: str) -> tuple[str, ...]:
     return names
 
 
-_cases.expected = "'none' or a comma list of " + ", ".join(CASES)  # type: ignore[attr-defined]
-
-
-def _text(text: str) -> str:
+def _parse_text(text: str) -> str:
     if not text.isprintable() or any(ch in text for ch in ",*$"):
         raise ValueError
     return text
 
 
-_text.expected = "printable text without , * $"  # type: ignore[attr-defined]
-
-
-def _path(text: str) -> str:
+def _parse_path(text: str) -> str:
     if not text:
         raise ValueError
     return text
 
 
-_path.expected = "a file path"  # type: ignore[attr-defined]
+_bool = Parser(_parse_bool, "0 or 1")
+_cases = Parser(_parse_cases, "'none' or a comma list of " + ", ".join(CASES))
+_text = Parser(_parse_text, "printable text without , * $")
+_path = Parser(_parse_path, "a file path")
 
 _BIG = 1e9
 # name -> (parser, unit, description)
-_TABLE: dict[str, tuple[Callable[[str], Any], str, str]] = {
+_TABLE: dict[str, tuple[Parser, str, str]] = {
     "carts": (_int(1, 2), "", "1: wall-k1-m1-k2-wall, one encoder; 2: wall-k1-m1-k2-m2-k3-wall, two encoders"),
     "m1": (_float(0, 100, True), "kg", "mass of cart 1"),
     "m2": (_float(0, 100, True), "kg", "mass of cart 2"),
@@ -184,31 +192,43 @@ _TABLE: dict[str, tuple[Callable[[str], Any], str, str]] = {
     "clock_ppm": (_float(-1e5, 1e5), "ppm", "device clock rate error"),
     "model": (_text, "", "model field of `$I`"),
     "firmware": (_text, "", "firmware field of `$I`"),
-    "cases": (_cases, "", "the script: cases run in order (cart1: cart 2 pinned; cart2: cart 1 pinned; "
+    "cases": (_cases, "", ("the script: cases run in order (cart1: cart 2 pinned; cart2: cart 1 pinned; "
               "both: cart 1 pulled, cart 2 held at rest, both released; idle: hands off for idle_s; "
-              "handle: cart 1 pulled slowly, held, brought back to rest and let go there, no release)"),
+              "handle: cart 1 pulled slowly, held, brought back to rest and let go there, no release)")),
     "repeat": (_int(1, 10000), "", "how many times the case list is run"),
     "pull_m": (_float(-1, 1), "m", "the pulled cart is held at -pull_m from its rest"),
     "rest_s": (_float(0, _BIG), "s", "hands off before each case"),
     "pull_s": (_float(0.01, _BIG), "s", "duration of the smooth (minimum-jerk) pull"),
     "hold_s": (_float(0, _BIG), "s", "holding still after the pull (the student zeroes here)"),
     "hold_jitter": (_float(0, 0.9), "", "hold_s is scaled by 1 + U(-j, j), so releases fall between samples"),
-    "flick_mps": (_float(-5, 5), "m/s", "release while moving: the hand accelerates the cart for flick_s "
-                  "and lets go at this speed (positive: towards rest; 0: still release)"),
+    "flick_mps": (_float(-5, 5), "m/s", ("release while moving: the hand accelerates the cart for flick_s "
+                  "and lets go at this speed (positive: towards rest; 0: still release)")),
     "flick_s": (_float(0.001, 10), "s", "duration of the flick"),
+    "student": (_choice(STUDENT_MODES), "", ("a seeded student instead of `cases` (see `daq/sim/student.py`): "
+                "releases: 1 to student_releases flicks from rest or pull-hold-releases of one cart, the other "
+                "cart loosely held, nudges, touches, a start in motion; handling: duration_s (default 600 s) of "
+                "nudges, touches and slow pulls brought back, no release")),
+    "student_releases": (_int(1, 100), "", "the student makes 1 to this many releases in a record"),
+    "flick_m": (_float(0.001, 1), "m", "typical extreme of a student's flick (each drawn 0.6-1.6 times this)"),
+    "wander_m": (_float(0, 0.1), "m", "wander amplitude of a loosely held cart (each drawn 0.25-1 times this)"),
+    "follow": (_float(0, 1), "", ("how much a loosely held cart follows the pulled one through the spring "
+               "(each drawn 0.4-1.6 times this)")),
+    "p_nudge": (_float(0, 1), "", "student: probability of a nudge (out and back by hand) before a release"),
+    "p_touch": (_float(0, 1), "", "student: probability that the held cart is moved by hand after a release"),
+    "p_moving": (_float(0, 1), "", "student: probability that the record starts in motion"),
     "tremor_m": (_float(0, 0.01), "m", "RMS of the hand tremor (7-11 Hz) while a hand holds a cart"),
     "settle_mps": (_float(0, 10), "m/s", "a ringing case is settled when every free cart moves slower than this"),
     "settle_hold_s": (_float(0, _BIG), "s", "... for this long"),
     "ring_max_s": (_float(0.1, _BIG), "s", "longest ringing before the next case starts anyway"),
     "idle_s": (_float(0, _BIG), "s", "duration of an `idle` case"),
     "tail_s": (_float(0, _BIG), "s", "idle time after the last case before the end of stream"),
-    "duration_s": (_float(0, _BIG), "s", "end of stream at this simulated time (0: script end + tail_s; "
-                   "cases=none and 0: never)"),
+    "duration_s": (_float(0, _BIG), "s", ("end of stream at this simulated time (0: script end + tail_s; "
+                   "cases=none and 0: never)")),
     "realtime": (_bool, "", "1: paced by the wall clock; 0: as fast as read, deterministic"),
     "seed": (_int(0, 2**63 - 1), "", "seeds noise, tremor, hold jitter and faults (separate streams)"),
     "garbage": (_float(0, 1), "1/line", "probability of a burst of 1-32 random bytes before a line"),
-    "corrupt": (_float(0, 1), "1/line", "probability of corrupting a line: bit flip, truncation, NUL, "
-                "non-ASCII byte or 300-byte over-long line"),
+    "corrupt": (_float(0, 1), "1/line", ("probability of corrupting a line: bit flip, truncation, NUL, "
+                "non-ASCII byte or 300-byte over-long line")),
     "drop": (_float(0, 1), "1/line", "probability of losing a line (seq still advances)"),
     "disconnect_every_s": (_float(0, _BIG), "s", "unplug the device every this much simulated time (0: never)"),
     "disconnect_s": (_float(0, _BIG), "s", "how long it stays unplugged (lines of that time are lost)"),
@@ -234,9 +254,9 @@ def parse_sim_url(url: str) -> SimOptions:
             raise SimOptionError(f"sim option {name!r}", "given once", text)
         parser = _TABLE[name][0]
         try:
-            values[name] = parser(text)
+            values[name] = parser.parse(text)
         except ValueError:
-            raise SimOptionError(f"sim option {name!r}", parser.expected, text) from None  # type: ignore[attr-defined]
+            raise SimOptionError(f"sim option {name!r}", parser.expected, text) from None
     options = SimOptions(**values)
     _check_consistent(options)
     return options

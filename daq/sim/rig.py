@@ -31,6 +31,7 @@ from daq.decode.cartlab import encode_data, encode_info, parse_host_command
 from daq.decode.text import encode_csv, encode_csv_header, encode_ecp
 from daq.sim.hand import CaseTiming, Hand, ScriptEvent
 from daq.sim.options import SimOptionError, SimOptions
+from daq.sim.student import StudentHand, StudentKnobs
 from ident.physics.rig import ChainParams, ChainState, advance
 
 _U32 = 1 << 32
@@ -82,7 +83,14 @@ class Rig:
         self.state = ChainState()
         timing = CaseTiming(o.rest_s, o.pull_s, o.hold_s, o.hold_jitter, o.pull_m, o.tremor_m, o.idle_s,
                             o.flick_mps, o.flick_s)
-        self.hand = Hand(o.cases * o.repeat, timing, np.random.default_rng(seeds[1]), o.carts)
+        hand_rng = np.random.default_rng(seeds[1])
+        self.hand: Hand | StudentHand
+        if o.student == "off":
+            self.hand = Hand(o.cases * o.repeat, timing, hand_rng, o.carts)
+        else:
+            knobs = StudentKnobs(o.student, o.student_releases, o.flick_m, o.wander_m, o.follow, o.p_nudge,
+                                 o.p_touch, o.p_moving, o.tremor_m, o.carts, o.duration_s or 600.0)
+            self.hand = StudentHand(knobs, hand_rng, self.state)
         self.rate_hz = o.rate_hz
         self.next_sample_s = 0.0
         self._rate_t0 = 0.0          # sample times are _rate_t0 + k / rate_hz: no drift
@@ -229,7 +237,7 @@ class Rig:
         if hand.phase != "ring":
             self._ring_start_s = self._settled_since = None
             if hand.done and self.end_s == math.inf and o.duration_s == 0 and hand.cases:
-                self.end_s = t + o.tail_s
+                self.end_s = t + (o.tail_s if o.student == "off" else 0.0)   # a student's record ends when drawn
             return
         if self._ring_start_s is None:
             self._ring_start_s = t

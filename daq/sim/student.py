@@ -1,0 +1,343 @@
+"""A seeded student at the rig: what real students do, drawn at random. Pure.
+
+`sim://?student=releases` replaces the case script by one record of a student, drawn from
+`seed`; `student=handling` by handling only (no release, for false-run tests). The ranges
+below were measured on the shared ECP-210 hand-release records (cart 2 flicked, cart 1
+held by hand) and the 2023 hand steps; lengths in metres, so they hold on any rig:
+
+- flick from rest: the hand takes the cart (catching it if it still rings), holds it a
+  moment (0-0.4 s: often little or no quiet time), swings it out along a half cosine to an
+  extreme of `flick_m` × U(0.6, 1.6) (3-8 cm at the default) in U(0.10, 0.20) s and lets go
+  at U(0.6, 1.15) of that time: mostly still moving outward near the extreme, sometimes just
+  past it (measured: 0.11-0.19 s from the start of the motion, at 63-100 % of the extreme,
+  two of seven after it);
+- otherwise (30 %) a pull-hold-release: a minimum-jerk pull to 0.05-0.15 m in 0.5-1.5 s, a
+  hold of 0.3-2 s, let go still;
+- 1 to `student_releases` releases, U(2.5, 7) s apart (measured 3.6-7.2 s), each new one
+  while the last may still ring; the record ends U(1.5, 5) s after the last (cut ringing);
+- the other cart held loosely by a hand (80 %, else pinned): a soft spring seen as its
+  hold point, plus a wander of a few sines (0.2-1.5 Hz) of amplitude `wander_m` × U(0.25, 1)
+  (100-400 counts measured), plus `follow` × U(0.4, 1.6) times the pulled cart's position
+  (it follows weakly through the spring: quasi-static `k2 / (k2 + k3 + k_hand)`);
+- with probability `p_nudge` a nudge 0.4-1.2 s before a release: the cart pushed 3-10 mm
+  out and brought back by the hand in 0.2-0.5 s, let go at rest (measured: ~1 cm, 0.8 s
+  before);
+- with probability `p_touch` the other cart is moved by hand 1.5-5 s after a release: 3-10 mm
+  in 0.2-0.8 s, and held there (measured: 5-10 mm, 4.8 and 9 s after);
+- with probability `p_moving` the record starts in motion: the pulled cart swings already
+  (1-5 cm, random phase) and is caught for the first release.
+
+`handling`: for `duration_s` (default 600 s) the other cart held loosely throughout; every
+U(2, 8) s a nudge of the free cart, a move of the held cart, or a slow pull of the free cart
+(0.05-0.15 m over 1-2 s), held 0.5-2 s and brought back to rest over 1-2 s, let go there.
+
+Hand paths are position constraints per cart (`ident.physics.rig.PositionPath`); truth is
+in `events` (`release` at the instant the hand lets go, `letgo` for handling).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from daq.sim.hand import ScriptEvent, tremor_terms
+from ident.physics.rig import ChainState, PositionPath
+
+Sines = tuple[tuple[float, float, float], ...]   # (amplitude m, omega rad/s, phase)
+Moves = tuple[tuple[float, float, float], ...]   # (start s, displacement m, duration s)
+
+
+def _min_jerk(u: float) -> float:
+    u = min(1.0, max(0.0, u))
+    return u * u * u * (10.0 - 15.0 * u + 6.0 * u * u)
+
+
+def _sines(t: float, terms: Sines, t0: float) -> float:
+    return sum(a * math.sin(w * (t - t0) + ph) for a, w, ph in terms)
+
+
+@dataclass(frozen=True, slots=True)
+class Swing:
+    """Take the cart at `x0` (t0), bring it to `rest` in `catch_s`, hold `hold_s`, swing it to
+    `rest + amp` along a half cosine in `dur` (and back past it), plus tremor."""
+
+    t0: float
+    x0: float
+    rest: float
+    catch_s: float
+    hold_s: float
+    amp: float
+    dur: float
+    tremor: Sines = ()
+
+    @property
+    def swing_t0(self) -> float:
+        return self.t0 + self.catch_s + self.hold_s
+
+    def __call__(self, t: float) -> float:
+        if t < self.t0 + self.catch_s:
+            x = self.x0 + (self.rest - self.x0) * _min_jerk((t - self.t0) / self.catch_s)
+        else:
+            tau = min(max(0.0, t - self.swing_t0), 2.0 * self.dur)
+            x = self.rest + 0.5 * self.amp * (1.0 - math.cos(math.pi * tau / self.dur))
+        fade = min(1.0, max(0.0, (t - self.t0) / 0.3))
+        return x + fade * _sines(t, self.tremor, self.t0)
+
+
+@dataclass(frozen=True, slots=True)
+class Bump:
+    """A nudge: taken at `x0` (t0), out by `dx` and back along `sin²` in `dur`, ending still at
+    the rest 0 (a cart caught while it rings is brought to rest too), plus tremor."""
+
+    t0: float
+    x0: float
+    dx: float
+    dur: float
+    tremor: Sines = ()
+
+    def __call__(self, t: float) -> float:
+        u = min(1.0, max(0.0, (t - self.t0) / self.dur))
+        bump = math.sin(math.pi * u)
+        return self.x0 * (1.0 - _min_jerk(u)) + self.dx * bump * bump + bump * _sines(t, self.tremor, self.t0)
+
+
+@dataclass(frozen=True, slots=True)
+class PullHold:
+    """A minimum-jerk pull from `x0` to `x1` in `dur` from `t0`, then held, plus tremor."""
+
+    t0: float
+    x0: float
+    x1: float
+    dur: float
+    tremor: Sines = ()
+
+    def __call__(self, t: float) -> float:
+        fade = min(1.0, max(0.0, (t - self.t0) / 0.3))
+        return self.x0 + (self.x1 - self.x0) * _min_jerk((t - self.t0) / self.dur) + fade * _sines(
+            t, self.tremor, self.t0)
+
+
+@dataclass(frozen=True, slots=True)
+class LooseHold:
+    """A hand holding a cart loosely: hold point, moves, wander, and `follow` × the other cart."""
+
+    x_hold: float
+    wander: Sines
+    follow: float
+    other: Callable[[], float]
+    moves: Moves = ()
+
+    def __call__(self, t: float) -> float:
+        x = self.x_hold + _sines(t, self.wander, 0.0) + self.follow * self.other()
+        for t0, dx, dur in self.moves:
+            x += dx * _min_jerk((t - t0) / dur)
+        return x
+
+
+@dataclass(frozen=True, slots=True)
+class StudentKnobs:
+    """The `sim://` options the student draws from (see the module docstring)."""
+
+    mode: str                 # releases | handling
+    max_releases: int
+    flick_m: float
+    wander_m: float
+    follow: float
+    p_nudge: float
+    p_touch: float
+    p_moving: float
+    tremor_m: float
+    carts: int
+    duration_s: float
+
+
+@dataclass(frozen=True, slots=True)
+class _Act:
+    t_s: float
+    kind: str                 # grab | release | letgo | touch | end
+    cart: int                 # 1 or 2
+    path: PositionPath | None = None
+
+
+class StudentHand:
+    """Runs a drawn timeline of acts; the same interface as `daq.sim.hand.Hand` for the rig."""
+
+    def __init__(self, knobs: StudentKnobs, rng: np.random.Generator, state: ChainState) -> None:
+        self.knobs = knobs
+        self.rng = rng
+        self.state = state
+        self.cases = ("student",)
+        self.events: list[ScriptEvent] = []
+        self.path1: PositionPath | None = None
+        self.path2: PositionPath | None = None
+        self.phase = "script"
+        self.ring_max_s = math.inf
+        self.pulled = 1 if knobs.carts == 1 else int(rng.integers(1, 3))
+        self._acts: list[_Act] = []
+        self._held: LooseHold | None = None
+        self._draw()
+        self._next = 0
+
+    @property
+    def done(self) -> bool:
+        return self.phase == "done"
+
+    @property
+    def phase_end(self) -> float:
+        return self._acts[self._next].t_s if self._next < len(self._acts) else math.inf
+
+    def update(self, t: float, x1: float, x2: float) -> None:
+        """Apply every act whose time has come (called at every substep boundary)."""
+        while self._next < len(self._acts) and t >= self._acts[self._next].t_s:
+            act = self._acts[self._next]
+            self._next += 1
+            self._apply(act, t)
+
+    def ring_over(self, t: float) -> None:
+        """Never called: the student's script is timed, not waiting for the carts to settle."""
+
+    # --- drawing the script -----------------------------------------------------------------
+    def _u(self, lo: float, hi: float) -> float:
+        return float(self.rng.uniform(lo, hi))
+
+    def _draw(self) -> None:
+        k, other = self.knobs, 3 - self.pulled
+        if k.carts == 2:
+            self._hold_other(other)
+        if k.mode == "handling":
+            self._draw_handling(other)
+            return
+        t = self._u(0.2, 1.8)
+        if self.rng.random() < k.p_moving:
+            amp, phase = self._u(0.01, 0.05), self._u(0.0, 2.0 * math.pi)
+            self._start_moving(amp, phase)
+            t = self._u(1.0, 3.0)
+        n = int(self.rng.integers(1, k.max_releases + 1))
+        for i in range(n):
+            if self.rng.random() < k.p_nudge:
+                dur = self._u(0.2, 0.5)
+                t_nudge = t
+                t += dur + self._u(0.4, 1.2)
+                self._acts.append(_Act(t_nudge, "nudge", self.pulled, None))
+            t_release = self._draw_release(t)
+            gap = self._u(2.5, 7.0) if i < n - 1 else self._u(1.5, 5.0)
+            if k.carts == 2 and self.rng.random() < k.p_touch and gap > 2.5:
+                self._acts.append(_Act(t_release + self._u(1.5, min(5.0, gap - 0.8)), "touch", other))
+            t = t_release + gap
+        self._acts.append(_Act(t, "end", 0))
+        self._acts.sort(key=lambda a: a.t_s)
+
+    def _draw_release(self, t: float) -> float:
+        """One grab at `t`, the release act after it; returns the release time."""
+        if self.rng.random() < 0.7:
+            amp = self.knobs.flick_m * self._u(0.6, 1.6) * (1.0 if self.rng.random() < 0.5 else -1.0)
+            catch, hold, dur = self._u(0.15, 0.4), self._u(0.0, 0.4), self._u(0.10, 0.20)
+            t_release = t + catch + hold + self._u(0.6, 1.15) * dur
+            self._acts.append(_Act(t, "flick", self.pulled, Swing(t, 0.0, 0.0, catch, hold, amp, dur)))
+        else:
+            pull = self._u(0.05, 0.15) * (1.0 if self.rng.random() < 0.5 else -1.0)
+            dur = self._u(0.5, 1.5)
+            t_release = t + dur + self._u(0.3, 2.0)
+            self._acts.append(_Act(t, "pull", self.pulled, PullHold(t, 0.0, pull, dur)))
+        self._acts.append(_Act(t_release, "release", self.pulled))
+        return t_release
+
+    def _draw_handling(self, other: int) -> None:
+        t = self._u(0.5, 2.0)
+        free = self.pulled
+        while t < self.knobs.duration_s - 10.0:
+            pick = self.rng.random()
+            if pick < 0.4:
+                self._acts.append(_Act(t, "nudge", free))
+                t += 0.5
+            elif pick < 0.7 and self.knobs.carts == 2:
+                self._acts.append(_Act(t, "touch", other))
+                t += 0.8
+            else:
+                pull, dur, hold, back = self._u(0.05, 0.15), self._u(1.0, 2.0), self._u(0.5, 2.0), self._u(1.0, 2.0)
+                sign = 1.0 if self.rng.random() < 0.5 else -1.0
+                self._acts.append(_Act(t, "slow", free, PullHold(t, 0.0, sign * pull, dur)))
+                self._acts.append(_Act(t + dur + hold, "back", free, PullHold(t + dur + hold, sign * pull, 0.0, back)))
+                self._acts.append(_Act(t + dur + hold + back, "letgo", free))
+                t += dur + hold + back
+            t += self._u(2.0, 8.0)
+        self._acts.append(_Act(self.knobs.duration_s, "end", 0))
+
+    def _hold_other(self, other: int) -> None:
+        k = self.knobs
+        if self.rng.random() < 0.8:
+            amp = k.wander_m * self._u(0.25, 1.0)
+            freqs = self.rng.uniform(0.2, 1.5, 3)
+            phases = self.rng.uniform(0.0, 2.0 * math.pi, 3)
+            wander = tuple((amp / math.sqrt(3.0), 2.0 * math.pi * float(f), float(p)) for f, p in zip(freqs, phases))
+            follow = k.follow * self._u(0.4, 1.6)
+        else:
+            wander, follow = (), 0.0
+        state = self.state
+        pulled_x: Callable[[], float] = (lambda: state.x1) if other == 2 else (lambda: state.x2)
+        # the hand holds where the cart is (its rest) minus what it follows there: continuous at t=0
+        self._held = LooseHold(-_sines(0.0, wander, 0.0), wander, follow, pulled_x)
+        self._set_path(other, self._held)
+
+    def _start_moving(self, amp: float, phase: float) -> None:
+        """The record starts in the tail of an earlier release: the pulled cart already swings."""
+        s = self.state
+        x, v = amp * math.cos(phase), -amp * 10.0 * math.sin(phase)   # ~1.6 Hz: a plausible start
+        if self.pulled == 1:
+            s.x1, s.v1 = x, v
+        else:
+            s.x2, s.v2 = x, v
+
+    # --- running it -------------------------------------------------------------------------
+    def _set_path(self, cart: int, path: PositionPath | None) -> None:
+        if cart == 1:
+            self.path1 = path
+        else:
+            self.path2 = path
+
+    def _x(self, cart: int) -> float:
+        return self.state.x1 if cart == 1 else self.state.x2
+
+    def _event(self, kind: str, t: float) -> None:
+        self.events.append(ScriptEvent(kind, "student", t, 0))
+
+    def _apply(self, act: _Act, t: float) -> None:
+        tremor = tremor_terms(self.rng, self.knobs.tremor_m)
+        x = self._x(act.cart) if act.cart else 0.0
+        if act.kind == "flick":
+            assert isinstance(act.path, Swing)
+            p = act.path
+            self._set_path(act.cart, Swing(t, x, 0.0, p.catch_s, p.hold_s, p.amp, p.dur, tremor))
+            self._event("grab", t)
+        elif act.kind in ("pull", "slow", "back"):
+            assert isinstance(act.path, PullHold)
+            self._set_path(act.cart, PullHold(t, x, act.path.x1, act.path.dur, tremor))
+            if act.kind != "back":
+                self._event("grab", t)
+        elif act.kind == "nudge":
+            dur = self._u(0.2, 0.5)
+            dx = self._u(0.003, 0.010) * (1.0 if self.rng.random() < 0.5 else -1.0)
+            self._set_path(act.cart, Bump(t, x, dx, dur, tremor))
+            self._acts.insert(self._next, _Act(t + dur, "letgo", act.cart))
+            self._event("nudge", t)
+        elif act.kind in ("release", "letgo"):
+            self._set_path(act.cart, None)
+            self._event(act.kind, t)
+        elif act.kind == "touch":
+            self._touch(t)
+        elif act.kind == "end":
+            self.phase = "done"
+
+    def _touch(self, t: float) -> None:
+        """The other cart moved by hand and held at its new place (pinned or loosely held)."""
+        dx = self._u(0.003, 0.010) * (1.0 if self.rng.random() < 0.5 else -1.0)
+        held = self._held
+        if held is None:
+            return
+        self._held = LooseHold(held.x_hold, held.wander, held.follow, held.other,
+                               (*held.moves, (t, dx, self._u(0.2, 0.8))))
+        self._set_path(3 - self.pulled, self._held)
+        self._event("touch", t)
