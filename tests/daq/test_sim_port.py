@@ -57,7 +57,8 @@ def test_describe_options_lists_every_option_with_default() -> None:
     table = describe_options()
     assert "| `rate_hz` | `100.0` | Hz |" in table
     assert "| `cases` | `cart1` |" in table
-    assert table.count("\n| `") == 47
+    assert table.count("\n| `") == 55            # 47 + the student's 8
+    assert "| `student` | `off` |" in table
 
 
 def test_end_of_stream_after_duration() -> None:
