@@ -29,7 +29,11 @@ def add_parser(subparsers: Any) -> None:
     parser.add_argument("--rate-hz", dest="rate_hz", type=float, default=None,
                         help="sample rate (Hz) of an export without a time column")
     add_deprecated_alias(parser, "--rate", "--rate-hz", "rate_hz", float)
-    parser.add_argument("--release", type=float, default=None, help="release time (s) if known")
+    parser.add_argument("--release-s", dest="release", type=float, default=None,
+                        help="release time (s) if known")
+    # `--release` alone is left for choosing a release by its number (issue 10); until then the old
+    # spelling of the time still works
+    add_deprecated_alias(parser, "--release", "--release-s", "release", float)
     parser.add_argument("--step-m", type=float, default=0.15, help="pull distance (m), default 0.15")
     parser.add_argument("--order", type=int, default=None, help="PEM order (default: 2 per cart)")
     parser.add_argument("--noise-model", choices=("oe", "innovation"), default="oe",

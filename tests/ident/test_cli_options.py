@@ -47,6 +47,7 @@ def test_scan_sees_the_options_it_checks() -> None:
 @pytest.mark.parametrize(("command", "old", "new", "dest"), [
     ("diagnose", "--step", "--step-m", "step_m"),
     ("fit", "--rate", "--rate-hz", "rate_hz"),
+    ("fit", "--release", "--release-s", "release"),
 ])
 def test_old_spellings_still_work_and_say_the_new_name(command: str, old: str, new: str, dest: str,
                                                        capsys: pytest.CaptureFixture[str]) -> None:
