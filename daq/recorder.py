@@ -23,8 +23,10 @@ skipped with a warning.
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import os
+from collections.abc import Callable
 from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
@@ -89,9 +91,11 @@ class RunWriter:
     """One open run file. Not thread-safe: owned by the service loop."""
 
     def __init__(self, runs_dir: Path, metadata: RunMetadata, now_s: float,
-                 flush_interval_s: float = 0.25) -> None:
+                 flush_interval_s: float = 0.25,
+                 opener: Callable[[Path], BinaryIO] | None = None) -> None:
         self.runs_dir = Path(runs_dir)
         self.run_id = metadata.run_id
+        self.metadata = metadata
         self.path = part_path(self.runs_dir, self.run_id)
         self.flush_interval_s = flush_interval_s
         self.n_samples = 0
@@ -99,9 +103,16 @@ class RunWriter:
         self.last_t_ns: int | None = None
         try:
             self.runs_dir.mkdir(parents=True, exist_ok=True)
-            self._file: BinaryIO = open(self.path, "xb")  # noqa: SIM115 - the writer's file, closed when it ends
+            self._file: BinaryIO = (opener or open_exclusive)(self.path)
         except OSError as exc:
             raise DaqIOError(f"cannot create run file {self.path}: {exc}") from exc
+        try:
+            self._start(metadata, now_s)
+        except BaseException:
+            self._file.close()   # a file that could not be started (a full disk) is not kept open
+            raise
+
+    def _start(self, metadata: RunMetadata, now_s: float) -> None:
         self._writer = Writer(self._file, chunk_size=CHUNK_SIZE, compression=CompressionType.ZSTD)
         self._writer.start(profile=topics.MCAP_PROFILE, library=LIBRARY)
         self._samples_channel = self._channel(topics.SAMPLES, SampleBatch)
@@ -178,6 +189,20 @@ class RunWriter:
             self._writer.flush()
         finally:
             self._file.close()
+
+    def abandon_quietly(self) -> None:
+        """Close after a write failed (a full disk): what cannot be flushed is lost, the `.part`
+        keeps everything flushed before; never raises."""
+        try:
+            self.abandon()
+        except OSError:
+            with contextlib.suppress(OSError):   # the descriptor is released even if the flush fails
+                self._file.close()
+
+
+def open_exclusive(path: Path) -> BinaryIO:
+    """A new file for writing (never an existing one: a finished run is never overwritten)."""
+    return open(path, "xb")
 
 
 def _seal(stream: BinaryIO, written: Path, target: Path) -> Path:

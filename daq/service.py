@@ -21,6 +21,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from pathlib import Path
+from typing import BinaryIO
 
 from daq import __version__
 from daq.bus import BusRequest, DaqBus
@@ -28,7 +29,8 @@ from daq.detector import DetectorSettings
 from daq.errors import DaqIOError
 from daq.frames import Dialect
 from daq.pipeline import Acquisition, AcquisitionConfig
-from daq.recorder import RunWriter, final_path, finished_of, part_path, recover_all
+from daq.recorder import RunWriter, final_path, finished_of, open_exclusive, part_path, recover_all
+from daq.recording import Recording
 from daq.serial_link import LinkEvent, SerialLink
 from schemas import SchemaError, keys, topics
 from schemas.bus import BusConfig
@@ -58,9 +60,15 @@ class ServiceConfig:
 class _Outputs:
     """The core's sink: live data to the bus, runs to files (and their end to the bus)."""
 
-    def __init__(self, service: Service) -> None:
+    def __init__(self, service: Service, opener: Callable[[Path], BinaryIO] | None) -> None:
         self.service = service
-        self.writer: RunWriter | None = None
+        config = service.config
+        self.recording = Recording(config.runs_dir, config.flush_interval_s, service.clock,
+                                   opener=opener or open_exclusive, on_recovered=service.announce)
+
+    @property
+    def writer(self) -> RunWriter | None:
+        return self.recording.writer
 
     def live(self, batch: SampleBatch) -> None:
         if self.service.bus is not None:
@@ -69,24 +77,20 @@ class _Outputs:
     def state(self, msg: DetectorStateMsg) -> None:
         if self.service.bus is not None:
             self.service.bus.publish_state(msg)
-        if self.writer is not None:
-            self.writer.write_state(msg, self.service.clock())
+        self.recording.state(msg)
         log.debug("detector %s at %.3f s", msg.state, msg.t_ns / 1e9)
 
     def run_started(self, metadata: RunMetadata) -> None:
-        self.writer = RunWriter(self.service.config.runs_dir, metadata, self.service.clock(),
-                                self.service.config.flush_interval_s)
-        log.info("run %s: release at %.3f s (device), recording to %s", metadata.run_id,
-                 (metadata.release_t_ns or 0) / 1e9, self.writer.path.name)
+        self.recording.start(metadata)
+        if self.writer is not None:
+            log.info("run %s: release at %.3f s (device), recording to %s", metadata.run_id,
+                     (metadata.release_t_ns or 0) / 1e9, self.writer.path.name)
 
     def run_samples(self, batch: SampleBatch) -> None:
-        if self.writer is not None:
-            self.writer.write_samples(batch, self.service.clock())
+        self.recording.samples(batch)
 
     def run_finished(self, metadata: RunMetadata, finished: RunFinished) -> None:
-        writer, self.writer = self.writer, None
-        if writer is not None:
-            writer.finish(metadata, finished)
+        finished = self.recording.finish(metadata, finished)
         self.service.announce(finished)
         log.info("run %s %s: %d samples, release at %.3f s, %s", finished.run_id, finished.status,
                  finished.n_samples, finished.release_time_s or float("nan"), finished.reason or "")
@@ -97,12 +101,14 @@ class Service:
 
     def __init__(self, config: ServiceConfig, clock: Callable[[], float] = time.monotonic,
                  wall_clock: Callable[[], datetime] = lambda: datetime.now(UTC),
-                 link: SerialLink | None = None) -> None:
+                 link: SerialLink | None = None,
+                 opener: Callable[[Path], BinaryIO] | None = None) -> None:
+        """`opener` opens a new run file (tests inject a full disk there)."""
         self.config = config
         self.clock = clock
         keys.check_name("bench", config.bench)
         self.link = link or SerialLink(config.port, baudrate=config.baudrate, clock=clock)
-        self.outputs = _Outputs(self)
+        self.outputs = _Outputs(self, opener)
         self.acq = Acquisition(
             AcquisitionConfig(bench=config.bench, port=config.port, dialect=config.dialect,
                               counts_per_m=config.counts_per_m, signs=config.signs, detector=config.detector),
@@ -179,18 +185,12 @@ class Service:
             self.connected = True
             self.acq.reconnected()
             log.warning("serial port %s back after %.1f s", self.config.port, got.gap_s or 0.0)
-        writer = self.outputs.writer
-        if writer is not None:
-            if got.event is LinkEvent.DISCONNECTED:
-                writer.flush(now)   # the back-off may sleep: leave nothing in memory meanwhile
-            else:
-                writer.maybe_flush(now)
+        # the back-off after a disconnect may sleep: leave nothing in memory meanwhile
+        self.outputs.recording.flush(now, always=got.event is LinkEvent.DISCONNECTED)
         return got.event is LinkEvent.EOF
 
     def _shutdown(self) -> None:
-        writer = self.outputs.writer
-        if writer is not None:   # only after an exception: a normal stop finished the run
-            writer.abandon()
+        self.outputs.recording.abandon()   # only after an exception: a normal stop finished the run
         self.link.close()
         if self.bus is not None:
             self.bus.close()

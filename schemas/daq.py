@@ -20,7 +20,7 @@ from schemas.keys import BenchName, FileName, RunId
 DetectorState = Literal["idle", "armed", "released", "settled"]
 RunStatus = Literal["complete", "recovered", "aborted"]
 RawUnit = Literal["counts", "m"]
-GapReason = Literal["disconnect", "seq_gap", "clock_jump"]
+GapReason = Literal["disconnect", "seq_gap", "clock_jump", "disk_full"]
 
 
 class SampleBatch(Record):

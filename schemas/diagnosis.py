@@ -33,11 +33,15 @@ EFFECT_NAMES: tuple[str, ...] = ("coulomb_friction", "quadratic_drag", "cubic_st
 
 
 class ModelFit(Record):
-    """One fitted model: its name, validation fit % and parameters (with 1-sigma where known)."""
+    """One fitted model: its name, validation fit % and parameters (with 1-sigma where known).
+
+    `fit_percent` is the mean over the outputs that move; `fit_percent_per_output` has None
+    for an output that never moves (a held cart reading exactly 0: no fit % is defined).
+    """
 
     model: str
     fit_percent: float
-    fit_percent_per_output: list[float] = Field(default_factory=list)
+    fit_percent_per_output: list[float | None] = Field(default_factory=list)
     parameters: dict[str, float]
     parameter_std: dict[str, float] = Field(default_factory=dict)
 

@@ -193,7 +193,16 @@ def _fixed_rest(win: Window, carts: int, step_m: float | None) -> dict[str, floa
 
 
 def _fit_points(prob: Problem, res: FitResult) -> float:
-    return float(np.mean(fit_percent(prob.y, res.prediction)))
+    return _mean_defined(fit_percent(prob.y, res.prediction))
+
+
+def _mean_defined(per_output: list[float]) -> float:
+    """Mean fit % over the outputs that move: one that never moves (a held cart reading 0)
+    has no fit % (`fit_percent` gives -inf), and must not turn the record's mean into -inf."""
+    defined = [f for f in per_output if np.isfinite(f)]
+    if not defined:
+        raise IdentValueError("outputs", "at least one output that moves", "every output constant")
+    return float(np.mean(defined))
 
 
 def _candidate(prob: Problem, base: FitResult, j: Judgement) -> Candidate:
@@ -234,7 +243,8 @@ def _ranked(prob: Problem, steps: list[Step]) -> list[EffectFit]:
 
 def _model_fit(prob: Problem, res: FitResult, name: str) -> ModelFit:
     per = fit_percent(prob.y, res.prediction)
-    return ModelFit(model=name, fit_percent=float(np.mean(per)), fit_percent_per_output=per,
+    return ModelFit(model=name, fit_percent=_mean_defined(per),
+                    fit_percent_per_output=[f if np.isfinite(f) else None for f in per],
                     parameters=res.parameters(), parameter_std=res.parameter_std())
 
 

@@ -65,6 +65,10 @@ def pem_figure(analysis: RunAnalysis) -> Figure | None:
                                  analysis.outputs)
 
 
+def _percent(fit: float | None) -> str:
+    return "n/a (never moves)" if fit is None else f"{fit:.2f} %"
+
+
 def diagnosis_figure(analysis: RunAnalysis) -> Figure | None:
     """Measured vs the linear baseline and the extended model, on the diagnosis window."""
     traces, report = analysis.diagnosis_traces, analysis.diagnosis
@@ -73,9 +77,9 @@ def diagnosis_figure(analysis: RunAnalysis) -> Figure | None:
     carts = analysis.outputs[: traces.y.shape[1]]
     per_cart = report.baseline.fit_percent_per_output or [report.baseline.fit_percent] * len(carts)
     ext_cart = report.extended.fit_percent_per_output or [report.extended.fit_percent] * len(carts)
-    linear = [f"linear model, fit {f:.2f} %" for f in per_cart]
+    linear = [f"linear model, fit {_percent(f)}" for f in per_cart]
     cause = report.cause.replace("_", " ")
-    extended = [f"with {cause}, fit {f:.2f} %" for f in ext_cart]
+    extended = [f"with {cause}, fit {_percent(f)}" for f in ext_cart]
     estimates: list[tuple[list[str], FloatArray]] = [(linear, traces.baseline)]
     if report.cause != "none":
         estimates.append((extended, traces.extended))

@@ -28,7 +28,7 @@ from __future__ import annotations
 import contextlib
 import json
 import queue
-import time
+import threading
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
@@ -93,6 +93,7 @@ class WorkerBus:
         self._claims: dict[str, bytes] = {}
         self._claim_snapshot: tuple[tuple[str, bytes], ...] = ()
         self._dropped = 0
+        self._transport_opened = threading.Event()
 
     # -- lifecycle ----------------------------------------------------------------------
     def __enter__(self) -> WorkerBus:
@@ -129,6 +130,7 @@ class WorkerBus:
             live.declare_subscriber(keys.ALL_DAQ_ALIVE, self._on_daq, history=True),
             session.declare_queryable(keys.ALL_FITS, self._on_fit_query),
             live.declare_token(keys.ident_alive(self.name)),
+            session.info.declare_transport_events_listener(self._on_transport),
         ]
 
     def close(self) -> None:
@@ -251,15 +253,16 @@ class WorkerBus:
                 for reply in self.session.get(keys.run_fit(bench, run_id), timeout=timeout_s)
                 if reply.ok is not None and len(reply.ok.payload) <= MAX_PAYLOAD_BYTES]
 
-    def wait_connected(self, timeout_s: float) -> bool:
-        """Wait (bounded) until the session has a peer or router again (after a stall)."""
-        deadline = time.monotonic() + timeout_s
-        info = self.session.info
-        while not (list(info.peers_zid()) or list(info.routers_zid())):
-            if time.monotonic() > deadline:
-                return False
-            time.sleep(0.05)   # polling Zenoh's own state: no event exists for it
-        return True
+    def _on_transport(self, event: zenoh.TransportEvent) -> None:
+        if event.kind == zenoh.SampleKind.PUT:
+            self._transport_opened.set()
+
+    def wait_reconnected(self, timeout_s: float) -> bool:
+        """After a stall of this process: wait (bounded) for the session to open a transport
+        again, which it does when the stall outlasted the lease and the link was dropped. True
+        if it did; False after `timeout_s` (the link survived, or nothing answers)."""
+        self._transport_opened.clear()
+        return self._transport_opened.wait(timeout_s)
 
     def fetch_run(self, bench: str, run_id: str, dest: Path, timeout_s: float = FETCH_TIMEOUT_S,
                   max_bytes: int = MAX_FETCH_BYTES) -> Path:

@@ -56,7 +56,8 @@ Event = BusEvent | FitResult
 class WorkerOptions:
     """Settings of one worker. `settle_s` is how long a claim waits for rival claims;
     `retry_s` how long a run whose file could not be had waits before it is tried again;
-    `stall_s` the gap between two turns of the loop that means the process was stopped."""
+    `stall_s` the gap between two turns of the loop that means the process was stopped, and
+    `reconnect_s` how long it then waits for its session to reconnect before syncing."""
 
     name: str
     runs_dir: Path
@@ -67,6 +68,7 @@ class WorkerOptions:
     max_backlog: int = 4
     retry_s: float = 30.0
     stall_s: float = 2.0
+    reconnect_s: float = 5.0
     max_fit_s: float = DEFAULT_MAX_FIT_S
 
 
@@ -181,6 +183,7 @@ class Worker:
             self.handle(BusEvent("fit", keys.ALL_FITS, payload))
         for bench in sorted(self.bus.alive_benches()):
             self.catch_up_bench(bench)
+        self._last_turn = self.clock()   # blocking queries are not a stall
 
     def start(self) -> None:
         """Learn who is alive and which runs the others know are done, scan the runs
@@ -215,7 +218,7 @@ class Worker:
         gap, self._last_turn = now - self._last_turn, now
         if gap > self.options.stall_s:
             log.warning("the loop stalled %.1f s (stopped, or starved): syncing before publishing", gap)
-            self.bus.wait_connected(timeout_s=max(self.options.stall_s, 5.0))
+            self.bus.wait_reconnected(timeout_s=self.options.reconnect_s)
             self.catch_up()
             self.pump(self.options.sync_s)
 
@@ -235,6 +238,7 @@ class Worker:
             return False
         if run_file is None:
             run_file = self._fetch(run, finished, epoch)
+            self._last_turn = self.clock()   # a fetch blocks: not a stall
             if run_file is None:
                 return False
         job = FitJob(finished, run_file, fit_dir, self.options.name)
@@ -248,6 +252,7 @@ class Worker:
         try:
             return self.bus.fetch_run(finished.bench, finished.run_id, dest)
         except RunUnavailable as exc:
+            self._last_turn = self.clock()
             log.warning("%s: %s; retried when its daq is back (or in %.0f s)", run, exc,
                         self.options.retry_s)
             self.sched.defer(run, self.clock() + self.options.retry_s)
@@ -277,8 +282,9 @@ class Worker:
         self._complete(flight, report)
 
     def _complete(self, flight: _InFlight, report: FitReport) -> None:
-        """Publish a final report unless fenced (synced first: pending events, the others'
-        view of the run)."""
+        """Publish a final report unless fenced (synced first: a stall noticed, pending events,
+        the others' view of the run)."""
+        self._notice_stall()
         self.pump(0.0)
         self._sync_run(flight.run)
         why = self.sched.fenced(flight.run)
@@ -299,6 +305,7 @@ class Worker:
         """Ask the other workers what they know of `run` (final reports, live claims)."""
         for payload in self.bus.fit_state(run.bench, run.run_id):
             self.handle(BusEvent("fit", keys.run_fit(run.bench, run.run_id), payload))
+        self._last_turn = self.clock()
 
     def _claim(self, run: RunRef) -> int | None:
         name = self.options.name

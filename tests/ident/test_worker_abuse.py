@@ -28,6 +28,7 @@ from ident.worker.pipeline import fit_run
 from ident.worker.service import WorkerOptions, run_worker
 from schemas import keys
 from schemas.bus import BusConfig
+from schemas.daq import RunFinished
 from schemas.fit import FitReport
 from testkit import ports
 
@@ -50,6 +51,7 @@ class Setup:
     fits: queue.Queue[FitReport]
     thread: threading.Thread
     errors: list[BaseException]
+    endpoint: str = ""
 
 
 @pytest.fixture
@@ -80,7 +82,7 @@ def worker(tmp_path: Path, request: pytest.FixtureRequest) -> Iterator[Setup]:
         deadline = time.monotonic() + WAIT_S
         while not list(session.liveliness().get(keys.ident_alive("w-abuse"), timeout=1.0)):
             assert time.monotonic() < deadline and thread.is_alive(), f"worker did not come up: {errors}"
-        yield Setup(tmp_path, runs_dir, session, fits, thread, errors)
+        yield Setup(tmp_path, runs_dir, session, fits, thread, errors, endpoint)
     finally:
         sub.undeclare()
         session.close()
@@ -230,3 +232,42 @@ def test_runs_that_cannot_be_fitted_get_a_failed_report_with_a_reason_and_the_wo
     for name, report in reports.items():
         assert report.status == "failed" or name in ("cut-half", "absurd"), (name, report.status)
         assert (worker.runs_dir / f"{name}.fit" / "report.json").is_file(), name
+
+
+def test_a_forged_final_report_does_not_stop_a_real_run_being_fitted(worker: Setup) -> None:
+    # Forged before the run exists (run ids are predictable), and again naming a wrong record:
+    # neither matches the digest of the daq's record, so neither counts as the run's report.
+    forged = FitReport(bench=BENCH, run_id="r8", worker="mallory", status="ok")
+    worker.session.put(keys.run_fit(BENCH, "r8"), forged.to_json_bytes())
+    worker.session.put(keys.run_fit(BENCH, "r8"),
+                       forged.model_copy(update={"run_digest": "0123456789abcdef"}).to_json_bytes())
+    report = _announce_genuine_and_wait(worker, "r8")
+    deadline = time.monotonic() + WAIT_S
+    while report.worker == "mallory":   # the test's own subscriber sees the forgeries too
+        assert time.monotonic() < deadline, "the real run r8 was never fitted"
+        try:
+            report = worker.fits.get(timeout=0.2)
+        except queue.Empty:
+            continue
+        if report.run_id != "r8" or not report.final:
+            report = forged
+    assert report.worker == "w-abuse" and report.status == "ok"
+    assert report.run_digest == RunFinished.model_validate(_finished("r8")).digest()
+    assert (worker.runs_dir / "r8.fit" / "report.json").is_file()
+
+
+def test_a_rogue_replier_cannot_make_the_worker_write_more_than_the_fetch_limit(worker: Setup) -> None:
+    from ident.worker import bus as worker_bus
+
+    big = os.urandom(256 * 1024)
+    with worker_bus.WorkerBus(BusConfig.connector(worker.endpoint), "w-probe", queue.Queue()) as bus:
+        # the rogue replier sits in the same session (peers do not relay queries for others)
+        rogue = bus.session.declare_queryable(keys.daq_query(BENCH, "run"), lambda q: q.reply(q.key_expr, big))
+        with pytest.raises(worker_bus.RunUnavailable, match=r"262144 bytes \(at most 1000\)"):
+            bus.fetch_run(BENCH, "r9", worker.runs_dir / "r9.mcap", max_bytes=1000)
+        started = time.monotonic()
+        with pytest.raises(worker_bus.RunUnavailable, match="no reply"):
+            bus.fetch_run("silent", "r9", worker.runs_dir / "r9.mcap", timeout_s=0.5)
+        assert time.monotonic() - started < 3.0
+        rogue.undeclare()
+    assert not (worker.runs_dir / "r9.mcap").exists()

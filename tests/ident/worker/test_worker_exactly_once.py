@@ -8,13 +8,16 @@ so these tests are about scheduling, not numerics.
 
 from __future__ import annotations
 
+import json
 import signal
 from pathlib import Path
 
 import pytest
+import zenoh
 
 from ident.worker.schedule import RunRef, owner
 from schemas.bus import BusConfig
+from testkit import ports
 from testkit.waiting import wait_until
 from testkit.worker_harness import (
     FakeDaq,
@@ -277,3 +280,54 @@ def test_a_second_worker_with_a_name_in_use_refuses_to_start(router, tmp_path: P
         assert first.poll() is None and alive_workers(session) == {"wa"}
     finally:
         assert stop(first) == 0
+
+
+LEASE_MS = 3000
+
+
+def _short_lease_config(path: Path, endpoint: str) -> list[str]:
+    """A client config whose lease is short, so a SIGSTOP outlasts it in a few seconds."""
+    config = BusConfig(mode="client", listen=[], connect=[endpoint]).zenoh_dict()
+    config["transport"]["link"] = {"tx": {"lease": LEASE_MS, "keep_alive": 4}}
+    path.write_text(json.dumps(config))
+    return ["--zenoh-config", str(path)]
+
+
+@pytest.mark.timeout(150)
+def test_a_worker_paused_past_the_lease_is_fenced_and_every_run_is_reported_once(tmp_path: Path) -> None:
+    endpoint = f"tcp/127.0.0.1:{ports.free_port()}"
+    router_config = BusConfig(mode="router", listen=[endpoint]).zenoh_dict()
+    router_config["transport"]["link"] = {"tx": {"lease": LEASE_MS, "keep_alive": 4}}
+    session = zenoh.open(zenoh.Config.from_json5(json.dumps(router_config)))
+    runs_dir = tmp_path / "runs"
+    runs_dir.mkdir()
+    log, gate = tmp_path / "fits.log", tmp_path / "gate"
+    env = {"FAKE_FIT_LOG": str(log), "FAKE_FIT_GATE": str(gate)}
+    daq = FakeDaq(session, "bench1", runs_dir)
+    collector = FitCollector(session)
+    workers = {n: start_worker(n, _short_lease_config(tmp_path / f"{n}.json5", endpoint), runs_dir, tmp_path,
+                               "testkit.fake_fitters:gated_fit", env) for n in ("wa", "wb")}
+    try:
+        wait_until(lambda: alive_workers(session) == {"wa", "wb"}, 30, "both workers alive", workers.values())
+        runs = [daq.announce(f"r{i:02d}") for i in range(8)]
+        wait_until(lambda: len(fit_log_counts(log)["start"]) == 2, 30, "each worker mid-fit", workers.values())
+        victim_run = next(run for run, ws in fit_log_counts(log)["start"].items() if ws == ["wa"])
+        workers["wa"].send_signal(signal.SIGSTOP)       # paused mid-fit, past the lease
+        wait_until(lambda: alive_workers(session) == {"wb"}, 30, "the paused worker's token gone")
+        gate.touch()                                    # wb finishes, takes over the victim's run
+        wait_until(lambda: "wb" in fit_log_counts(log)["start"].get(victim_run, []), 40,
+                   "the take-over of the paused worker's run")
+        workers["wa"].send_signal(signal.SIGCONT)       # wa finishes its stale fit: fenced
+        wait_until(lambda: "(fenced)" in (tmp_path / "wa.log").read_text(), 40, "wa fenced", workers.values())
+        finals = collector.wait_finals(runs, timeout_s=60)
+    finally:
+        gate.touch()
+        workers["wa"].send_signal(signal.SIGCONT)
+        codes = [stop(w) for w in workers.values()]
+        collector.close()
+        session.close()
+    assert codes == [0, 0]
+    assert all(len(reports) == 1 and reports[0].status == "ok" for reports in finals.values()), finals
+    assert finals[RunRef("bench1", victim_run.split("/")[1])][0].worker == "wb"
+    published = [r for r in collector.messages if r.final]
+    assert len(published) == len(runs)                  # no double fit on the bus

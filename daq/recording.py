@@ -1,0 +1,204 @@
+"""The open run file of the service, with a full disk treated as an event, not a crash.
+
+A write that fails with "no space" (ENOSPC, EDQUOT) or "file too large" (EFBIG) ends the
+file being written (it stays as `<run_id>.mcap.part`, everything flushed so far in it) and
+suspends recording; the live stream is not touched (it is published before anything is
+written). The failure is logged once, naming the path and the run. While suspended, a new
+file is tried every `retry_s`; when one can be opened (space came back) recording goes on in
+a continuation `<run_id>-p<k>.mcap.part`, whose metadata marks the gap (`disk_full`, from
+the last sample written to the first sample of the continuation), and the suspended part is
+recovered at once into a finished file (`daq.recorder.recover_one`). When the run ends, the
+continuation is finished under its own name; a run that ends while the disk is still full
+leaves its part for recovery at the next start.
+
+Other write errors are not ours to hide: they propagate.
+"""
+
+from __future__ import annotations
+
+import errno
+import logging
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import BinaryIO
+
+from daq.errors import DaqIOError
+from daq.recorder import RunWriter, open_exclusive, recover_one
+from schemas import run_file
+from schemas.daq import DetectorStateMsg, GapInterval, RunFinished, RunMetadata, SampleBatch
+
+log = logging.getLogger("daq.service")
+
+#: errno values that mean "the disk (or quota) is full" rather than a broken file system.
+FULL_ERRNOS = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EFBIG})
+
+
+def is_disk_full(exc: BaseException) -> bool:
+    """True if `exc` (or what it was raised from) is a full-disk error."""
+    while exc is not None:
+        if isinstance(exc, OSError) and exc.errno in FULL_ERRNOS:
+            return True
+        exc = exc.__cause__  # type: ignore[assignment]
+    return False
+
+
+@dataclass
+class _Suspended:
+    """A run whose recording stopped on a full disk."""
+
+    metadata: RunMetadata
+    part: Path
+    last_written_t_ns: int | None
+    next_try_s: float
+
+
+class Recording:
+    """The service's run file: start, samples, states, finish; survives a full disk."""
+
+    def __init__(self, runs_dir: Path, flush_interval_s: float, clock: Callable[[], float],
+                 opener: Callable[[Path], BinaryIO] = open_exclusive, retry_s: float = 1.0,
+                 on_recovered: Callable[[RunFinished], None] | None = None) -> None:
+        self.runs_dir = runs_dir
+        self.flush_interval_s = flush_interval_s
+        self.clock = clock
+        self.opener = opener
+        self.retry_s = retry_s
+        self.on_recovered = on_recovered
+        self.writer: RunWriter | None = None
+        self.suspended: _Suspended | None = None
+        self.disk_full_events = 0
+        self._pieces = 0
+        self._gaps: list[GapInterval] = []
+
+    # -- run lifecycle ------------------------------------------------------------------------
+    def start(self, metadata: RunMetadata) -> None:
+        self._pieces, self._gaps = 0, []
+        try:
+            self.writer = RunWriter(self.runs_dir, metadata, self.clock(), self.flush_interval_s,
+                                    opener=self.opener)
+        except (DaqIOError, OSError) as exc:
+            if not is_disk_full(exc):
+                raise
+            self._suspend(metadata, run_file.part_path(self.runs_dir, metadata.run_id), None, exc)
+
+    def samples(self, batch: SampleBatch) -> None:
+        if self.writer is None and self.suspended is not None:
+            self._try_resume(batch)
+        if self.writer is not None:
+            self._guard(lambda w: w.write_samples(batch, self.clock()))
+
+    def state(self, msg: DetectorStateMsg) -> None:
+        if self.writer is not None:
+            self._guard(lambda w: w.write_state(msg, self.clock()))
+
+    def flush(self, now_s: float, always: bool = False) -> None:
+        if self.writer is not None:
+            self._guard(lambda w: w.flush(now_s) if always else w.maybe_flush(now_s))
+
+    def finish(self, metadata: RunMetadata, finished: RunFinished) -> RunFinished:
+        """Seal the run (or its continuation); returns the record to announce."""
+        writer, self.writer = self.writer, None
+        suspended, self.suspended = self.suspended, None
+        if writer is None:
+            if suspended is None:
+                return finished
+            reason = (f"disk full: recording stopped at {suspended.part.name}; its part is recovered at the "
+                      "next start")
+            log.error("run %s ended while the disk is still full (%s)", metadata.run_id, suspended.part)
+            return finished.model_copy(update={"status": "aborted", "reason": reason})
+        if self._pieces == 0:
+            try:
+                writer.finish(metadata, finished)
+            except (DaqIOError, OSError) as exc:
+                if not is_disk_full(exc):
+                    raise
+                self._disk_full_log(writer.path, metadata.run_id, exc)
+                writer.abandon_quietly()
+                return finished.model_copy(update={"status": "aborted", "reason": "disk full when finishing; "
+                                                   "the part is recovered at the next start"})
+            return finished
+        return self._finish_piece(writer, metadata, finished)
+
+    def abandon(self) -> None:
+        if self.writer is not None:
+            self.writer.abandon_quietly()
+            self.writer = None
+
+    # -- the full-disk path ---------------------------------------------------------------------
+    def _guard(self, action: Callable[[RunWriter], None]) -> None:
+        writer = self.writer
+        assert writer is not None
+        try:
+            action(writer)
+        except (DaqIOError, OSError) as exc:
+            if not is_disk_full(exc):
+                raise
+            self.writer = None
+            writer.abandon_quietly()
+            self._suspend(writer.metadata, writer.path, writer.last_t_ns, exc)
+
+    def _suspend(self, metadata: RunMetadata, part: Path, last_t_ns: int | None, exc: BaseException) -> None:
+        self.disk_full_events += 1
+        self._disk_full_log(part, metadata.run_id, exc)
+        self.suspended = _Suspended(metadata, part, last_t_ns, self.clock() + self.retry_s)
+
+    @staticmethod
+    def _disk_full_log(path: Path, run_id: str, exc: BaseException) -> None:
+        log.error("disk full writing %s (run %s): %s; the live stream goes on, recording resumes "
+                  "when space returns", path, run_id, exc)
+
+    def _try_resume(self, batch: SampleBatch) -> None:
+        suspended = self.suspended
+        assert suspended is not None
+        now = self.clock()
+        if now < suspended.next_try_s or not batch.t_ns:
+            return
+        piece_id = f"{run_file.run_id_of(suspended.part)}-p{self._pieces + 2}"
+        gap = GapInterval(start_t_ns=(suspended.last_written_t_ns or suspended.metadata.first_t_ns),
+                          end_t_ns=batch.t_ns[0], reason="disk_full")
+        gaps = [*self._gaps, gap]
+        counters = suspended.metadata.counters.model_copy(
+            update={"gap_intervals": [*suspended.metadata.counters.gap_intervals, *gaps]})
+        metadata = suspended.metadata.model_copy(update={"run_id": piece_id, "counters": counters})
+        try:
+            self.writer = RunWriter(self.runs_dir, metadata, now, self.flush_interval_s, opener=self.opener)
+        except (DaqIOError, OSError) as exc:
+            if not is_disk_full(exc):
+                raise
+            # the try may have left a header-only file of ours: not data, and in the next try's way
+            run_file.part_path(self.runs_dir, piece_id).unlink(missing_ok=True)
+            suspended.next_try_s = now + self.retry_s
+            return
+        self._pieces += 1
+        self._gaps = gaps
+        self.suspended = None
+        log.warning("space is back: run %s goes on in %s (gap of %.3f s marked)", suspended.metadata.run_id,
+                    self.writer.path.name, (gap.end_t_ns - gap.start_t_ns) / 1e9)
+        self._recover(suspended.part)
+
+    def _recover(self, part: Path) -> None:
+        if not part.exists():
+            return
+        done = recover_one(part)
+        if done.finished is not None and self.on_recovered is not None:
+            self.on_recovered(done.finished.model_copy(update={
+                "reason": f"recording stopped on a full disk; {done.finished.reason or ''}"[:500]}))
+
+    def _finish_piece(self, writer: RunWriter, metadata: RunMetadata, finished: RunFinished) -> RunFinished:
+        piece_id = writer.run_id
+        counters = metadata.counters.model_copy(
+            update={"gap_intervals": [*metadata.counters.gap_intervals, *self._gaps]})
+        piece_meta = metadata.model_copy(update={"run_id": piece_id, "counters": counters})
+        first, last = writer.first_t_ns, writer.last_t_ns
+        piece = finished.model_copy(update={
+            "run_id": piece_id, "file": run_file.run_file_name(piece_id), "n_samples": writer.n_samples,
+            "duration_s": ((last - first) / 1e9) if first is not None and last is not None else 0.0,
+            "counters": counters,
+            "reason": (f"continues run {metadata.run_id} after a full disk (gap marked)"
+                       + (f"; {finished.reason}" if finished.reason else ""))[:500]})
+        writer.finish(piece_meta, piece)
+        return piece
+
+
+__all__ = ["FULL_ERRNOS", "Recording", "is_disk_full"]
