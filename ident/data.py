@@ -60,7 +60,8 @@ def check_arrays(t: ArrayLike, u: ArrayLike | None, y: ArrayLike,
     step = float(np.median(steps))
     if step >= MS_STEP_THRESHOLD_S:
         raise IdentValueError("t", f"seconds (a sample step below {MS_STEP_THRESHOLD_S} s)",
-                              f"a median step of {step:.4g}: milliseconds? pass t / 1000")
+                              f"a median step of {step:.4g}: milliseconds? pass t / 1000 "
+                              "(in a file, a column named 'time_ms' or 'Time (ms)' is scaled)")
     return t_arr, u_arr, y_arr
 
 
