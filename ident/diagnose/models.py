@@ -22,7 +22,9 @@ of the input column, only with `--input`), then each effect's block in `EFFECTS`
                        E[offset + q·round((x + e - offset)/q)], e ~ N(0, (b q)²), a smoothed
                        staircase (b -> 0 the bare encoder, b ≈ 0.45 nearly the identity)
 
-The model predicts positions (P, N, carts) on τ_k = k·dt. No fitting and no I/O here.
+The model predicts the measured positions (P, N, outputs) on τ_k = k·dt: every cart, or cart 1
+only when two carts are read through one encoder (then cart 2's rest is not observable and is
+held at 0). No fitting and no I/O here.
 """
 
 from __future__ import annotations
@@ -49,7 +51,9 @@ def state_names(carts: int) -> tuple[str, ...]:
             + tuple(f"rest_{i}_m" for i in idx))
 
 
-def effect_names(effect: str, carts: int) -> tuple[str, ...]:
+def effect_names(effect: str, carts: int, outputs: int | None = None) -> tuple[str, ...]:
+    """Parameter names of `effect` for `carts` carts seen through `outputs` encoders."""
+    outputs = carts if outputs is None else outputs
     if effect == "coulomb_friction":
         return ("coulomb_accel_m_s2",) + (("coulomb_accel_m_s2_cart2",) if carts == 2 else ())
     if effect == "presliding":
@@ -61,8 +65,8 @@ def effect_names(effect: str, carts: int) -> tuple[str, ...]:
     if effect == "held_cart_motion":
         return ("held_cart_gain_per_s2",)
     if effect == "coupled_mode":
-        return ("mode_hz", "mode_decay_1_s", *(f"mode_cos_m_{j}" for j in range(1, carts + 1)),
-                *(f"mode_sin_m_{j}" for j in range(1, carts + 1)))
+        return ("mode_hz", "mode_decay_1_s", *(f"mode_cos_m_{j}" for j in range(1, outputs + 1)),
+                *(f"mode_sin_m_{j}" for j in range(1, outputs + 1)))
     if effect == "quantization":
         return ("quantum_m", "lattice_offset_m", "quantization_blur")
     return ()
@@ -79,10 +83,16 @@ class ModelSpec:
     fixed: dict[str, float] = field(default_factory=dict)
     inputs: FloatArray | None = None
     held: FloatArray | None = None
+    outputs: int = 0
+
+    @property
+    def observed(self) -> int:
+        """Measured outputs: carts 1..observed (two carts through one encoder: 1)."""
+        return self.outputs or self.carts
 
     def with_effect(self, effect: str) -> ModelSpec:
         effects = tuple(e for e in EFFECTS if e in self.effects or e == effect)
-        return ModelSpec(effects, self.carts, dict(self.fixed), self.inputs, self.held)
+        return ModelSpec(effects, self.carts, dict(self.fixed), self.inputs, self.held, self.outputs)
 
     @property
     def n_inputs(self) -> int:
@@ -92,7 +102,7 @@ class ModelSpec:
     def names(self) -> tuple[str, ...]:
         inputs = tuple(f"input_gain_{i}_{q}" for q in range(1, self.n_inputs + 1) for i in range(1, self.carts + 1))
         return (LINEAR_NAMES[self.carts] + state_names(self.carts) + inputs
-                + tuple(n for e in self.effects for n in effect_names(e, self.carts)))
+                + tuple(n for e in self.effects for n in effect_names(e, self.carts, self.observed)))
 
     @property
     def n_linear(self) -> int:
@@ -107,14 +117,14 @@ class ModelSpec:
         """Where `effect`'s parameters sit in a parameter vector."""
         start = self.n_base
         for e in self.effects:
-            size = len(effect_names(e, self.carts))
+            size = len(effect_names(e, self.carts, self.observed))
             if e == effect:
                 return slice(start, start + size)
             start += size
         raise KeyError(effect)
 
     def predict(self, theta: FloatArray, dt: float, n_samples: int) -> FloatArray:
-        """Positions (P, N, carts) for parameter rows `theta` (P, p)."""
+        """Measured positions (P, N, observed) for parameter rows `theta` (P, p)."""
         c, nl = self.carts, self.n_linear
         lin = theta[:, :nl]
         x0 = theta[:, nl:nl + c]
@@ -122,9 +132,9 @@ class ModelSpec:
         rest = theta[:, nl + 2 * c:nl + 3 * c]
         z0 = np.concatenate([x0 - rest, v0], axis=1)
         terms, u = self._terms(theta, lin, n_samples)
-        x = simulate_free(lin, z0, dt, n_samples, c, terms, u) + rest[:, None, :]
+        x = (simulate_free(lin, z0, dt, n_samples, c, terms, u) + rest[:, None, :])[:, :, :self.observed]
         if "coupled_mode" in self.effects:
-            x = x + _extra_mode(theta[:, self.block("coupled_mode")], dt, n_samples, c)
+            x = x + _extra_mode(theta[:, self.block("coupled_mode")], dt, n_samples, self.observed)
         if "quantization" in self.effects:
             q = theta[:, self.block("quantization")]
             x = smoothed_staircase(x, q[:, 0], q[:, 1], q[:, 2])

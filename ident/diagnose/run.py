@@ -169,9 +169,12 @@ def _check(t: FloatArray, y: FloatArray) -> tuple[FloatArray, FloatArray]:
 
 
 def _select_outputs(y: FloatArray, carts: int) -> tuple[FloatArray, int | None]:
-    """The outputs to fit, and the column of a held cart (one-cart fits of two columns)."""
+    """The outputs to fit, and the column of a held cart (one-cart fits of two columns).
+    Two carts with one column: the chain read through cart 1's encoder."""
     if carts not in (1, 2):
         raise IdentValueError("carts", "1 or 2", carts)
+    if carts == 2 and y.shape[1] == 1:
+        return y, None                 # two carts through cart 1's encoder
     if y.shape[1] < carts:
         raise IdentDimensionError("positions", f"{carts} position columns", y.shape[1])
     if carts == 1 and y.shape[1] > 1:
@@ -187,7 +190,7 @@ def _fixed_rest(win: Window, carts: int, step_m: float | None) -> dict[str, floa
     if step_m is None:
         return {}
     rest = {"rest_1_m": float(win.hold[0] + step_m)}
-    if carts == 2:
+    if carts == 2 and win.hold.size > 1:
         rest["rest_2_m"] = float(win.hold[1])
     return rest
 
@@ -210,7 +213,7 @@ def _candidate(prob: Problem, base: FitResult, j: Judgement) -> Candidate:
     fit_c = _fit_points(prob, j.result)
     return Candidate(effect=j.effect, parameters=params, parameter_std=std, fit_percent=fit_c,  # type: ignore[arg-type]
                      gain_points=fit_c - _fit_points(prob, base),
-                     extra_parameters=len(effect_names(j.effect, prob.carts)), lr_train=j.lr_fit,
+                     extra_parameters=len(effect_names(j.effect, prob.carts, prob.y.shape[1])), lr_train=j.lr_fit,
                      lr_validation=j.lr_cv, threshold_train=j.threshold, threshold_validation=j.threshold,
                      significant=j.passes)
 

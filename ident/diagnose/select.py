@@ -75,7 +75,7 @@ class Judgement:
 
 def judge(effect: str, before: FitResult, after: FitResult, carts: int) -> Judgement:
     n = before.n_train
-    extra = len(effect_names(effect, carts))
+    extra = len(effect_names(effect, after.spec.carts, after.spec.observed))
     return Judgement(effect, after, likelihood_ratio(n, before.sse_train, after.sse_train),
                      likelihood_ratio(n, before.sse_val, after.sse_val),
                      threshold(extra, effect in SEARCHED, n), bic(before) - bic(after))
@@ -90,7 +90,7 @@ class Step:
 
 
 #: Screened candidates refined and cross-validated per round, best whole-window gain first.
-REFINED = 3
+REFINED = 2
 
 
 def forward(baseline: FitResult, effects: Callable[[FitResult], list[str]],

@@ -36,10 +36,33 @@ def linear_start(fit: ModalFit, carts: int) -> FloatArray:
     return np.concatenate([lin, x0, v0, fit.rest])
 
 
+def one_encoder_start(fit: ModalFit) -> FloatArray:
+    """Two carts seen through cart 1 only: the symmetric chain with the fitted frequencies,
+    whose mode shapes are r = x2/x1 = +1 (in phase) and -1; cart 2's state follows from the
+    same modal amplitudes, x2 = Σ r_j x1_j; its rest is 0 (not observable: it only shifts
+    x0_2)."""
+    wn = np.sort(np.hypot(fit.freqs, fit.decays))
+    order = np.argsort(np.hypot(fit.freqs, fit.decays))
+    sig = np.maximum(fit.decays[order], 1e-4)
+    wd = fit.freqs[order]
+    a = fit.amplitudes[0, order].real
+    b = -fit.amplitudes[0, order].imag
+    r = np.array([1.0, -1.0])
+    coupling = max(0.5 * (wn[1] ** 2 - wn[0] ** 2), 0.05 * wn[0] ** 2)
+    g = float(2 * np.mean(sig))
+    lin = np.array([wn[0] ** 2, coupling, coupling, wn[0] ** 2, g, g])
+    x0 = np.array([fit.rest[0] + a.sum(), float(np.sum(r * a))])
+    v1 = -sig * a + wd * b
+    v0 = np.array([v1.sum(), float(np.sum(r * v1))])
+    return np.concatenate([lin, x0, v0, [fit.rest[0], 0.0]])
+
+
 def linear_starts(fit: ModalFit, carts: int) -> list[FloatArray]:
     """Start vectors to try: the modal mapping and, for two carts, a symmetric chain with
     the same two frequencies (a1 = a2 = wn1², b1 = b2 = (wn2² - wn1²)/2), which is always
     stable when the mode-shape mapping is not."""
+    if carts == 2 and fit.amplitudes.shape[0] == 1:
+        return [one_encoder_start(fit)]
     first = linear_start(fit, carts)
     if carts == 1:
         return [first]

@@ -72,7 +72,8 @@ def _matvec_add(m: FloatArray, x: FloatArray, out: FloatArray, add: bool) -> Non
 @numba.njit(cache=True)
 def _coulomb(z: FloatArray, wz: FloatArray, gam: FloatArray, kt: FloatArray, c: int, fk: FloatArray,
              fs: FloatArray, sigma: FloatArray, inp: FloatArray, h: float, af: FloatArray,
-             sgn: FloatArray, held: NDArray[np.bool_]) -> None:
+             sgn: FloatArray, held: NDArray[np.bool_], x_rev: FloatArray, theta: FloatArray,
+             rev: NDArray[np.bool_]) -> None:
     """Dry friction on the end state `wz` (n,) of a step from `z`, in place.
 
     Friction opposes the velocity at the step's start (from rest: the motion about to
@@ -81,7 +82,6 @@ def _coulomb(z: FloatArray, wz: FloatArray, gam: FloatArray, kt: FloatArray, c: 
     |spring + input| ≤ fs, else friction flips: +2 f sgn over the rest r = (1-θ)h adds
     (f sgn r², 2 f sgn r) to (e, v), so the error per reversal is O(f h²).
     """
-    n = 2 * c
     any_f = False
     for i in range(c):
         af[i] = 0.0
@@ -101,18 +101,18 @@ def _coulomb(z: FloatArray, wz: FloatArray, gam: FloatArray, kt: FloatArray, c: 
             af[i] = -fk[i] * s
     if not any_f:
         return
-    v_old0 = z[c:n].copy()
     _matvec_add(gam, af, wz, True)
-    x_rev = z[:c].copy()
-    theta = np.zeros(c)
-    rev = np.zeros(c, dtype=np.bool_)
     for i in range(c):
-        if fk[i] <= 0.0 or sigma[i] > 0.0 or held[i] or v_old0[i] == 0.0:
+        x_rev[i] = z[i]
+        theta[i] = 0.0
+        rev[i] = False
+        v_old = z[c + i]
+        if fk[i] <= 0.0 or sigma[i] > 0.0 or held[i] or v_old == 0.0:
             continue
         if np.sign(wz[c + i]) == -sgn[i]:
             rev[i] = True
-            theta[i] = min(max(v_old0[i] / (v_old0[i] - wz[c + i]), 0.0), 1.0)
-            x_rev[i] = z[i] + 0.5 * v_old0[i] * theta[i] * h
+            theta[i] = min(max(v_old / (v_old - wz[c + i]), 0.0), 1.0)
+            x_rev[i] = z[i] + 0.5 * v_old * theta[i] * h
     for i in range(c):
         if not rev[i]:
             continue
@@ -156,6 +156,9 @@ def simulate_rows(phi: FloatArray, gam: FloatArray, phih: FloatArray, gamh: Floa
         af = np.zeros(c)
         sgn = np.zeros(c)
         held = np.zeros(c, dtype=np.bool_)
+        x_rev = np.zeros(c)
+        theta = np.zeros(c)
+        rev = np.zeros(c, dtype=np.bool_)
         has_input = m_in > 0 and np.any(gin[p] != 0.0)
         smooth = (has_input or np.any(drag[p] != 0.0) or cubic[p] != 0.0 or np.any(kappa[p] != 0.0)
                   or np.any(sigma[p] > 0.0))
@@ -184,11 +187,13 @@ def simulate_rows(phi: FloatArray, gam: FloatArray, phih: FloatArray, gamh: Floa
                     _accel(mid, w_mid, inp, c, kt[p], drag[p], cubic[p], kappa[p], sigma[p], acc)
                     _matvec_add(gam[p], acc, wz, True)
                 if coulomb:
-                    _coulomb(z, wz, gam[p], kt[p], c, fk[p], fs[p], sigma[p], inp, h, af, sgn, held)
+                    _coulomb(z, wz, gam[p], kt[p], c, fk[p], fs[p], sigma[p], inp, h, af, sgn, held, x_rev, theta, rev)
                 if smooth:
                     _dahl(w, mid, c, fk[p], sigma[p], h, w_mid)
-                    w[:] = w_mid
-                z[:] = wz
+                    for i in range(c):
+                        w[i] = w_mid[i]
+                for i in range(n):
+                    z[i] = wz[i]
             for i in range(c):
                 out[p, k, i] = z[i]
             k += 1
