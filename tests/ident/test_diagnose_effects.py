@@ -1,0 +1,84 @@
+"""Issue 11's targets for `ident diagnose` on a fast seeded subset of independent cases.
+
+The cases come from `testkit.effects` (its own physics and integrator, no `ident` import),
+three per family, seeds drawn once from a fixed set seed (never picked). `diagnose` gets
+only t, y and the number of carts. Targets (issue 11): the right headline cause, every hidden
+parameter within 5 %, no cause or material effect named on a linear run, both effects of a
+pair found; two carts with Coulomb friction through one encoder: fit within 0.3 points of
+the noise floor, friction within 5 %, release within one sample. The full benchmark with
+>= 40 cases per family is `tools/bench_diagnose.py`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from ident.diagnose import diagnose
+from schemas.diagnosis import DiagnosisReport
+from testkit.effects import FAMILIES, PAIRS, Case, Verdict, judge, make_case
+
+SET_SEED = 20261124
+PER_FAMILY = 3
+#: targets main did not meet when this test landed (strict: a pass fails the run, so the mark
+#: is removed as soon as the diagnosis meets them); tools/bench_diagnose.py gives the rates
+NOT_YET = {
+    "quantization": "a 0.66 mm lattice on a 0.24-point case comes out 'none' (seed 1314433798)",
+    "coulomb+held_cart": "friction or held-cart gain 10-13 % off on flicks (seeds 744918568, 1568247562)",
+}
+
+
+def _seeds(family: str, n: int = PER_FAMILY) -> list[int]:
+    rng = np.random.default_rng([SET_SEED, FAMILIES.index(family)])
+    return [int(s) for s in rng.integers(0, 2**31, n)]
+
+
+def _run(case: Case) -> DiagnosisReport:
+    return diagnose(case.observed.t, case.observed.y, carts=case.observed.carts).report
+
+
+def _describe(case: Case, report: DiagnosisReport, verdict: Verdict) -> str:
+    errs = ", ".join(f"{k} {100 * e:.1f} %" for k, e in verdict.errors.items())
+    return (f"seed {case.seed} {case.truth.family} carts={case.observed.carts} {case.truth.release} "
+            f"{case.truth.rate_hz:.0f} Hz: cause {report.cause}, found {list(verdict.found)}, {errs}")
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("family", [
+    pytest.param(f, marks=pytest.mark.xfail(strict=True, reason=NOT_YET[f])) if f in NOT_YET else f
+    for f in FAMILIES])
+def test_each_family_is_named_with_its_parameters_within_5_percent(family: str) -> None:
+    wrong = []
+    for seed in _seeds(family):
+        case = make_case(seed, family)
+        report = _run(case)
+        verdict = judge(case, report)
+        if not verdict.right:
+            wrong.append(_describe(case, report, verdict))
+    assert not wrong, "\n".join(wrong)
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(strict=True, reason="diagnose(carts=2) refuses one position column (IdentDimensionError)")
+def test_two_carts_with_friction_through_one_encoder_reach_the_noise_floor() -> None:
+    problems = []
+    for seed in _seeds("coulomb_friction", 2):
+        case = make_case(seed, "coulomb_friction", carts=2, encoders=1)
+        report = _run(case)
+        window = case.observed.t >= report.window_start_s
+        y, clean = case.observed.y[window], case.truth.clean[window]
+        floor = 100.0 * (1.0 - np.linalg.norm(y - clean) / np.linalg.norm(y - y.mean(axis=0)))
+        verdict = judge(case, report)
+        release_samples = abs(report.release_time_s - case.truth.release_time_s) * case.truth.rate_hz
+        if floor - report.extended.fit_percent > 0.3 or not verdict.parameters_ok or release_samples > 1.0:
+            problems.append(_describe(case, report, verdict)
+                            + f", fit {report.extended.fit_percent:.2f} vs floor {floor:.2f}, "
+                              f"release off by {release_samples:.2f} samples")
+    assert not problems, "\n".join(problems)
+
+
+def test_the_subset_spans_one_and_two_carts_holds_and_flicks() -> None:
+    cases = [make_case(seed, family) for family in FAMILIES for seed in _seeds(family)]
+    assert {c.observed.carts for c in cases} == {1, 2}
+    assert {c.truth.release for c in cases} == {"hold", "flick"}
+    assert {c.truth.family for c in cases} == set(FAMILIES) and set(PAIRS) <= set(FAMILIES)
