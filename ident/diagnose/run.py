@@ -64,6 +64,31 @@ class Diagnosis:
     train: NDArray[np.bool_]     # (N,) samples the fits used
     extrema: FloatArray          # (K, 2) time (s, run base) and |y - rest| (m)
 
+    def summary_rows(self) -> list[tuple[str, str]]:
+        """The labelled lines of `repr` and `_repr_html_` (the arrays stay in the attributes)."""
+        r = self.report
+        rows = [("window", f"{r.window_start_s:.3f} … {r.window_end_s:.3f} s, {r.sample_rate_hz:.4g} Hz, "
+                           f"release at {r.release_time_s:.3f} s"),
+                ("linear", f"{r.baseline.fit_percent:.3f} % ({r.baseline.model})"),
+                ("extended", f"{r.extended.fit_percent:.3f} % ({r.gain_points:+.3f} points)")]
+        rows += [(f"effect {e.rank}", f"{e.effect}: {e.gain_points:+.3f} points"
+                                      + ("" if e.material else " (immaterial)")) for e in r.effects]
+        rows.append(("see", "diagnosis.report (every number, JSON: .model_dump_json()), .t, .y, .baseline"))
+        return rows
+
+    def _title(self) -> str:
+        return f"Diagnosis {self.report.source!r}: cause {self.report.cause}"
+
+    def __repr__(self) -> str:
+        from ident import summary
+
+        return summary.text(self._title(), self.summary_rows())
+
+    def _repr_html_(self) -> str:
+        from ident import summary
+
+        return summary.html_table(self._title(), self.summary_rows())
+
 
 def diagnose(t: FloatArray, y: FloatArray, carts: int | None = None, step_m: float | None = None,
              source: str = "", u: FloatArray | None = None, start_s: float | None = None,

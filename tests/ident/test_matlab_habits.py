@@ -189,3 +189,15 @@ def test_a_recorded_pulse_input_is_not_summarised_as_a_step() -> None:
     pulse = np.where((run.t >= 1.0) & (run.t < 4.0), 0.6, 0.0)   # a motor voltage pulse
     assert "input u : recorded, 0 … 0.6, first change at 1 s" in repr(ident.IdData(run.t, pulse, run.y))
     assert "input u : step of 0.15 at 0.9 s" in repr(ident.IdData(run.t, step(run.t, 0.9), run.y))
+
+
+def test_a_diagnosis_prints_its_verdict_not_its_traces() -> None:
+    from ident.diagnose import diagnose
+
+    run = cart1_run(100.0, seed=31, duration=6.0)
+    result = diagnose(run.t, run.y, carts=1, source="cart1.csv")
+    text = repr(result)
+    assert text.startswith(f"Diagnosis 'cart1.csv': cause {result.report.cause}")
+    assert f"{result.report.baseline.fit_percent:.3f} %" in text
+    assert len(text.splitlines()) <= 10 and "array(" not in text
+    assert result._repr_html_().count("<tr>") == len(text.splitlines()) - 1
