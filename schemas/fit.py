@@ -104,6 +104,29 @@ class PemFitRec(Record):
     message: str = ""
 
 
+class EnvelopeRec(Record):
+    """The half-cycle peaks of one free cart and the two reference laws fitted to them.
+
+    Coulomb (dry friction, a constant loss per cycle): `A(t) = coulomb_a0_m -
+    coulomb_slope_m_s·(t - t_s[0])`; viscous (a constant ratio per cycle):
+    `A(t) = viscous_a0_m·exp(-viscous_rate_1_s·(t - t_s[0]))`; RMS misfits on the peaks.
+    """
+
+    output: int = Field(ge=1, le=2)
+    t_s: list[float]
+    peak_m: list[float]
+    rest_m: float
+    period_s: float
+    coulomb_a0_m: float
+    coulomb_slope_m_s: float
+    coulomb_rms_m: float
+    viscous_a0_m: float
+    viscous_rate_1_s: float
+    viscous_rms_m: float
+    mixed_ratio_per_half: float = Field(description="both at once: A_{k+1} = q A_k - b, q")
+    mixed_loss_m_per_half: float = Field(description="both at once: A_{k+1} = q A_k - b, b (m)")
+
+
 class FitTimings(Record):
     """Wall time of each stage, seconds."""
 
@@ -130,6 +153,7 @@ class FitReport(Record):
     simple: list[SimpleFitRec] = Field(default_factory=list)
     pem: PemFitRec | None = None
     diagnosis: DiagnosisReport | None = None
+    envelope: EnvelopeRec | None = None
     figures: list[str] = Field(default_factory=list)
     pending: list[Literal["diagnosis", "figures"]] = Field(default_factory=list)
     timings: FitTimings = Field(default_factory=FitTimings)
@@ -170,6 +194,7 @@ __all__ = [
     "LAB_CASES",
     "FitReport",
     "FitStatus",
+    "EnvelopeRec",
     "FitTimings",
     "LabCase",
     "ModeRec",

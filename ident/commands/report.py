@@ -16,8 +16,9 @@ from typing import Any
 
 from ident import progress
 from ident.commands.fit import run_id_of
-from ident.errors import DataFileError
-from ident.fitrun import RunIdentity, fit_file
+from ident.data import IdData
+from ident.errors import DataFileError, IdentError
+from ident.fitrun import RunIdentity, fit_file, load_run
 from ident.report.content import CaseResult
 from ident.report.figures import write_figures
 from ident.report.writer import FittedRun, write_report_dir
@@ -29,6 +30,7 @@ from ident.worker.runs_dir import (
     write_report,
 )
 from schemas import topics
+from schemas.fit import FitReport
 
 
 def add_parser(sub: Any) -> None:
@@ -60,7 +62,7 @@ def run(args: argparse.Namespace) -> int:
     return 0 if results else 1
 
 
-def fit_here(path: Path, fit_dir: Path) -> Any:
+def fit_here(path: Path, fit_dir: Path) -> FitReport:
     """Fit a run file with the use case, its figures into `fit_dir`; write report.json."""
     finished = read_finished(path) if path.suffix == topics.RUN_SUFFIX else None
     who = RunIdentity(bench=finished.bench if finished else "local",
@@ -72,32 +74,59 @@ def fit_here(path: Path, fit_dir: Path) -> Any:
     return report
 
 
+def fitted_samples(run_file: Path, report: FitReport) -> IdData | None:
+    """The samples the report's fits used (its carts' columns), or None without the file."""
+    if report.status != "ok" or not run_file.is_file():
+        return None
+    outputs = report.pem.outputs if report.pem else [s.output for s in report.simple[:1]]
+    try:
+        data = load_run(run_file)
+    except (IdentError, OSError):
+        return None
+    columns = [c - 1 for c in outputs]
+    if not columns or max(columns) >= data.n_outputs:
+        return None
+    return data if data.n_outputs == len(columns) else data.select_outputs(columns)
+
+
 def gather(paths: list[Path], work_dir: Path) -> list[FittedRun]:
-    """The final report of each RUN, fitting those that have none (into `work_dir`)."""
+    """The final report of each RUN, fitting those that have none (into `work_dir`), with
+    the samples each fit used when the run file is at hand."""
     runs = []
     progress.set_total(len(paths))   # the terminal shows runs done of all
     for k, path in enumerate(paths):
         if k:
             progress.advance()
-        if path.is_dir() or path.name == REPORT_NAME:
-            fit_dir = path if path.is_dir() else path.parent
-            report = read_report(fit_dir)
-            if report is None:
-                raise DataFileError(f"expected a final {REPORT_NAME} in {fit_dir}, got none")
-            runs.append(FittedRun(report, fit_dir, path))
-            continue
-        if not path.is_file():
-            raise DataFileError(f"expected a run file, fit directory or report, got {str(path)!r}")
-        beside = path.with_name(path.name.removesuffix(topics.RUN_SUFFIX) + FIT_SUFFIX)
-        report = read_report(beside) if path.suffix == topics.RUN_SUFFIX else None
-        if report is not None:
-            runs.append(FittedRun(report, beside, path))
-            continue
-        fit_dir = work_dir / f"{run_id_of(path)}{FIT_SUFFIX}"
-        runs.append(FittedRun(fit_here(path, fit_dir), fit_dir, path))
-    return runs
+        runs.append(_gather_one(path, work_dir))
+    return [FittedRun(r.report, r.fit_dir, r.source, fitted_samples(_run_file(r), r.report))
+            for r in runs]
 
 
-def write_lab_report(paths: list[Path], out_dir: Path) -> list[CaseResult]:
+def _run_file(run: FittedRun) -> Path:
+    """A fit folder `<run_id>.fit/` sits beside its run `<run_id>.mcap`."""
+    if run.source.is_file() and run.source.name != REPORT_NAME:
+        return run.source
+    return run.fit_dir.with_name(run.fit_dir.name.removesuffix(FIT_SUFFIX) + topics.RUN_SUFFIX)
+
+
+def _gather_one(path: Path, work_dir: Path) -> FittedRun:
+    if path.is_dir() or path.name == REPORT_NAME:
+        fit_dir = path if path.is_dir() else path.parent
+        report = read_report(fit_dir)
+        if report is None:
+            raise DataFileError(f"expected a final {REPORT_NAME} in {fit_dir}, got none")
+        return FittedRun(report, fit_dir, path)
+    if not path.is_file():
+        raise DataFileError(f"expected a run file, fit directory or report, got {str(path)!r}")
+    beside = path.with_name(path.name.removesuffix(topics.RUN_SUFFIX) + FIT_SUFFIX)
+    report = read_report(beside) if path.suffix == topics.RUN_SUFFIX else None
+    if report is not None:
+        return FittedRun(report, beside, path)
+    fit_dir = work_dir / f"{run_id_of(path)}{FIT_SUFFIX}"
+    return FittedRun(fit_here(path, fit_dir), fit_dir, path)
+
+
+def write_lab_report(paths: list[Path], out_dir: Path,
+                     run_notebook: bool = True) -> list[CaseResult]:
     """Gather (fitting where needed, into `out_dir/fits/`) and write the report."""
-    return write_report_dir(gather(paths, out_dir / "fits"), out_dir)
+    return write_report_dir(gather(paths, out_dir / "fits"), out_dir, run_notebook)

@@ -22,10 +22,21 @@ _WHAT = {
 }
 
 
+#: The peak envelope's shape in words: dry friction loses a constant amount per cycle,
+#: viscous damping a constant ratio (so a friction run may still show a ratio: both act).
+ENVELOPE_WORDS = {
+    "constant_ratio": "the peaks keep a constant ratio per cycle, the viscous signature, so "
+                      "viscous damping acts too",
+    "constant_step": "the peaks lose a constant amount per cycle, the dry-friction signature",
+    "amplitude_dependent": "large peaks lose a larger fraction than small ones",
+    "undetermined": "too few peaks to tell",
+}
+
+
 def _signs(report: DiagnosisReport) -> str:
     """The evidence behind the named cause, in words, from the measured run."""
     ev = report.evidence
-    shape = ev.envelope_shape.replace("_", " ")
+    shape = ENVELOPE_WORDS.get(ev.envelope_shape, ev.envelope_shape.replace("_", " "))
     if report.cause == "coulomb_friction":
         return (f"the cart stops dead {1e3 * abs(ev.rest_offset_m):.2f} mm from the linear model's rest "
                 f"and stays there for the last {ev.stuck_for_s:.2f} s while the linear model keeps "

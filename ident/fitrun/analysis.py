@@ -25,6 +25,7 @@ import numpy as np
 from ident.data import FloatArray, IdData
 from ident.diagnose import Diagnosis, diagnose
 from ident.errors import IdentError, IdentValueError
+from ident.fitrun.envelope import Envelope, fit_envelope
 from ident.model import Model
 from ident.prediction_error import pem
 from ident.release import motion_amplitude, noise_std
@@ -100,6 +101,7 @@ class RunAnalysis:
     pem_y_hat: FloatArray | None = None
     diagnosis: DiagnosisReport | None = None
     diagnosis_traces: Diagnosis | None = None
+    envelope: Envelope | None = None
     timings_s: dict[str, float] = field(default_factory=dict)
     errors: dict[str, str] = field(default_factory=dict)
 
@@ -197,8 +199,28 @@ def analyse_fits(data: IdData, settings: FitSettings = FitSettings()) -> RunAnal
         model = _timed("pem", timings, errors,
                        lambda: pem(cart_data, order, noise_model=settings.noise_model))
         y_hat = None if model is None else model.simulate(cart_data.u)
-    return RunAnalysis(case, cart_data, moving, tuple(simple), model, y_hat,
-                       timings_s=timings, errors=errors)
+    analysis = RunAnalysis(case, cart_data, moving, tuple(simple), model, y_hat,
+                           timings_s=timings, errors=errors)
+    return dataclasses.replace(analysis, envelope=envelope_of(analysis))
+
+
+def envelope_of(analysis: RunAnalysis) -> Envelope | None:
+    """The peak envelope of a one-cart run about the linear model's rest, with both laws.
+
+    The rest is the fitted model's steady state (its gain times the final input), so a pull
+    other than the nominal one still centres the ring; None for two carts (they beat).
+    """
+    data, release = analysis.data, analysis.release_time_s
+    if analysis.case == "both" or release is None:
+        return None
+    if analysis.simple:
+        gain = analysis.simple[0].gain
+    elif analysis.pem is not None:
+        gain = float(np.atleast_1d(analysis.pem.dc_gain)[0])
+    else:
+        return None
+    rest = gain * float(data.u[-1])
+    return fit_envelope(data.t, data.y[:, 0], rest, release, float(noise_std(data.y)[0]))
 
 
 def with_diagnosis(analysis: RunAnalysis) -> RunAnalysis:
@@ -228,5 +250,5 @@ def fit_simple_result(data: IdData, method: SimpleMethod, output: int) -> Simple
 
 
 __all__ = ["MOVING_MIN_M", "MOVING_SIGMAS", "FitSettings", "Method", "NoiseModel", "RunAnalysis",
-           "SimpleResult", "analyse", "analyse_fits", "choose_case", "detect_case",
+           "SimpleResult", "analyse", "analyse_fits", "choose_case", "detect_case", "envelope_of",
            "fit_simple_result", "with_diagnosis"]

@@ -2,17 +2,35 @@
 
 Sections follow the handout's submission list: the hand derivation of both transfer
 functions (the derivation of `ident.physics`, with its equations), the identified transfer
-functions (simple ID with RK4 and Euler, PEM of order 2 for each cart, PEM of order 4),
-figures of measured vs estimated output, the diagnosis, and a reflection written from the
-numbers (`ident.report.reflection`). Pure: records in, blocks out.
+functions (simple ID with RK4 and Euler, PEM of order 2 for each cart, PEM of order 4) each
+with the Python that computed it (`ident.report.code`), numbered figures of measured vs
+estimated output referred to from the text, the diagnosis with the effects it found and
+their gains, the peak envelopes with both friction laws, and a draft reflection written from
+the numbers (`ident.report.reflection`) for the student to edit. Pure: records in, blocks out.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
-from ident.report.document import Block, Equation, Figure, Heading, Para, Table
+from ident.report import code
+from ident.report.document import (
+    Block,
+    Code,
+    Equation,
+    Figure,
+    Heading,
+    Para,
+    Table,
+    number_figures,
+)
 from ident.report.reflection import reflection
+from ident.report.wording import (
+    diagnosis_zeta_words,
+    envelope_words,
+    euler_words,
+    pem_vs_simple_words,
+)
 from schemas.fit import LAB_CASES, FitReport, LabCase
 
 CASE_TITLES: dict[str, str] = {
@@ -29,6 +47,7 @@ class CaseResult:
     case: LabCase
     report: FitReport
     figures: dict[str, str]   # kind ("simple", "pem", ...) -> stem
+    data_file: str | None = None   # the exported samples, relative to the report; None: no code
 
 
 def _f(value: float | None, digits: int = 4) -> str:
@@ -96,6 +115,27 @@ def runs_table(results: list[CaseResult]) -> Table:
                  tuple(rows))
 
 
+def code_setup_blocks(results: list[CaseResult]) -> list[Block]:
+    """The imports, and each case's exported samples loaded (`data/<case>.csv`)."""
+    blocks: list[Block] = [
+        Heading(2, "The Python of this report"),
+        Para("Every number below was computed by cartlab's public API; the code blocks are "
+             "that code. The samples each fit used are exported beside this report "
+             "(`data/<case>.csv`: time (s), release step input (m), positions (m); "
+             "`data/<case>.json`: release time, pulled cart). `report.ipynb` holds the same "
+             "code as a notebook: run it top to bottom and it prints the same numbers."),
+        Code(code.SETUP),
+    ]
+    for r in results:
+        if r.data_file is None:
+            blocks.append(Para(f"The samples of the {CASE_TITLES[r.case]} run were not at hand "
+                               "(only its fit): its code is left out."))
+            continue
+        blocks.append(Para(f"Load the {CASE_TITLES[r.case]} run (`{r.report.run_id}`):"))
+        blocks.append(Code(code.load(r.case)))
+    return blocks
+
+
 def simple_blocks(results: list[CaseResult]) -> list[Block]:
     blocks: list[Block] = [
         Heading(2, "2. Simple identification (RK4 and Euler simulation)"),
@@ -113,11 +153,24 @@ def simple_blocks(results: list[CaseResult]) -> list[Block]:
     else:
         blocks.append(Para("No simple identification succeeded on these runs."))
     for r in results:
+        if not r.report.simple:
+            continue
+        cart = r.report.simple[0].output
+        blocks.append(Heading(3, f"2.{results.index(r) + 1} {CASE_TITLES[r.case]}"))
+        if r.data_file:
+            blocks.append(Code(code.simple(r.case)))
+        words = euler_words(r.report)
+        ref = f"{{fig:simple-{r.case}}}" if "simple" in r.figures else "The fit"
+        blocks.append(Para(f"{ref} shows the measured position of cart {cart} with both "
+                           "simulations (Euler with markers), and below them each one's "
+                           "residual. " + words))
         if "simple" in r.figures:
             blocks.append(Figure(r.figures["simple"],
-                                 f"simple identification, {CASE_TITLES[r.case]}: measured "
-                                 f"position of cart {r.report.simple[0].output if r.report.simple else '?'}"
-                                 " (solid) and the RK4 and Euler simulations of the fitted model"))
+                                 f"Simple identification, {CASE_TITLES[r.case]}. Above: measured "
+                                 f"position of cart {cart} (solid), the RK4 simulation (dashed) "
+                                 "and the Euler simulation (dotted, circles) of the fitted model. "
+                                 "Below: measured minus simulated, in mm, for each.",
+                                 f"simple-{r.case}"))
     return blocks
 
 
@@ -128,7 +181,7 @@ def pem_blocks(results: list[CaseResult]) -> list[Block]:
     for r in singles:
         pem = r.report.pem
         assert pem is not None
-        for tf, fit in zip(pem.tfs, pem.fit_percent):
+        for tf, fit in zip(pem.tfs, pem.fit_percent, strict=False):
             mode = pem.modes[0] if pem.modes else None
             rows.append((r.case, str(tf.output), f"`{tf.text}`",
                          _f(mode.wn_rad_s if mode else None), _f(mode.zeta if mode else None, 3),
@@ -139,10 +192,17 @@ def pem_blocks(results: list[CaseResult]) -> list[Block]:
     else:
         blocks.append(Para("No single-cart run was identified by PEM."))
     for r in singles:
+        blocks.append(Heading(3, f"3.{singles.index(r) + 1} {CASE_TITLES[r.case]}"))
+        if r.data_file:
+            blocks.append(Code(code.pem(r.case, 2)))
+            blocks.append(Code(code.simulate_and_plot(r.case, bool(r.report.simple))))
+        ref = f"{{fig:pem-{r.case}}}" if "pem" in r.figures else "The simulation"
+        blocks.append(Para(f"{ref} compares the simulated PEM model with the measurement. "
+                           + pem_vs_simple_words(r.report)))
         if "pem" in r.figures:
             blocks.append(Figure(r.figures["pem"], f"PEM (order 2), {CASE_TITLES[r.case]}: "
                                  "measured position (solid) and the simulated identified model "
-                                 "(dashed)"))
+                                 "(dashed).", f"pem-{r.case}"))
     blocks.append(Heading(2, "4. PEM, fourth order, two carts"))
     both = [r for r in results if r.case == "both" and r.report.pem is not None]
     if not both:
@@ -153,15 +213,32 @@ def pem_blocks(results: list[CaseResult]) -> list[Block]:
     assert pem is not None
     blocks.append(Table(("output", "G(s) = X_i(s)/R(s)", "fit"),
                         tuple((f"cart {tf.output}", f"`{tf.text}`", _pct(fit))
-                              for tf, fit in zip(pem.tfs, pem.fit_percent))))
+                              for tf, fit in zip(pem.tfs, pem.fit_percent, strict=False))))
     blocks.append(Table(("mode", "wn (rad/s)", "f (Hz)", "ζ"),
                         tuple((str(i + 1), _f(m.wn_rad_s), _f(m.wn_rad_s / 6.283185307179586),
                                _f(m.zeta, 3)) for i, m in enumerate(pem.modes))))
+    if r.data_file:
+        blocks.append(Code(code.pem(r.case, 4)))
+        blocks.append(Code(code.simulate_and_plot(r.case, False)))
     if "pem" in r.figures:
+        blocks.append(Para("{fig:pem-both} shows both carts with the simulated fourth-order "
+                           "model: the two modes beat, so neither cart rings as one decaying "
+                           "sine."))
         blocks.append(Figure(r.figures["pem"], "PEM (order 4), both carts free after cart 1 is "
                              "released: measured positions (solid) and the simulated identified "
-                             "model (dashed)"))
+                             "model (dashed), one panel per cart.", "pem-both"))
     return blocks
+
+
+def _effects(r: CaseResult) -> str:
+    """Every effect the diagnosis tried, with its held-out gain; the accepted ones in bold."""
+    d = r.report.diagnosis
+    assert d is not None
+    parts = []
+    for c in sorted(d.candidates, key=lambda c: -c.gain_points):
+        text = f"{c.effect.replace('_', ' ')} {c.gain_points:+.3f}"
+        parts.append(f"**{text}**" if c.significant else text)
+    return ", ".join(parts) or "–"
 
 
 def diagnosis_blocks(results: list[CaseResult]) -> list[Block]:
@@ -170,6 +247,10 @@ def diagnosis_blocks(results: list[CaseResult]) -> list[Block]:
     if not diagnosed:
         blocks.append(Para("No diagnosis is available for these runs."))
         return blocks
+    blocks.append(Para("Each extension of the linear model is fitted to the same run and "
+                       "judged on samples it was not fitted to; its gain is the change of "
+                       "held-out fit % it brings. Effects the noise cannot explain are in bold; "
+                       "the largest is the cause."))
     rows = []
     for r in diagnosed:
         d = r.report.diagnosis
@@ -180,35 +261,49 @@ def diagnosis_blocks(results: list[CaseResult]) -> list[Block]:
         if linear == "–" and r.report.pem is not None:    # two carts: the PEM modes' ζ
             linear = ", ".join(f"{m.zeta:.4g}" for m in r.report.pem.modes)
         rows.append((r.case, f"**{d.cause}**", _pct(d.baseline.fit_percent),
-                     _pct(d.extended.fit_percent), f"{d.gain_points:+.3f}", extra,
+                     _pct(d.extended.fit_percent), f"{d.gain_points:+.3f}", _effects(r), extra,
                      linear, zetas(d.corrected_linear)))
     blocks.append(Table(("case", "cause", "linear fit", "extended fit", "gain (points)",
-                         "extension parameters", "ζ linear", "ζ corrected"), tuple(rows)))
+                         "effects tried (gain, points)", "extension parameters", "ζ linear",
+                         "ζ corrected"), tuple(rows)))
     for r in diagnosed:
         d = r.report.diagnosis
         assert d is not None
         ev = d.evidence
         blocks.append(Heading(3, f"5.{diagnosed.index(r) + 1} {CASE_TITLES[r.case]}"))
+        if r.data_file:
+            blocks.append(Code(code.diagnosis(r.case, 2 if r.case == "both" else 1)))
         blocks.append(Para(d.explanation))
+        refs = f"{{fig:diagnosis-{r.case}}} " if "diagnosis" in r.figures else ""
         blocks.append(Para(
-            f"Evidence: the peak envelope is **{ev.envelope_shape.replace('_', ' ')}** "
-            f"({ev.envelope_peaks} peaks, step {ev.envelope_step_m * 1000:.2f} mm, ratio "
-            f"{ev.envelope_ratio:.3f}); the residual of the linear fit is "
+            (f"{refs}shows the linear and the extended simulations on the window after "
+             "the release. " if refs else "") + "The residual of the linear fit is "
             f"{'white' if ev.residual_is_white else 'not white'} "
             f"({ev.whiteness_fraction_outside * 100:.0f} % of lags outside the bounds, RMS "
-            f"{ev.residual_rms_m * 1000:.2f} mm vs noise {ev.noise_std_m * 1000:.3f} mm); the "
+            f"{ev.residual_rms_m * 1000:.2f} mm against noise {ev.noise_std_m * 1000:.3f} mm); the "
             f"cart comes to rest {ev.rest_offset_m * 1000:+.2f} mm from the linear model's "
             f"rest and stays still for the last {ev.stuck_for_s:.2f} s. Validation: "
-            f"{d.validation.rstrip('.')}."))
+            f"{d.validation.rstrip('.')}. " + diagnosis_zeta_words(r.report)))
         if "diagnosis" in r.figures:
-            blocks.append(Figure(r.figures["diagnosis"], f"diagnosis, {CASE_TITLES[r.case]}: "
+            blocks.append(Figure(r.figures["diagnosis"], f"Diagnosis, {CASE_TITLES[r.case]}: "
                                  "measured position (solid), the linear model (dashed) and the "
                                  f"model extended with {d.cause.replace('_', ' ')} (dotted), on "
-                                 "the window after the release"))
-        if "envelope" in r.figures:
-            blocks.append(Figure(r.figures["envelope"], f"peak envelope, {CASE_TITLES[r.case]}: "
-                                 "half-cycle peaks of |x - rest| against time; a straight line "
-                                 "is dry friction, an exponential decay viscous damping"))
+                                 "the window after the release.", f"diagnosis-{r.case}"))
+        env = r.report.envelope
+        if env is not None and "envelope" in r.figures:
+            blocks.append(Para(f"{{fig:envelope-{r.case}}} shows the half-cycle peaks with both "
+                               "reference laws fitted to them. " + envelope_words(env)))
+            blocks.append(Figure(r.figures["envelope"], f"Peak envelope, {CASE_TITLES[r.case]}: "
+                                 f"half-cycle peaks of |x - rest| of cart {env.output} (circles) "
+                                 "with the two laws fitted to them: a straight line, dry "
+                                 "(Coulomb) friction losing a constant amount per cycle "
+                                 "(dashed), and an exponential, viscous damping losing a "
+                                 "constant ratio per cycle (dotted).", f"envelope-{r.case}"))
+        elif r.case == "both":
+            blocks.append(Para("No envelope is drawn for two free carts: their two modes beat, "
+                               "so the peaks of one cart rise and fall with the beat and follow "
+                               "neither law; the diagnosis fits the friction of both carts "
+                               "directly."))
     return blocks
 
 
@@ -242,12 +337,21 @@ def report_blocks(results: list[CaseResult], generated: str,
                            "need them say so."))
     blocks += notes_blocks(results, unused or [])
     blocks += derivation_blocks()
+    blocks += code_setup_blocks(results)
     blocks += simple_blocks(results)
     blocks += pem_blocks(results)
     blocks += diagnosis_blocks(results)
-    blocks.append(Heading(2, "6. Reflection"))
+    blocks.append(Heading(2, "6. Reflection (draft)"))
+    blocks.append(Para("**Draft — edit before you hand it in.** cartlab wrote the paragraphs "
+                       "below from the numbers above; they are a starting point, not your "
+                       "reflection. Check each claim against the figures and rewrite it in "
+                       "your own words."))
     blocks += [Para(text) for text in reflection([r.report for r in results])]
-    return blocks
+    blocks.append(Heading(2, "Appendix: the numbers, recomputed"))
+    blocks.append(Para("The notebook ends by printing every number it computed; they equal "
+                       "the ones above."))
+    blocks.append(Code(code.NUMBERS))
+    return number_figures(blocks)
 
 
 def summary_rows(results: list[CaseResult]) -> list[tuple[str, ...]]:
@@ -269,5 +373,5 @@ def summary_rows(results: list[CaseResult]) -> list[tuple[str, ...]]:
     return rows
 
 
-__all__ = ["CASE_TITLES", "CaseResult", "derivation_blocks", "notes_blocks", "report_blocks",
+__all__ = ["CASE_TITLES", "CaseResult", "code_setup_blocks", "derivation_blocks", "notes_blocks", "report_blocks",
            "summary_rows"]

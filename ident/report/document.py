@@ -1,7 +1,10 @@
 """A tiny document model rendered twice: Markdown (`report.md`) and one self-contained HTML page.
 
-Blocks: `Heading`, `Para`, `Equation`, `Table`, `Figure`. Inline markup in `Para` and table
-cells is limited to `` `code` `` and `**bold**`, which both renderers understand. Equations
+Blocks: `Heading`, `Para`, `Equation`, `Table`, `Figure`, `Code`. Inline markup in `Para` and
+table cells is limited to `` `code` `` and `**bold**`, which both renderers understand.
+Figures are numbered in order (`number_figures`): a caption reads "Figure N: …" and a
+paragraph refers to a figure as `{fig:LABEL}`, replaced by "Figure N" (a dangling reference
+raises). Equations
 are TeX (matplotlib mathtext subset): `$$...$$` in Markdown, inline SVG drawn by matplotlib
 in HTML, so the page needs no network and no MathJax. Figures are referenced by file in
 Markdown and embedded as SVG in HTML. No I/O except reading the figure files given.
@@ -46,13 +49,49 @@ class Table:
 
 @dataclass(frozen=True)
 class Figure:
-    """`stem` names `<stem>.png` and `<stem>.svg` in the report directory."""
+    """`stem` names `<stem>.png` and `<stem>.svg` in the report directory; `number` is set
+    by `number_figures`; `label` (default: the stem) is what `{fig:LABEL}` refers to."""
 
     stem: str
     caption: str
+    label: str = ""
+    number: int = 0
 
 
-Block = Heading | Para | Equation | Table | Figure
+@dataclass(frozen=True)
+class Code:
+    """Python source: a fenced block in Markdown, `<pre>` in HTML, a code cell in a notebook."""
+
+    source: str
+
+
+Block = Heading | Para | Equation | Table | Figure | Code
+
+_REF = re.compile(r"\{fig:([A-Za-z0-9_.-]+)\}")
+
+
+def number_figures(blocks: list[Block]) -> list[Block]:
+    """Number the figures in order and resolve every `{fig:LABEL}` in paragraphs."""
+    numbers: dict[str, int] = {}
+    out: list[Block] = []
+    for block in blocks:
+        if isinstance(block, Figure):
+            numbers[block.label or block.stem] = len(numbers) + 1
+            block = Figure(block.stem, block.caption, block.label or block.stem, len(numbers))
+        out.append(block)
+
+    def resolve(match: re.Match[str]) -> str:
+        if match.group(1) not in numbers:
+            raise KeyError(f"reference to figure {match.group(1)!r}, which the report does not hold")
+        return f"Figure {numbers[match.group(1)]}"
+
+    return [Para(_REF.sub(resolve, b.text)) if isinstance(b, Para) else
+            Table(b.header, tuple(tuple(_REF.sub(resolve, c) for c in row) for row in b.rows))
+            if isinstance(b, Table) else b for b in out]
+
+
+def caption_of(figure: Figure) -> str:
+    return f"Figure {figure.number}: {figure.caption}" if figure.number else figure.caption
 
 
 # -- Markdown ---------------------------------------------------------------------------------
@@ -68,8 +107,10 @@ def to_markdown(blocks: list[Block]) -> str:
         elif isinstance(block, Table):
             out.append(_md_table(block))
         elif isinstance(block, Figure):
-            out.append(f"![{_plain(block.caption)}]({block.stem}.png)\n\n"
-                       f"*Figure: {block.caption}* (vector: [{block.stem}.svg]({block.stem}.svg))")
+            out.append(f"![{_plain(caption_of(block))}]({block.stem}.png)\n\n"
+                       f"*{caption_of(block)}* (vector: [{block.stem}.svg]({block.stem}.svg))")
+        elif isinstance(block, Code):
+            out.append(f"```python\n{block.source.rstrip()}\n```")
     return "\n\n".join(out) + "\n"
 
 
@@ -136,19 +177,24 @@ def to_html(blocks: list[Block], title: str, figure_dir: Path, font_family: str,
             svg_path = figure_dir / f"{block.stem}.svg"
             svg = _strip_xml_header(svg_path.read_text()) if svg_path.is_file() else \
                 f"<p>(missing figure {html.escape(block.stem)})</p>"
-            body.append(f"<figure>{svg}<figcaption>Figure: {_inline(block.caption)}"
-                        f"</figcaption></figure>")
+            body.append(f"<figure id='figure-{block.number}'>{svg}<figcaption>"
+                        f"{_inline(caption_of(block))}</figcaption></figure>")
+        elif isinstance(block, Code):
+            body.append(f"<pre><code class='language-python'>{html.escape(block.source.rstrip())}"
+                        "</code></pre>")
     css = (f"body{{font-family:'{font_family}',sans-serif;font-size:{font_size_pt}pt;"
            "max-width:60em;margin:2em auto;padding:0 1em;line-height:1.45;color:#222}"
            "table{border-collapse:collapse;margin:1em 0}td,th{border:1px solid #bbb;"
            "padding:.25em .6em;text-align:left;vertical-align:top}th{background:#f0f0f0}"
            "figure{margin:1.5em 0}figure svg{max-width:100%;height:auto}"
            "figcaption{font-style:italic}.equation{margin:1em 0 1em 2em}"
-           ".eqlabel{font-style:italic;font-size:90%}code{font-size:95%}")
+           ".eqlabel{font-style:italic;font-size:90%}code{font-size:95%}"
+           "pre{background:#f6f6f6;border:1px solid #ddd;padding:.6em;overflow-x:auto;"
+           "font-size:85%;line-height:1.3}")
     return ("<!DOCTYPE html>\n<html lang='en'><head><meta charset='utf-8'>"
             f"<title>{html.escape(title)}</title><style>{css}</style></head><body>\n"
             + "\n".join(body) + "\n</body></html>\n")
 
 
-__all__ = ["Block", "Equation", "Figure", "Heading", "Para", "Table", "equation_svg",
-           "to_html", "to_markdown"]
+__all__ = ["Block", "Code", "Equation", "Figure", "Heading", "Para", "Table", "caption_of",
+           "equation_svg", "number_figures", "to_html", "to_markdown"]

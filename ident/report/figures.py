@@ -13,6 +13,8 @@ from __future__ import annotations
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+import numpy as np
+
 from ident import plotting
 from ident.data import FloatArray
 from ident.fitrun.analysis import RunAnalysis
@@ -49,11 +51,28 @@ def measured_vs_estimated(t: FloatArray, y: FloatArray,
 
 
 def simple_figure(analysis: RunAnalysis) -> Figure | None:
+    """RK4 and Euler told apart: above, the measured position (solid), the RK4 simulation
+    (dashed) and the Euler simulation (dotted, with markers); below, each one's residual
+    `y - ŷ` in mm (where the two differ, it shows)."""
     if not analysis.simple:
         return None
-    estimates = [([f"{'RK4' if r.method == 'rk4' else 'Euler'} simulation, "
-                   f"fit {r.fit_percent:.1f} %"], r.y_hat) for r in analysis.simple]
-    return measured_vs_estimated(analysis.data.t, analysis.data.y, estimates, analysis.outputs)
+    t, y = analysis.data.t, analysis.data.y[:, 0]
+    cart = analysis.outputs[0]
+    fig, (top, bottom) = plotting.new_figure(2)
+    top.plot(t, y, label=f"measured, cart {cart}", **plotting.MEASURED_STYLE)
+    mark_every = max(1, t.size // 40)
+    for k, r in enumerate(analysis.simple):
+        style = dict(plotting.ESTIMATE_STYLES[k % len(plotting.ESTIMATE_STYLES)])
+        if r.method == "euler":
+            style.update(marker="o", markersize=4, markevery=mark_every, markerfacecolor="none")
+        name = "RK4" if r.method == "rk4" else "Euler"
+        top.plot(t, r.y_hat[:, 0], label=f"{name} simulation, fit {r.fit_percent:.2f} %", **style)
+        bottom.plot(t, 1e3 * (y - r.y_hat[:, 0]), label=f"{name} residual", **style)
+    plotting.label_axes(top, "time (s)", f"cart {cart} position (m)")
+    plotting.label_axes(bottom, "time (s)", "measured - simulated (mm)")
+    top.legend(loc="best")
+    bottom.legend(loc="best")
+    return fig
 
 
 def pem_figure(analysis: RunAnalysis) -> Figure | None:
@@ -87,13 +106,26 @@ def diagnosis_figure(analysis: RunAnalysis) -> Figure | None:
 
 
 def envelope_figure(analysis: RunAnalysis) -> Figure | None:
-    """The half-cycle peaks against time (`ident.diagnose.figures`): a straight line is dry
-    friction, an exponential viscous damping."""
-    if analysis.diagnosis_traces is None:
+    """The half-cycle peaks (markers, solid) with both reference laws fitted to them: the
+    straight line of dry (Coulomb) friction (dashed) and the exponential of viscous damping
+    (dotted). One free cart only (None for two carts, whose peaks beat)."""
+    env = analysis.envelope
+    if env is None:
         return None
-    from ident.diagnose.figures import envelope_figure as draw
-
-    return draw(analysis.diagnosis_traces)
+    fig, (ax,) = plotting.new_figure(1, height_per_axis_in=3.2)
+    dense = np.linspace(env.t_s[0], env.t_s[-1], 200)
+    ax.plot(env.t_s, 1e3 * env.peak_m, marker="o", label="measured half-cycle peaks",
+            **plotting.MEASURED_STYLE)
+    ax.plot(dense, 1e3 * env.coulomb_line(dense),
+            label=f"Coulomb: straight line, RMS {1e3 * env.coulomb_rms_m:.2f} mm",
+            **plotting.ESTIMATE_STYLES[0])
+    ax.plot(dense, 1e3 * env.viscous_curve(dense),
+            label=f"viscous: exponential, RMS {1e3 * env.viscous_rms_m:.2f} mm",
+            **plotting.ESTIMATE_STYLES[1])
+    ax.set_ylim(bottom=0.0)
+    plotting.label_axes(ax, "time (s)", f"cart {analysis.outputs[0]} peak |x - rest| (mm)")
+    ax.legend(loc="best")
+    return fig
 
 
 def save(fig: Figure, directory: Path, stem: str) -> list[str]:

@@ -3,16 +3,23 @@
 
 One run per lab case is used (the first given that fitted). Written to DIR: `report.md`,
 `index.html` (self-contained: figures inlined as SVG, equations drawn as SVG), the figures
-as `<case>-<kind>.png|svg`, and `fits.json`.
+as `<case>-<kind>.png|svg`, `fits.json`, the samples each fit used (`data/<case>.csv`, with
+the release time and pulled cart in `data/<case>.json`) and `report.ipynb`, the same report
+as a notebook whose code recomputes the numbers from `data/` (executed here, so it holds
+its outputs, unless `run_notebook` is False).
 """
 
 from __future__ import annotations
 
+import json
 import shutil
 from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
 
+from ident.data import IdData
+from ident.errors import IdentError
+from ident.report import notebook as nb
 from ident.report.content import CaseResult, report_blocks
 from ident.report.document import to_html, to_markdown
 from schemas.fit import LAB_CASES, FitReport
@@ -20,11 +27,35 @@ from schemas.fit import LAB_CASES, FitReport
 
 @dataclass(frozen=True)
 class FittedRun:
-    """A run's final report and the directory holding its figures."""
+    """A run's final report, the directory holding its figures, and the samples its fits
+    used (`data`: the fitted carts' columns; None when the run file is not at hand)."""
 
     report: FitReport
     fit_dir: Path
     source: Path
+    data: IdData | None = None
+
+
+class NotebookError(IdentError, RuntimeError):
+    """The report's notebook failed to run; the other files were written."""
+
+
+def export_data(run: FittedRun, out_dir: Path) -> str | None:
+    """Write `data/<case>.csv` (time_s, u_m, x<cart>_m…, full precision) and its `.json`."""
+    data, case = run.data, run.report.case
+    if data is None or case is None:
+        return None
+    outputs = run.report.pem.outputs if run.report.pem else [s.output for s in run.report.simple[:1]]
+    folder = out_dir / "data"
+    folder.mkdir(parents=True, exist_ok=True)
+    header = ",".join(["time_s", "u_m", *(f"x{c}_m" for c in outputs)])
+    table = [[t, u, *y] for t, u, y in zip(data.t, data.u, data.y, strict=True)]
+    lines = [header] + [",".join(repr(float(v)) for v in row) for row in table]
+    (folder / f"{case}.csv").write_text("\n".join(lines) + "\n")
+    meta = {"run_id": run.report.run_id, "case": case, "outputs": outputs,
+            "release_time_s": data.release_time_s, "pulled_cart": data.pulled_cart}
+    (folder / f"{case}.json").write_text(json.dumps(meta, indent=2) + "\n")
+    return f"data/{case}.csv"
 
 
 def pick_cases(runs: list[FittedRun]) -> list[FittedRun]:
@@ -52,15 +83,17 @@ def copy_figures(run: FittedRun, out_dir: Path) -> dict[str, str]:
     return stems
 
 
-def write_report_dir(runs: list[FittedRun], out_dir: Path) -> list[CaseResult]:
-    """Write report.md, index.html, figures and fits.json for the chosen runs."""
+def write_report_dir(runs: list[FittedRun], out_dir: Path,
+                     run_notebook: bool = True) -> list[CaseResult]:
+    """Write report.md, index.html, report.ipynb, figures, data and fits.json for the chosen
+    runs. Raises `NotebookError` (after writing everything) when the notebook fails to run."""
     import ident
     from ident.report.figures import style
 
     out_dir.mkdir(parents=True, exist_ok=True)
     chosen = pick_cases(runs)
-    results = [CaseResult(r.report.case, r.report, copy_figures(r, out_dir))  # type: ignore[arg-type]
-               for r in chosen]
+    results = [CaseResult(r.report.case, r.report, copy_figures(r, out_dir),  # type: ignore[arg-type]
+                          export_data(r, out_dir)) for r in chosen]
     stamp = f"{ident.__version__} on {datetime.now(UTC):%Y-%m-%d %H:%M} UTC"
     unused = [r.report for r in runs if r not in chosen]
     blocks = report_blocks(results, stamp, unused)
@@ -71,7 +104,16 @@ def write_report_dir(runs: list[FittedRun], out_dir: Path) -> list[CaseResult]:
                 font_size))
     fits = "[\n" + ",\n".join(r.report.model_dump_json(indent=2) for r in runs) + "\n]\n"
     (out_dir / "fits.json").write_text(fits)
+    notebook = nb.to_notebook(blocks)
+    try:
+        if run_notebook and all(r.data_file for r in results):
+            nb.execute(notebook, out_dir)
+    except Exception as exc:      # nbclient's CellExecutionError, a dead kernel, a timeout
+        nb.write(notebook, out_dir / "report.ipynb")
+        raise NotebookError(f"report.ipynb did not run to the end: {str(exc)[-2000:]}") from exc
+    nb.write(notebook, out_dir / "report.ipynb")
     return results
 
 
-__all__ = ["FittedRun", "copy_figures", "pick_cases", "write_report_dir"]
+__all__ = ["FittedRun", "NotebookError", "copy_figures", "export_data", "pick_cases",
+           "write_report_dir"]

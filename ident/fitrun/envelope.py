@@ -1,0 +1,143 @@
+"""The peak envelope of one cart's free response and the two reference laws fitted to it.
+
+After the release the cart rings about its rest `x_rest`. Take the half-cycles of
+`e(t) = x(t) - x_guess` (between sign changes) and the extreme of each, `x_k` at `t_k`. The
+rest is then estimated without taking sides between the laws: for both, three successive
+extremes give `x_rest ≈ (x_k + 2 x_{k+1} + x_{k+2}) / 4` (the alternating part cancels; the
+median over k is kept). A rest off by δ would make the peaks zig-zag by ±δ. The peaks are
+`A_k = |x_k - x_rest|`. Two laws explain how they shrink:
+
+- dry (Coulomb) friction `F_c` loses a constant amount per half-cycle,
+  `A_{k+1} = A_k - 2 F_c / k_spring`, so the peaks fall on a straight line in time:
+  `A(t) = A_0 - s·t` (s in m/s; loss per cycle `s·T`);
+- viscous damping loses a constant ratio per cycle, `A_{k+2} / A_k = exp(-2π ζ / √(1 - ζ²))`,
+  so the peaks follow an exponential: `A(t) = A_0·exp(-σ t)`, `σ = ζ ω_n` (1/s).
+
+Both together: `A_{k+1} = q·A_k - b` (viscous ratio q per half-cycle, dry-friction loss b
+per half-cycle), a straight-line regression of each peak on the one before.
+
+The single laws are fitted by least squares on the peaks (the exponential on `A`, started from a fit of
+`ln A`); the law with the smaller RMS misfit describes the run better. Pure: arrays in,
+`Envelope` out. Only meaningful for one free cart: two coupled carts beat, and the peaks of
+one cart are not one decaying oscillation.
+"""
+
+from __future__ import annotations
+
+import itertools
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from ident.data import FloatArray
+
+#: Peaks below this many noise standard deviations are not peaks of the ring.
+PEAK_SIGMAS = 6.0
+#: Fewest peaks for a law to be fitted (two parameters each, and one to judge them).
+MIN_PEAKS = 4
+
+
+@dataclass(frozen=True)
+class Envelope:
+    """Half-cycle peaks `t_s` (K,) s and `peak_m` (K,) m of `|x - rest_m|`, and both laws.
+
+    `coulomb_*`: `A(t) = coulomb_a0_m - coulomb_slope_m_s·(t - t_s[0])`;
+    `viscous_*`: `A(t) = viscous_a0_m·exp(-viscous_rate_1_s·(t - t_s[0]))`;
+    `*_rms_m` the RMS misfit of each law on the peaks; `period_s` the mean cycle;
+    `mixed_*`: both at once, `A_{k+1} = mixed_ratio_per_half·A_k - mixed_loss_m_per_half`.
+    """
+
+    t_s: FloatArray
+    peak_m: FloatArray
+    rest_m: float
+    period_s: float
+    coulomb_a0_m: float
+    coulomb_slope_m_s: float
+    coulomb_rms_m: float
+    viscous_a0_m: float
+    viscous_rate_1_s: float
+    viscous_rms_m: float
+    mixed_ratio_per_half: float
+    mixed_loss_m_per_half: float
+
+    @property
+    def coulomb_loss_per_cycle_m(self) -> float:
+        """The constant amount dry friction takes off the amplitude each cycle (m)."""
+        return self.coulomb_slope_m_s * self.period_s
+
+    @property
+    def viscous_ratio_per_cycle(self) -> float:
+        """The constant ratio of successive peaks one cycle apart under viscous damping."""
+        return float(np.exp(-self.viscous_rate_1_s * self.period_s))
+
+    @property
+    def better_law(self) -> str:
+        """`coulomb` (straight line) or `viscous` (exponential): the smaller misfit."""
+        return "coulomb" if self.coulomb_rms_m < self.viscous_rms_m else "viscous"
+
+    def coulomb_line(self, t: FloatArray) -> FloatArray:
+        return np.maximum(self.coulomb_a0_m - self.coulomb_slope_m_s * (t - self.t_s[0]), 0.0)
+
+    def viscous_curve(self, t: FloatArray) -> FloatArray:
+        return self.viscous_a0_m * np.exp(-self.viscous_rate_1_s * (t - self.t_s[0]))
+
+
+def half_cycle_peaks(t: FloatArray, e: FloatArray, floor_m: float) -> tuple[FloatArray, FloatArray]:
+    """The extreme `e` (signed) of each half-cycle (between sign changes), while `|e|` is
+    above `floor_m`. `t` (N,) s, `e` (N,) m measured from a rest."""
+    sign = np.sign(e)
+    flips = np.flatnonzero(sign[1:] * sign[:-1] < 0) + 1
+    bounds = np.concatenate([[0], flips, [e.size]])
+    times, peaks = [], []
+    for start, stop in itertools.pairwise(bounds):
+        if stop - start < 2:
+            continue
+        k = start + int(np.argmax(np.abs(e[start:stop])))
+        if abs(e[k]) < floor_m:
+            break
+        times.append(t[k])
+        peaks.append(e[k])
+    return np.asarray(times), np.asarray(peaks)
+
+
+def rest_from_extremes(extremes: FloatArray) -> float:
+    """The rest `x_rest` from successive signed extremes `x_k` (K ≥ 3), as the median of
+    `(x_k + 2 x_{k+1} + x_{k+2}) / 4`: exact for a constant loss per half-cycle, and for a
+    constant ratio up to the square of the decay per half-cycle."""
+    x = np.asarray(extremes, dtype=np.float64)
+    return float(np.median((x[:-2] + 2.0 * x[1:-1] + x[2:]) / 4.0))
+
+
+def fit_envelope(t: FloatArray, x: FloatArray, rest_guess_m: float, release_time_s: float,
+                 noise_m: float) -> Envelope | None:
+    """The peaks of `x` (N,) m after `release_time_s`, about the rest estimated from them
+    (`rest_guess_m` only splits the half-cycles), and both laws fitted.
+
+    None when fewer than `MIN_PEAKS` peaks stand above `PEAK_SIGMAS·noise_m`.
+    """
+    after = t >= release_time_s
+    times, signed = half_cycle_peaks(t[after], x[after] - rest_guess_m,
+                                     PEAK_SIGMAS * max(noise_m, 1e-9))
+    # the release's own half-cycle (the cart pulled to the hold) is the first: keep the ring
+    times, extremes = times[1:], signed[1:] + rest_guess_m
+    if extremes.size < MIN_PEAKS:
+        return None
+    rest_m = rest_from_extremes(extremes)
+    peaks = np.abs(extremes - rest_m)
+    tau = times - times[0]
+    period = 2.0 * float(np.mean(np.diff(times)))
+    slope, a0 = np.polyfit(tau, peaks, 1)
+    coulomb_rms = float(np.sqrt(np.mean((a0 + slope * tau - peaks) ** 2)))
+    log_slope, log_a0 = np.polyfit(tau, np.log(np.maximum(peaks, 1e-9)), 1)
+    fit = least_squares(lambda p: p[0] * np.exp(-p[1] * tau) - peaks,
+                        [float(np.exp(log_a0)), float(-log_slope)])
+    v_a0, rate = (float(v) for v in fit.x)
+    viscous_rms = float(np.sqrt(np.mean(fit.fun ** 2)))
+    ratio, minus_loss = np.polyfit(peaks[:-1], peaks[1:], 1)
+    return Envelope(times, peaks, float(rest_m), period, float(a0), float(-slope), coulomb_rms,
+                    v_a0, rate, viscous_rms, float(ratio), float(-minus_loss))
+
+
+__all__ = ["MIN_PEAKS", "PEAK_SIGMAS", "Envelope", "fit_envelope", "half_cycle_peaks",
+           "rest_from_extremes"]
