@@ -192,9 +192,9 @@ class FitReport(Record):
 
 __all__ = [
     "LAB_CASES",
+    "EnvelopeRec",
     "FitReport",
     "FitStatus",
-    "EnvelopeRec",
     "FitTimings",
     "LabCase",
     "ModeRec",

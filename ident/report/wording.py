@@ -115,7 +115,7 @@ def envelope_words(env: EnvelopeRec) -> str:
             f"alone (the exponential, RMS misfit {env.viscous_rms_m * 1e3:.2f} mm). "
             f"The {better} fits the {len(env.peak_m)} peaks better, so {reading}. Taking "
             "both at once, each peak against the one before gives A(k+1) = "
-            f"{env.mixed_ratio_per_half:.3f}·A(k) − {env.mixed_loss_m_per_half * 1e3:.2f} mm: "
+            f"{env.mixed_ratio_per_half:.3f}·A(k) - {env.mixed_loss_m_per_half * 1e3:.2f} mm: "
             f"a viscous ratio of {env.mixed_ratio_per_half:.3f} and a dry-friction loss of "
             f"{env.mixed_loss_m_per_half * 1e3:.2f} mm per half-cycle.")
 
