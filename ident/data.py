@@ -183,7 +183,8 @@ class IdData:
         moving = moving_outputs(self.y) if self.n_samples >= MIN_SAMPLES else list(range(self.n_outputs))
         for j in range(self.n_outputs):
             state = "moving" if j in moving else "held (no motion)"
-            rows.append((f"y{j + 1}", f"{summary.span(self.y[:, j], 'm')}, {state}"))
+            column = f" ({self.columns[j]})" if j < len(self.columns) else ""
+            rows.append((f"y{j + 1}", f"{summary.span(self.y[:, j], 'm')}, {state}{column}"))
         if moving and len(moving) < self.n_outputs:
             rows.append(("hint", f"fit the moving outputs: data.select_outputs({moving})"))
         rows.append(("input u", self._input_summary()))
