@@ -137,3 +137,36 @@ def test_pip_check_is_clean() -> None:
     if "No module named pip" in proc.stderr:
         pytest.skip("pip is not installed in this environment")
     assert proc.returncode == 0, proc.stdout + proc.stderr
+
+
+def _closure(requirements: list[Requirement]) -> dict[str, str]:
+    """Every distribution the requirements pull in (installed metadata, markers evaluated),
+    mapped to the requirement that first pulled it."""
+    from packaging.markers import default_environment
+
+    seen: dict[str, str] = {}
+    todo = [(r, r.name) for r in requirements]
+    while todo:
+        req, via = todo.pop()
+        name = canonicalize_name(req.name)
+        if name in seen:
+            continue
+        seen[name] = via
+        try:
+            dist = importlib.metadata.distribution(req.name)
+        except importlib.metadata.PackageNotFoundError:
+            continue
+        for line in dist.requires or []:
+            child = Requirement(line)
+            env = {**default_environment(), "extra": ""}
+            if child.marker is None or child.marker.evaluate(env):
+                todo.append((child, via))
+    return seen
+
+
+def test_constraints_pin_the_whole_tree_not_only_what_is_declared() -> None:
+    pins = _constraints()
+    missing = {name: via for name, via in _closure(_requirements(None) + _requirements("test")).items()
+               if name not in pins}
+    assert not missing, ("not pinned in constraints.txt (install, then 'make constraints'): "
+                         + ", ".join(f"{n} (via {v})" for n, v in sorted(missing.items())))
