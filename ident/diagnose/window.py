@@ -16,7 +16,8 @@ acts from there on):
 
 The reported release time is the last zero of the fitted velocity before `t_w` (within half
 a period) when the fitted position there is the held level (a clean release from rest);
-otherwise the hand let go while the cart moved and the release is `t_w` itself. Long runs
+otherwise the hand let go while the cart moved and the release is `t_w` itself. The fits start
+two samples (at least T/200) after `t_w`. Long runs
 are decimated for fitting (`MAX_WORK_SAMPLES`). No I/O here.
 """
 
@@ -109,6 +110,9 @@ def find_window(t: FloatArray, y: FloatArray, carts: int) -> Window:
     main = int(np.argmax(np.ptp(y, axis=0)))
     tolerance = max(8.0 * noise, 0.05 * float(np.ptp(y[:, main])))
     release = _last_rest_before(t[start], fit, period, hold, tolerance)
+    # fit from a margin after it (two samples, at least T/200): the chosen start can still
+    # hold the hand's last push, which a fast-decaying "mode" would otherwise absorb
+    start = min(start + max(2, round(period / 200 / dt)), t.shape[0] - 40)
     n_win = t.shape[0] - start
     decimation = max(1, int(np.ceil(n_win / MAX_WORK_SAMPLES)))
     return Window(start, decimation, hold, noise, max(release, float(t[0])), period)
