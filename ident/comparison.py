@@ -72,7 +72,11 @@ def simulate(first: object, second: object) -> FloatArray:
 def _checked_simulation(model: Simulates, data: IdData) -> FloatArray:
     y_hat = np.asarray(model.simulate(data.u, data.t), dtype=np.float64).reshape(data.n_samples, -1)
     if y_hat.shape[1] != data.n_outputs:
-        hint = (f"select the modelled columns with data.select_outputs({list(range(y_hat.shape[1]))})"
+        from ident.release import moving_outputs
+
+        moving = moving_outputs(data.y)   # the modelled columns are, in the lab, the moving carts'
+        columns = moving if len(moving) == y_hat.shape[1] else list(range(y_hat.shape[1]))
+        hint = (f"select the modelled columns, e.g. data.select_outputs({columns})"
                 if y_hat.shape[1] < data.n_outputs else "give one model output per data column")
         raise IdentDimensionError("model outputs", f"{data.n_outputs} (one per column of data.y): {hint}",
                                   y_hat.shape[1])

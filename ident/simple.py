@@ -37,7 +37,7 @@ from ident.data import IdData
 from ident.errors import FitFailed, IdentValueError
 from ident.physics.free import NonlinearTerms, simulate_free
 from ident.physics.steppers import Method, euler_coulomb, linear_step_response
-from ident.release import check_motion, estimate_release_time, noise_std, rest_window
+from ident.release import check_motion, estimate_release_time, moving_outputs, noise_std, rest_window
 
 FloatArray = NDArray[np.float64]
 PARAMETER_NAMES = ("wn", "zeta", "gain", "release_time_s", "offset", "friction")
@@ -204,6 +204,10 @@ def fit_simple(data: IdData, method: Method = "rk4", *, friction: bool = False, 
     if not fit_release and data.release_time_s is None:
         raise IdentValueError("release_time_s", "a known release with fit_release=False", None)
     y = np.asarray(data.y[:, output])
+    moving = moving_outputs(data.y)
+    if output not in moving and moving:   # a held cart's column: say which one moves
+        raise IdentValueError(f"output {output}", f"a moving cart's column: fit_simple(data, ..., "
+                              f"output={moving[0]}) or data.select_outputs({moving})", "no motion in it")
     check_motion(y)
     amplitude = data.step_amplitude
     jumps = np.flatnonzero(np.diff(data.u) != 0.0)

@@ -168,7 +168,13 @@ def test_a_held_column_is_named_with_the_call_that_selects_the_moving_ones() -> 
     assert "data.select_outputs([1])" in repr(data)
     with pytest.raises(IdentValueError, match=r"select_outputs\(\[1\]\)"):
         ident.pem(data, 2)
-    assert ident.pem(data.select_outputs([1]), 2).fit_percent[0] > 99.0
+    with pytest.raises(IdentValueError, match=r"output=1\) or data.select_outputs\(\[1\]\)"):
+        ident.fit_simple(data, "rk4")
+    model = ident.pem(data.select_outputs([1]), 2)
+    assert model.fit_percent[0] > 99.0
+    with pytest.raises(IdentValueError, match=r"data.select_outputs\(\[1\]\)"):
+        ident.compare(data, model)   # the one-output model belongs to the moving column
+    assert ident.fit_simple(data, "rk4", output=1).fit_percent[0] > 99.0
 
 
 def test_transposed_arrays_and_milliseconds_are_caught_with_the_fix() -> None:
