@@ -390,15 +390,14 @@ class ReleaseDetector:
                 if c == self._run_channel or span >= self.settings.held_ratio * pulled]
 
     def _handled_again(self) -> bool:
-        """A swing of the run's cart that grew: a hand took it again (a new release may follow)."""
+        """A swing of the run's cart that grew, or came after a half-period unlike the last (a hand
+        caught the cart and moved it): a hand took it again (a new release may follow)."""
         self._run_turns += 1
         turns = self._zigzags[self._run_channel].turns
         if self._run_turns < 3 or len(turns) < 3 or len(self._moving_channels()) > 1:
             return False    # two free carts beat: their swings grow and shrink by themselves
         a, b, c = turns[-3], turns[-2], turns[-1]
-        s1, s2 = abs(b.x_m - a.x_m), abs(c.x_m - b.x_m)
-        limits = self._limits
-        return s2 >= limits.min_swing_m and s2 > limits.grow * s1 + 2.0 * limits.band_m
+        return abs(c.x_m - b.x_m) >= self._limits.min_swing_m and self._broken(a, b, c)
 
     def _channel_moved_most(self, sample: tuple[float, ...]) -> int:
         moved = [abs(x - h) for x, h in zip(sample, self._hold)]
@@ -521,7 +520,7 @@ class ReleaseDetector:
             return Rejected(t_s, 0.0, f"ringing: not a free response (fit rms {free.rms_m:.2g} m "
                                       f"for a swing of {s2:.2g} m)")
         limit = max(float(t[0]), a.t_s - 4.0 * half)
-        t_coarse, free = slide_back(t, y, vs, t_from, span, half, free, limit)
+        t_coarse, free = slide_back(t, y, vs, t_from, span, half, free, limit, 0.0003 * s2)
         started = self._first_t if self._first_t is not None else t[0]
         if t_coarse - half / 8.0 < limit or t_coarse - started < 2.0 * self.settings.fit_post_s:
             return Rejected(t_s, 0.0, "ringing: in motion since the stream started (no release seen)"

@@ -233,20 +233,22 @@ def refit_linear(t: Array, y: Array, vs: Array, sigma: float, omega: float) -> F
 
 
 def slide_back(t: Array, y: Array, vs: Array, t_from: float, span_s: float, half_s: float, first: FreeFit,
-               t_limit: float, k_rms: float = 4.0) -> tuple[float, FreeFit]:
+               t_limit: float, floor_m: float = 0.0, k_rms: float = 4.0) -> tuple[float, FreeFit]:
     """Slide a free-response window `[ts, ts + span_s]` back from `t_from` in steps of
     `half_s / 8` while it still fits with ω within ±4 % of `first`'s (the fit at `t_from`; a
     hand's push is not absorbed by a changed frequency): its RMS within 1.5 × and every residual of
-    its first eighth of a period within `k_rms` × the RMS of `first`, not before `t_limit`.
+    its first eighth of a period within `k_rms` × the RMS of `first`, not before `t_limit`; that
+    RMS taken at least `floor_m` (a few samples' RMS is a poor yardstick at low rates).
     Returns the earliest start that fits and its fit."""
     start, fit = t_from, first
     step = half_s / 8.0
-    limit = k_rms * first.rms_m
+    ref = max(first.rms_m, floor_m)
+    limit = k_rms * ref
     while start - step >= t_limit:
         ts = start - step
         window = (t >= ts) & (t <= ts + span_s)
         trial = fit_free(t[window], y[window], vs[window], fit.sigma, first.omega, spread=0.04)
-        if trial is None or trial.rms_m > 1.5 * first.rms_m:
+        if trial is None or trial.rms_m > 1.5 * ref:
             break
         head = (t >= ts) & (t <= ts + half_s / 4.0)
         if np.max(np.abs(y[head] - trial(t[head], vs[head]))) > limit:
