@@ -39,10 +39,11 @@ class Verdict:
     immaterial_listed: bool
     errors: dict[str, float]
     false_positive: bool
+    tolerance: float = PARAMETER_TOL
 
     @property
     def parameters_ok(self) -> bool:
-        return all(e <= PARAMETER_TOL for e in self.errors.values())
+        return all(e <= self.tolerance for e in self.errors.values())
 
     @property
     def right(self) -> bool:
@@ -80,7 +81,7 @@ def parameter_errors(case: Case, report: Any) -> dict[str, float]:
     return errors
 
 
-def judge(case: Case, report: Any) -> Verdict:
+def judge(case: Case, report: Any, tolerance: float = PARAMETER_TOL) -> Verdict:
     truth = case.truth
     fits = accepted(report)
     found = tuple(f.effect for f in fits)
@@ -91,4 +92,4 @@ def judge(case: Case, report: Any) -> Verdict:
     headline = None if truth.headline is None else report.cause == truth.headline
     listed = set(truth.immaterial) <= set(found)
     return Verdict(truth.family, str(report.cause), found, material, headline, all_found, listed, errors,
-                   false_positive)
+                   false_positive, tolerance)
