@@ -363,7 +363,7 @@ class Acquisition:
         counters = _delta(self.counters(), run.counters_at_start, run.gaps)
         meta = run.metadata.model_copy(update={
             "counters": counters, "ended_utc": self._wall_clock().isoformat(timespec="milliseconds"),
-            "lab_case": self.config.lab_case or _lab_case(run)})
+            "lab_case": self.config.lab_case or _lab_case(run), "moving_carts": _moving_carts(run)})
         finished = RunFinished(
             bench=meta.bench, run_id=meta.run_id, status="complete" if status == "complete" else "aborted",
             file=f"{meta.run_id}.mcap", n_samples=run.n_samples, release_time_s=meta.release_time_s,
@@ -427,6 +427,18 @@ def _lab_case(run: _Run) -> str | None:
     if span_other < PINNED_SPAN_M or span_other < HELD_RATIO * span_pulled:
         return f"cart{pulled}"
     return "both" if pulled == 1 else "both_cart2_pulled"
+
+
+def _moving_carts(run: _Run) -> list[int] | None:
+    """The carts that swung freely, the pulled one first (the others held: see `_lab_case`)."""
+    pulled = run.metadata.pulled_cart
+    n = run.calibration.n_channels
+    if pulled not in (1, 2) or pulled > n or run.n_samples == 0:
+        return None
+    span_pulled = run.high_m[pulled - 1] - run.low_m[pulled - 1]
+    others = [c + 1 for c in range(n) if c + 1 != pulled
+              and run.high_m[c] - run.low_m[c] >= max(PINNED_SPAN_M, HELD_RATIO * span_pulled)]
+    return [pulled, *others]
 
 
 def _delta(now: DaqCounters, start: DaqCounters, gaps: list[GapInterval]) -> DaqCounters:

@@ -114,7 +114,10 @@ class RunMetadata(Record):
     sign applied after: `pos_m = sign * (raw - offset) / counts_per_m` (csv: `counts_per_m`
     is 1 and raw is already metres). `utc_offset_ns` ties the device
     clock to UTC, `utc_ns = t_ns + utc_offset_ns`, fixed at the start of the stream from the
-    host clock (None in files written before it existed).
+    host clock (None in files written before it existed). `lab_case` and `moving_carts` (the
+    carts that swung freely, the pulled one first: the ones to fit) come from the carts'
+    amplitudes when the run ends: a cart whose span is a small fraction of the pulled cart's
+    is held, even though a loose hand lets it wander (None while the run is open).
     """
 
     bench: BenchName
@@ -136,6 +139,7 @@ class RunMetadata(Record):
     pre_trigger_s: float
     pulled_cart: int | None = None
     lab_case: str | None = None
+    moving_carts: list[int] | None = None
     counters: DaqCounters = Field(default_factory=DaqCounters)
     software_version: str
     started_utc: str

@@ -52,8 +52,8 @@ def test_one_file_per_release_with_exactly_the_emitted_samples(sim_runs: tuple[P
         assert run.raw[:, 1].tolist() == emitted["enc2"][span].astype(float).tolist()
         assert run.release_time_s is not None and 0.5 <= run.release_time_s < 0.5 + 1 / 200
         assert run.metadata is not None and run.metadata.counts_per_m == 20000.0   # from the $I line
-        pulled.append((run.metadata.pulled_cart, run.metadata.lab_case))
-    assert pulled == [(1, "cart1"), (2, "cart2"), (1, "both")]
+        pulled.append((run.metadata.pulled_cart, run.metadata.lab_case, run.metadata.moving_carts))
+    assert pulled == [(1, "cart1", [1]), (2, "cart2", [2]), (1, "both", [1, 2])]
 
 
 def test_info_json_has_release_time(sim_runs: tuple[Path, Path], capsys: pytest.CaptureFixture[str]) -> None:

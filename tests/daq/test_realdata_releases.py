@@ -87,7 +87,8 @@ def _replay(path: Path, runs: Path) -> list[float]:
     for run_path in sorted(runs.glob("*.mcap")):
         run = load_run(run_path)
         assert run.metadata is not None and run.metadata.release_t_ns is not None
-        assert run.metadata.pulled_cart == 2 and run.metadata.lab_case == "cart2"   # cart 1 held
+        assert run.metadata.pulled_cart == 2 and run.metadata.lab_case == "cart2"   # cart 1 held ...
+        assert run.metadata.moving_carts == [2]                                       # ... and not fitted
         out.append(run.metadata.release_t_ns / 1e9)
     return out
 
