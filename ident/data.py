@@ -118,8 +118,9 @@ class IdData:
     def __post_init__(self) -> None:
         t, u, y = check_arrays(self.t, self.u, self.y)
         for attr, arr in (("t", t), ("u", u), ("y", y)):
-            arr = arr.copy()
-            arr.flags.writeable = False
+            if arr.flags.writeable or not arr.flags.owndata:
+                arr = arr.copy()   # ours alone, read-only (a read-only array that owns its data is shared:
+                arr.flags.writeable = False   # `replace` and loaders do not double a large record)
             object.__setattr__(self, attr, arr)
         if self.release_time_s is not None:
             if not np.isfinite(self.release_time_s) or not t[0] <= self.release_time_s <= t[-1]:
