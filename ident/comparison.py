@@ -25,9 +25,12 @@ from typing import Protocol
 import numpy as np
 from numpy.typing import NDArray
 
+from ident import summary
 from ident.data import IdData
 from ident.errors import IdentDimensionError, IdentValueError
+from ident.lti import as_simulator, is_lti
 from ident.physics.measures import fit_percent
+from ident.release import moving_outputs
 
 FloatArray = NDArray[np.float64]
 
@@ -43,8 +46,6 @@ class Simulates(Protocol):
 
 def _model_and_data(first: object, second: object, function: str) -> tuple[Simulates, IdData]:
     """(model, data) from either argument order; python-control systems wrapped."""
-    from ident.lti import as_simulator, is_lti
-
     if isinstance(first, IdData) and not isinstance(second, IdData):
         first, second = second, first
     if not isinstance(second, IdData):
@@ -72,8 +73,6 @@ def simulate(first: object, second: object) -> FloatArray:
 def _checked_simulation(model: Simulates, data: IdData) -> FloatArray:
     y_hat = np.asarray(model.simulate(data.u, data.t), dtype=np.float64).reshape(data.n_samples, -1)
     if y_hat.shape[1] != data.n_outputs:
-        from ident.release import moving_outputs
-
         moving = moving_outputs(data.y)   # the modelled columns are, in the lab, the moving carts'
         columns = moving if len(moving) == y_hat.shape[1] else list(range(y_hat.shape[1]))
         hint = (f"select the modelled columns, e.g. data.select_outputs({columns})"
@@ -137,13 +136,9 @@ class ResidualTest:
         ]
 
     def __repr__(self) -> str:
-        from ident import summary
-
         return summary.text(f"ResidualTest: {'passed' if self.passed else 'failed'}", self.summary_rows())
 
     def _repr_html_(self) -> str:
-        from ident import summary
-
         return summary.html_table(f"ResidualTest: {'passed' if self.passed else 'failed'}",
                                   self.summary_rows())
 

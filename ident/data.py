@@ -19,7 +19,9 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ident import summary
 from ident.errors import IdentDimensionError, IdentValueError
+from ident.release import estimate_release_time, moving_outputs
 
 FloatArray = NDArray[np.float64]
 
@@ -174,9 +176,6 @@ class IdData:
 
     def summary_rows(self) -> list[tuple[str, str]]:
         """The labelled lines of `repr` and `_repr_html_`."""
-        from ident import summary
-        from ident.release import moving_outputs
-
         ts = self.sample_time()
         grid = "uniform" if self.is_uniform() else "NOT uniform: ident.make_uniform(data)"
         rows = [("samples", f"{self.n_samples}, Ts = {ts:.4g} s ({1 / ts:.4g} Hz), {grid}"),
@@ -211,13 +210,9 @@ class IdData:
         return f"IdData{name}: {self.n_outputs} output(s), 1 input"
 
     def __repr__(self) -> str:
-        from ident import summary
-
         return summary.text(self._title(), self.summary_rows())
 
     def _repr_html_(self) -> str:
-        from ident import summary
-
         return summary.html_table(self._title(), self.summary_rows())
 
 
@@ -276,8 +271,6 @@ def from_release(t: ArrayLike, y: ArrayLike, release_time_s: float | None,
     With `release_time_s=None` the release is estimated from the data
     (`ident.release.estimate_release_time`) and the note says so.
     """
-    from ident.release import estimate_release_time
-
     t_arr, _, y_arr = check_arrays(t, None, y)
     notes: tuple[str, ...] = ()
     known = release_time_s

@@ -23,14 +23,14 @@ from dataclasses import replace
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.linalg import expm
 from scipy.optimize import OptimizeResult, least_squares
-from scipy.signal import lfilter
 
 from ident import modal
+from ident.comparison import fit_percent
 from ident.data import IdData
 from ident.errors import IdentValueError
-from ident.model import Model, _shift
+from ident.model import ModeEstimate, Model
+from ident.predictor import predict
 
 FloatArray = NDArray[np.float64]
 
@@ -75,42 +75,6 @@ def _theta(sigma: FloatArray, omega: FloatArray, model: Model, betas: list[Float
     return np.array(rows_out)
 
 
-def _discrete_inputs(a: FloatArray, b: FloatArray, ts: float, frac: float) -> tuple[FloatArray, FloatArray, FloatArray]:
-    n = a.shape[0]
-
-    def phi_gamma(h: float) -> tuple[FloatArray, FloatArray]:
-        aug = np.zeros((n + 1, n + 1))
-        aug[:n, :n] = a * h
-        aug[:n, n] = b[:, 0] * h
-        e = expm(aug)
-        return e[:n, :n], e[:n, n]
-
-    phi, _ = phi_gamma(ts)
-    phi_rest, gamma2 = phi_gamma((1.0 - frac) * ts)
-    gamma1 = phi_rest @ phi_gamma(frac * ts)[1] if frac > 0 else np.zeros(n)
-    return phi, gamma1, gamma2
-
-
-def predict(sigma: FloatArray, omega: FloatArray, theta: FloatArray, offset: FloatArray, gain: FloatArray,
-            u: FloatArray, y: FloatArray, ts: float, delay_s: float) -> FloatArray:
-    """One-step predictions ŷ (N, n_out) of the innovation-form model (see the module docstring)."""
-    a, b, c, d = modal.state_space(sigma, omega, theta)
-    if np.any(d):
-        raise IdentValueError("relative degree", "≥ 1 (no feedthrough) for the predictor", "feedthrough")
-    delay = delay_s / ts
-    whole = int(np.floor(delay))
-    frac = delay - whole
-    v = _shift(u - u[0], whole)
-    phi, gamma1, gamma2 = _discrete_inputs(a, b, ts, frac)
-    f_mat = phi - gain @ c
-    lam, vecs = np.linalg.eig(f_mat)
-    vinv = np.linalg.inv(vecs)
-    drive = (np.outer(_shift(v, 1), vinv @ gamma1) + np.outer(v, vinv @ gamma2)
-             + (y - offset) @ (vinv @ gain).T)
-    states = np.column_stack([lfilter([0.0, 1.0], [1.0, -lam_i], drive[:, i]) for i, lam_i in enumerate(lam)])
-    return np.asarray(np.real(states @ (c @ vecs).T) + offset)
-
-
 def refine(model: Model, data: IdData, max_nfev: int = 100) -> Model:
     """Joint prediction-error fit with a noise model K, started from an output-error `model`."""
     if not data.is_uniform():
@@ -149,9 +113,6 @@ def refine(model: Model, data: IdData, max_nfev: int = 100) -> Model:
 
 
 def _with_statistics(model: Model, data: IdData, result: OptimizeResult, layout: _Layout) -> Model:
-    from ident.comparison import fit_percent
-    from ident.model import ModeEstimate
-
     jac = np.asarray(result.jac)
     res = np.asarray(result.fun)
     s2 = float(res @ res) / max(1, res.size - jac.shape[1])

@@ -17,9 +17,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.linalg import expm
 
-from ident import modal
+from ident import modal, predictor, summary
 from ident.errors import IdentDimensionError, IdentValueError
-from ident.physics import Mode, StateSpace
+from ident.physics import Mode, StateSpace, transfer_functions
 
 if TYPE_CHECKING:
     import control
@@ -113,8 +113,6 @@ class Model:
     @property
     def tf(self) -> list[control.TransferFunction]:
         """Continuous-time `control.TransferFunction`, one per output (control imported lazily)."""
-        from ident.physics import transfer_functions
-
         return transfer_functions(self.tf_coefficients())
 
     def discrete(self, ts: float | None = None) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
@@ -135,11 +133,9 @@ class Model:
 
     def predict(self, u: ArrayLike, y: ArrayLike) -> FloatArray:
         """One-step-ahead predictions (N, n_out) on the fitted time base (uniform)."""
-        from ident.innovation import predict
-
         gain = np.zeros((self.order, self.n_outputs)) if self.K is None else self.K
         ts = float(np.median(np.diff(self.t)))
-        return predict(self.sigma, self.omega, self.theta, self.offset, gain,
+        return predictor.predict(self.sigma, self.omega, self.theta, self.offset, gain,
                        np.asarray(u, dtype=np.float64).reshape(-1),
                        np.asarray(y, dtype=np.float64).reshape(len(self.t), -1), ts, self.input_delay_s)
 
@@ -162,8 +158,6 @@ class Model:
 
     def summary_rows(self) -> list[tuple[str, str]]:
         """The labelled lines of `repr` and `_repr_html_` (all arrays stay in the attributes)."""
-        from ident import summary
-
         rows = [(f"mode {i + 1}", (f"wn = {summary.with_std(m.wn, m.wn_std, unit='rad/s')}, "
                                    f"zeta = {summary.with_std(m.zeta, m.zeta_std)}"))
                 for i, m in enumerate(self.modes)]
@@ -186,13 +180,9 @@ class Model:
                 f"{self.method} ({noise})")
 
     def __repr__(self) -> str:
-        from ident import summary
-
         return summary.text(self._title(), self.summary_rows())
 
     def _repr_html_(self) -> str:
-        from ident import summary
-
         return summary.html_table(self._title(), self.summary_rows())
 
     def _simulate_zoh(self, u: FloatArray, t: FloatArray) -> FloatArray:
@@ -204,18 +194,8 @@ class Model:
         delay_samples = self.input_delay_s / ts
         whole = int(np.floor(delay_samples))
         frac = delay_samples - whole
-        shifted = _shift(u - u[0], whole)
-        columns = [_shift(shifted, 1) if frac > 0 else shifted]
+        shifted = predictor.shift(u - u[0], whole)
+        columns = [predictor.shift(shifted, 1) if frac > 0 else shifted]
         for s, w in zip(self.sigma, self.omega, strict=True):
             columns.extend(modal.section_states(float(s), float(w), ts, frac, shifted))
         return np.asarray(self.offset + np.column_stack(columns) @ self.theta.T)
-
-
-def _shift(x: FloatArray, samples: int) -> FloatArray:
-    """x delayed by `samples` (advanced when negative), padded with the edge values."""
-    if samples == 0:
-        return x
-    if samples > 0:
-        return np.concatenate([np.full(min(samples, len(x)), x[0]), x[:-samples] if samples < len(x) else []])
-    k = -samples
-    return np.concatenate([x[k:], np.full(min(k, len(x)), x[-1])])

@@ -37,8 +37,10 @@ from numpy.typing import NDArray
 from ident import subspace, varpro
 from ident.data import FloatArray, IdData, make_uniform
 from ident.errors import FitFailed, IdentValueError
+from ident.innovation import refine
 from ident.model import ModeEstimate, Model
 from ident.release import check_motion, estimate_release_time, moving_outputs, noise_std
+from ident.zoh import d2c_zoh
 
 #: Orders tried by the order selection.
 CANDIDATE_ORDERS = (2, 4, 6)
@@ -80,8 +82,6 @@ def pem(data: IdData, order: int | None = None, *, relative_degree: int | Sequen
         solution = _reweighted(problem, solution)
     model = _to_model(data, problem, solution)
     if noise_model == "innovation":
-        from ident.innovation import refine
-
         if any(dc is not None for dc in problem.dc_gain):
             raise IdentValueError("dc_gain", "None with noise_model='innovation'", problem.dc_gain)
         model = refine(model, data if data.is_uniform() else make_uniform(data, "linear"))
@@ -148,8 +148,6 @@ def _noise_level(data: IdData, release0: float) -> FloatArray:
 
 def _moesp_modes(data: IdData, n_modes: int) -> list[tuple[FloatArray, FloatArray]]:
     """Start values from PO-MOESP on the whole record (any input), converted by d2c."""
-    from ident.zoh import d2c_zoh
-
     uniform = make_uniform(data, "auto")
     try:
         a_d, b_d, _, _ = subspace.moesp(uniform.u, uniform.y, 2 * n_modes)

@@ -32,6 +32,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import least_squares
 
+from ident import summary
 from ident.comparison import fit_percent
 from ident.data import IdData
 from ident.errors import FitFailed, IdentValueError
@@ -80,8 +81,6 @@ class SimpleFit:
 
     def summary_rows(self) -> list[tuple[str, str]]:
         """The labelled lines of `repr` and `_repr_html_` (arrays stay in the attributes)."""
-        from ident import summary
-
         def value(name: str, unit: str = "") -> str:
             return summary.with_std(getattr(self, name), self.std_errors.get(name, float("nan")), unit=unit)
 
@@ -98,13 +97,9 @@ class SimpleFit:
         return f"Physical single-cart fit ({self.method}, {self.substeps} substep(s))"
 
     def __repr__(self) -> str:
-        from ident import summary
-
         return summary.text(self._title(), self.summary_rows())
 
     def _repr_html_(self) -> str:
-        from ident import summary
-
         return summary.html_table(self._title(), self.summary_rows())
 
     def simulate(self, u: ArrayLike, t: ArrayLike | None = None) -> FloatArray:

@@ -28,7 +28,7 @@ from typing import TypeVar
 import numpy as np
 from numpy.typing import NDArray
 
-from ident import progress
+from ident import progress, summary
 from ident.diagnose import candidates as cands
 from ident.diagnose import explain
 from ident.diagnose.candidates import Problem, fit_baseline
@@ -80,13 +80,9 @@ class Diagnosis:
         return f"Diagnosis {self.report.source!r}: cause {self.report.cause}"
 
     def __repr__(self) -> str:
-        from ident import summary
-
         return summary.text(self._title(), self.summary_rows())
 
     def _repr_html_(self) -> str:
-        from ident import summary
-
         return summary.html_table(self._title(), self.summary_rows())
 
 

@@ -22,6 +22,7 @@ from typing import Any, Literal
 
 import numpy as np
 
+from ident import progress
 from ident.data import FloatArray, IdData
 from ident.diagnose import Diagnosis, diagnose
 from ident.errors import IdentError, IdentValueError
@@ -138,8 +139,6 @@ def detect_case(data: IdData) -> tuple[LabCase, tuple[int, ...]]:
 
 def _timed(stage: str, timings: dict[str, float], errors: dict[str, str],
            work: Callable[[], Any]) -> Any:
-    from ident import progress
-
     progress.stage(stage)   # what a terminal shows now (a no-op unless a command opened a display)
     started = time.perf_counter()
     try:

@@ -27,6 +27,7 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import NDArray
 
+from ident.errors import IdentDimensionError
 from ident.releases.hand import FreeModel, fit_free_model
 from ident.releases.instant import release_instant
 from ident.releases.motion import FloatArray, Motion, motion
@@ -56,8 +57,6 @@ def find_releases(t: NDArray[np.float64], y: NDArray[np.float64],
     n_cols = m.y.shape[1]
     names = tuple(carts) if carts is not None else tuple(range(1, n_cols + 1))
     if len(names) != n_cols:
-        from ident.errors import IdentDimensionError
-
         raise IdentDimensionError("carts", f"one cart number per column ({n_cols})", len(names))
     free = free_columns(m)
     found: list[tuple[int, int, FreeModel]] = []   # (release index, column, model)

@@ -17,11 +17,13 @@ from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
 
+from ident import __version__
 from ident.data import IdData
 from ident.errors import IdentError
 from ident.report import notebook as nb
 from ident.report.content import CaseResult, report_blocks
 from ident.report.document import to_html, to_markdown
+from ident.report.figures import style
 from schemas.fit import LAB_CASES, FitReport
 
 
@@ -87,14 +89,11 @@ def write_report_dir(runs: list[FittedRun], out_dir: Path,
                      run_notebook: bool = True) -> list[CaseResult]:
     """Write report.md, index.html, report.ipynb, figures, data and fits.json for the chosen
     runs. Raises `NotebookError` (after writing everything) when the notebook fails to run."""
-    import ident
-    from ident.report.figures import style
-
     out_dir.mkdir(parents=True, exist_ok=True)
     chosen = pick_cases(runs)
     results = [CaseResult(r.report.case, r.report, copy_figures(r, out_dir),  # type: ignore[arg-type]
                           export_data(r, out_dir)) for r in chosen]
-    stamp = f"{ident.__version__} on {datetime.now(UTC):%Y-%m-%d %H:%M} UTC"
+    stamp = f"{__version__} on {datetime.now(UTC):%Y-%m-%d %H:%M} UTC"
     unused = [r.report for r in runs if r not in chosen]
     blocks = report_blocks(results, stamp, unused)
     font_family, font_size = style()
