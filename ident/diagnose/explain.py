@@ -37,6 +37,8 @@ def _signs(report: DiagnosisReport) -> str:
     """The evidence behind the named cause, in words, from the measured run."""
     ev = report.evidence
     shape = ENVELOPE_WORDS.get(ev.envelope_shape, ev.envelope_shape.replace("_", " "))
+    if report.carts == 2:      # two carts beat: the peaks of one follow no envelope law
+        shape = "not read for two carts, whose two modes beat"
     if report.cause == "coulomb_friction":
         return (f"the cart stops dead {1e3 * abs(ev.rest_offset_m):.2f} mm from the linear model's rest "
                 f"and stays there for the last {ev.stuck_for_s:.2f} s while the linear model keeps "

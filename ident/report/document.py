@@ -139,10 +139,15 @@ def equation_svg(tex: str, fontsize: float) -> str | None:
     from matplotlib.font_manager import FontProperties
     from matplotlib.mathtext import math_to_image
 
+    from matplotlib import rc_context
+
     buffer = io.BytesIO()
     display = tex.replace(r"\frac", r"\dfrac")    # display-size fractions, as on paper
+    # glyphs as paths: as text, the browser would set the radical and the big delimiters in
+    # its own font, whose metrics do not match mathtext's layout (a broken √)
     try:
-        math_to_image(f"${display}$", buffer, prop=FontProperties(size=fontsize), format="svg")
+        with rc_context({"svg.fonttype": "path"}):
+            math_to_image(f"${display}$", buffer, prop=FontProperties(size=fontsize), format="svg")
     except ValueError:
         return None
     return _strip_xml_header(buffer.getvalue().decode())

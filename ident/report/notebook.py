@@ -45,8 +45,10 @@ def execute(notebook: NotebookNode, directory: Path, timeout_s: float = 600.0) -
     """
     from nbclient import NotebookClient
 
+    # the kernel listens on loopback only; its start-up warning about that is noise here
     client = NotebookClient(notebook, timeout=int(timeout_s), kernel_name=KERNEL["name"],
-                            resources={"metadata": {"path": str(directory)}})
+                            resources={"metadata": {"path": str(directory)}},
+                            extra_arguments=["--IPKernelApp.log_level=ERROR"])
     client.execute()
     return notebook
 

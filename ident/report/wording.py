@@ -106,9 +106,10 @@ def envelope_words(env: EnvelopeRec) -> str:
     loss_mm = 1e3 * env.coulomb_slope_m_s * env.period_s
     ratio = math.exp(-env.viscous_rate_1_s * env.period_s)
     better = "straight line" if env.coulomb_rms_m < env.viscous_rms_m else "exponential"
-    reading = ("dry (Coulomb) friction dominates: the peaks lose a constant amount per cycle"
-               if better == "straight line" else
-               "viscous damping dominates: the peaks lose a constant ratio per cycle")
+    reading = ("over these peaks dry friction's constant amount describes the decay better "
+               "than the viscous constant ratio" if better == "straight line" else
+               "over these peaks the viscous law (a constant ratio) describes the decay better "
+               "than dry friction's constant amount")
     return (f"Dry friction takes a constant amount off each cycle, {loss_mm:.2f} mm here if it "
             f"acted alone (the straight line, RMS misfit {env.coulomb_rms_m * 1e3:.2f} mm); "
             f"viscous damping keeps a constant ratio, {ratio:.3f} per cycle here if it acted "
@@ -117,7 +118,18 @@ def envelope_words(env: EnvelopeRec) -> str:
             "both at once, each peak against the one before gives A(k+1) = "
             f"{env.mixed_ratio_per_half:.3f}·A(k) - {env.mixed_loss_m_per_half * 1e3:.2f} mm: "
             f"a viscous ratio of {env.mixed_ratio_per_half:.3f} and a dry-friction loss of "
-            f"{env.mixed_loss_m_per_half * 1e3:.2f} mm per half-cycle.")
+            f"{env.mixed_loss_m_per_half * 1e3:.2f} mm per half-cycle." + _crossover(env))
+
+
+def _crossover(env: EnvelopeRec) -> str:
+    """Where both act, the amplitude below which friction takes more than viscous damping:
+    `(1 - q) A = b` gives `A* = b / (1 - q)`."""
+    q, b = env.mixed_ratio_per_half, env.mixed_loss_m_per_half
+    if not (0.0 < q < 1.0 and b > 0.0):
+        return ""
+    a_star = b / (1.0 - q)
+    return (f" Both act: above about {a_star * 1e3:.1f} mm viscous damping takes more per "
+            "half-cycle, below it dry friction does, and friction alone brings the cart to a stop.")
 
 
 __all__ = ["diagnosis_zeta_words", "envelope_words", "euler_words", "pem_vs_simple_words"]

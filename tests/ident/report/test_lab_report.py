@@ -258,3 +258,11 @@ def test_the_text_states_the_friction_signatures_and_a_draft_reflection(
     for c in d.candidates:                  # every effect tried, with its gain
         assert f"{c.effect.replace('_', ' ')} {c.gain_points:+.3f}" in md
     assert "No envelope is drawn for two free carts" in md
+
+
+def test_equations_in_the_html_are_drawn_as_paths_so_the_radical_renders_whole() -> None:
+    from ident.report.document import equation_svg
+
+    svg = equation_svg(r"\omega_n = \sqrt{k/m}, \qquad \zeta = \frac{c}{2\sqrt{k m}}", 12.0)
+    assert svg is not None and "<path" in svg
+    assert "<text" not in svg           # no glyph left for the browser's own font to set
