@@ -136,10 +136,9 @@ def _inline(text: str) -> str:
 
 def equation_svg(tex: str, fontsize: float) -> str | None:
     """The equation drawn by matplotlib mathtext as inline SVG, or None if it cannot parse."""
+    from matplotlib import rc_context
     from matplotlib.font_manager import FontProperties
     from matplotlib.mathtext import math_to_image
-
-    from matplotlib import rc_context
 
     buffer = io.BytesIO()
     display = tex.replace(r"\frac", r"\dfrac")    # display-size fractions, as on paper
