@@ -115,6 +115,64 @@ def _per_cart(value: FloatArray | None, p: int, carts: int, default: float = 0.0
     return _owned(value, (p, carts))
 
 
+@dataclass(frozen=True)
+class StepMaps:
+    """One grid step's compiled data for P parameter sets (what the kernel needs)."""
+
+    phi: FloatArray
+    gam: FloatArray
+    phih: FloatArray
+    gamh: FloatArray
+    kt: FloatArray
+    fk: FloatArray
+    fs: FloatArray
+    sigma: FloatArray
+    drag: FloatArray
+    cubic: FloatArray
+    kappa: FloatArray
+    gin: FloatArray
+    dt: float
+    substeps: int
+    carts: int
+
+
+def step_maps(lin: FloatArray, dt: float, carts: int, terms: NonlinearTerms, n_inputs: int = 0) -> StepMaps:
+    """The zero-order-hold maps and force coefficients of `lin` (P, 2 or 6) on a grid `dt`."""
+    p = lin.shape[0]
+    a = state_matrix(lin, carts)
+    fk = np.abs(_per_cart(terms.friction_m_s2, p, carts))
+    sigma = np.maximum(_per_cart(terms.presliding_per_s2, p, carts), 0.0)
+    gin = (np.zeros((p, carts, n_inputs)) if terms.input_gain is None
+           else _owned(terms.input_gain, (p, carts, n_inputs)))
+    wn_max = float(np.max(np.abs(np.linalg.eigvals(a))))
+    m = substeps(dt, wn_max)
+    if sigma.size and np.max(sigma) > 0:
+        m = max(m, int(np.ceil(dt * np.sqrt(np.max(sigma)) / MAX_H_SQRT_SIGMA - 1e-9)))
+    phi, gam = _zoh(a, dt / m, carts)
+    phih, gamh = _zoh(a, 0.5 * dt / m, carts)
+    return StepMaps(_owned(phi, phi.shape), _owned(gam, gam.shape), _owned(phih, phih.shape), _owned(gamh, gamh.shape),
+                    _owned(-a[:, carts:, :carts], (p, carts, carts)), fk,
+                    np.maximum(_per_cart(terms.static_friction_m_s2, p, carts, 0.0), fk), sigma,
+                    _per_cart(terms.drag_per_m, p, carts),
+                    np.zeros(p) if terms.cubic_per_m2 is None else _owned(terms.cubic_per_m2, (p,)),
+                    _per_cart(terms.cubic_per_m2_s2, p, carts), gin, float(dt), m, carts)
+
+
+def run_maps(maps: StepMaps, z0: FloatArray, n_samples: int,
+             u: FloatArray | None = None) -> tuple[FloatArray, FloatArray]:
+    """Deviations (P, N, carts) on the grid from the state `z0` (P, 2c), and the state
+    (deviations, velocities) at the last sample (P, 2c)."""
+    p, c = maps.fk.shape
+    u_arr = (np.zeros((n_samples, 0)) if u is None
+             else _owned(np.asarray(u, dtype=np.float64).reshape(n_samples, -1), (n_samples, np.size(u) // n_samples)))
+    out = np.empty((p, n_samples, c))
+    end = np.empty((p, 2 * c))
+    with np.errstate(all="ignore"):
+        simulate_rows(maps.phi, maps.gam, maps.phih, maps.gamh, maps.kt, _owned(z0, (p, 2 * c)), maps.fk, maps.fs,
+                      maps.sigma, maps.drag, maps.cubic, maps.kappa, maps.gin, u_arr, maps.dt, maps.substeps, out, end)
+    return out, end
+
+
 def simulate_free(lin: FloatArray, z0: FloatArray, dt: float, n_samples: int, carts: int,
                   terms: NonlinearTerms, u: FloatArray | None = None) -> FloatArray:
     """Deviations from rest x - s at τ_k = k·dt, shape (P, N, carts).
@@ -122,29 +180,5 @@ def simulate_free(lin: FloatArray, z0: FloatArray, dt: float, n_samples: int, ca
     `lin` (P, 2 or 6) linear parameters (see `chain`), `z0` (P, 2c) deviation and velocity
     at τ = 0, `u` (N, m) inputs on the same grid (with `terms.input_gain`).
     """
-    p = lin.shape[0]
-    a = state_matrix(lin, carts)
-    fk = np.abs(_per_cart(terms.friction_m_s2, p, carts))
-    fs = np.maximum(_per_cart(terms.static_friction_m_s2, p, carts, 0.0), fk)
-    sigma = np.maximum(_per_cart(terms.presliding_per_s2, p, carts), 0.0)
-    drag = _per_cart(terms.drag_per_m, p, carts)
-    kappa = _per_cart(terms.cubic_per_m2_s2, p, carts)
-    cubic = np.zeros(p) if terms.cubic_per_m2 is None else _owned(terms.cubic_per_m2, (p,))
-    u_arr = (np.zeros((n_samples, 0)) if u is None
-             else _owned(np.asarray(u, dtype=np.float64).reshape(n_samples, -1), (n_samples, np.size(u) // n_samples)))
-    gin = (np.zeros((p, carts, u_arr.shape[1])) if terms.input_gain is None
-           else _owned(terms.input_gain, (p, carts, u_arr.shape[1])))
-    wn_max = float(np.max(np.abs(np.linalg.eigvals(a))))
-    m = substeps(dt, wn_max)
-    if sigma.size and np.max(sigma) > 0:
-        m = max(m, int(np.ceil(dt * np.sqrt(np.max(sigma)) / MAX_H_SQRT_SIGMA - 1e-9)))
-    h = dt / m
-    phi, gam = _zoh(a, h, carts)
-    phih, gamh = _zoh(a, 0.5 * h, carts)
-    kt = _owned(-a[:, carts:, :carts], (p, carts, carts))
-    out = np.empty((p, n_samples, carts))
-    with np.errstate(all="ignore"):
-        simulate_rows(_owned(phi, phi.shape), _owned(gam, gam.shape), _owned(phih, phih.shape),
-                      _owned(gamh, gamh.shape), kt, _owned(z0, (p, 2 * carts)), fk, fs, sigma,
-                      drag, cubic, kappa, gin, u_arr, float(dt), m, out)
-    return out
+    n_inputs = 0 if u is None else int(np.size(u) // n_samples)
+    return run_maps(step_maps(lin, dt, carts, terms, n_inputs), z0, n_samples, u)[0]

@@ -132,8 +132,9 @@ def _coulomb(z: FloatArray, wz: FloatArray, gam: FloatArray, kt: FloatArray, c: 
 def simulate_rows(phi: FloatArray, gam: FloatArray, phih: FloatArray, gamh: FloatArray, kt: FloatArray,
                   z0: FloatArray, fk: FloatArray, fs: FloatArray, sigma: FloatArray, drag: FloatArray,
                   cubic: FloatArray, kappa: FloatArray, gin: FloatArray, u: FloatArray, dt: float, substeps: int,
-                  out: FloatArray) -> None:
-    """Deviations e (P, N, c) into `out` for every parameter row.
+                  out: FloatArray, end: FloatArray) -> None:
+    """Deviations e (P, N, c) into `out`, and the last sample's state (P, 2c) into `end`,
+    for every parameter row.
 
     phi/phih (P, n, n), gam/gamh (P, n, c): zero-order-hold maps over h and h/2; kt (P, c, c)
     mass-normalised stiffness; z0 (P, n); fk, fs, sigma, drag, kappa (P, c); cubic (P,); gin
@@ -202,6 +203,8 @@ def simulate_rows(phi: FloatArray, gam: FloatArray, phih: FloatArray, gamh: Floa
                     for i in range(c):
                         out[p, kk, i] = z[i]
                 break
+        for i in range(n):
+            end[p, i] = z[i]
 
 
 @numba.njit(cache=True)

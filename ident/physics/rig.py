@@ -1,4 +1,5 @@
-"""Physics of the spring-cart chain: pure numbers in, numbers out (no numpy in the hot loop).
+"""The simulated rig's stepper: the carts of `ident.physics.free` while they are free, and
+prescribed paths while a hand holds one.
 
 Chain `wall -k1- m1 -k2- m2 -k3- wall`, positions `x1`, `x2` measured from each cart's
 static rest (m), viscous dampers `c1`, `c2` to ground, dry friction `fc1`, `fc2` (N):
@@ -8,7 +9,10 @@ static rest (m), viscous dampers `c1`, `c2` to ground, dry friction `fc1`, `fc2`
 
 `carts=1` is the same chain with cart 2 clamped at 0 (so `k2` goes to the wall).
 
-Integration, one of two steppers per step `dt`:
+Free carts (no path; with `carts=1` cart 2 is clamped) are stepped by the diagnosis' own
+simulator (`ident.physics.free`: exact linear part, mid-step cubic springs, Coulomb friction
+with stick located inside a step), so the sim rig and the fitter share one physics. While a
+hand holds a cart, one of two steppers per step `dt` runs:
 
 - without dry friction: classical RK4 on the free carts (4th order; at the default 2 kHz
   the free response matches the closed form to well under a micrometre);
@@ -29,8 +33,13 @@ A cart held by a hand or pinned follows a prescribed path instead: its position 
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable
 from dataclasses import dataclass
+
+import numpy as np
+
+from ident.physics.free import NonlinearTerms, StepMaps, run_maps, step_maps
 
 PositionPath = Callable[[float], float]
 FRICTION_REFINE = 10
@@ -81,13 +90,42 @@ def advance(p: ChainParams, s: ChainState, dt: float, steps: int,
             path1: PositionPath | None, path2: PositionPath | None) -> None:
     """Advance `s` in place by `steps` steps of `dt`; a cart with a path follows it.
 
-    With dry friction each step is split in `FRICTION_REFINE` Moreau steps.
+    Free carts go through `ident.physics.free`; with a held cart and dry friction each step
+    is split in `FRICTION_REFINE` Moreau steps.
     """
-    if p.fc1 == 0.0 and p.fc2 == 0.0:
+    if path1 is None and (p.carts == 1 or path2 is None):
+        _free(p, s, dt, steps)
+    elif p.fc1 == 0.0 and p.fc2 == 0.0:
         for _ in range(steps):
             _rk4_step(p, s, dt, path1, path2)
     else:
         _moreau(p, s, dt / FRICTION_REFINE, steps * FRICTION_REFINE, path1, path2)
+
+
+@functools.lru_cache(maxsize=8)
+def _maps(p: ChainParams, dt: float) -> StepMaps:
+    """The free carts' step maps (mass-normalised chain, friction, cubic springs) on `dt`."""
+    if p.carts == 1:   # cart 2 clamped at 0: k1 and k2 both tie cart 1 to the wall
+        k = p.k1 + p.k2
+        lin = np.array([[np.sqrt(k / p.m1), p.c1 / (2.0 * np.sqrt(k * p.m1))]])
+        friction = np.array([[p.fc1 / p.m1]])
+    else:
+        lin = np.array([[p.k1 / p.m1, p.k2 / p.m1, p.k2 / p.m2, p.k3 / p.m2, p.c1 / p.m1, p.c2 / p.m2]])
+        friction = np.array([[p.fc1 / p.m1, p.fc2 / p.m2]])
+    terms = NonlinearTerms(friction_m_s2=friction, cubic_per_m2=np.array([p.cubic]))
+    return step_maps(lin, dt, p.carts, terms)
+
+
+def _free(p: ChainParams, s: ChainState, dt: float, steps: int) -> None:
+    """`steps` steps of `dt` of the free carts (positions from the static rest, so rest = 0)."""
+    maps = _maps(p, dt)
+    z0 = np.array([[s.x1, s.v1]]) if p.carts == 1 else np.array([[s.x1, s.x2, s.v1, s.v2]])
+    _, end = run_maps(maps, z0, steps + 1)
+    if p.carts == 1:
+        s.x1, s.v1 = float(end[0, 0]), float(end[0, 1])
+    else:
+        s.x1, s.x2, s.v1, s.v2 = (float(v) for v in end[0])
+    s.t += steps * dt
 
 
 def _accel(p: ChainParams, x1: float, v1: float, x2: float, v2: float) -> tuple[float, float]:
