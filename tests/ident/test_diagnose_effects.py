@@ -25,6 +25,8 @@ PER_FAMILY = 3
 NOT_YET = {
     "quantization": "a 0.66 mm lattice worth 0.24 fit-% points comes out 'none' (seed 1314433798)",
     "coulomb+held_cart": "friction or held-cart gain 10-13 % off on flicks (seeds 744918568, 1568247562)",
+    "coulomb+quantization": "a 1.1 mm lattice worth 1.3 fit-% points beside friction is not found (seed "
+                            "2118887614; found before 046ea64 moved the fit start)",
 }
 
 
