@@ -296,14 +296,14 @@ def time_in_subprocess(code_root: Path, cases: list[Case], workdir: Path) -> dic
     return result
 
 
-def run_speed(n: int, seed: int, baseline: str) -> dict[str, Any]:
+def run_speed(n: int, seed: int, baseline: str, repo: Path) -> dict[str, Any]:
     print(f"\n== 4. speed per case, 200 Hz, 10 s records, one core; this checkout vs {baseline}")
     cases = speed_cases(n, seed)
     out: dict[str, Any] = {}
     with tempfile.TemporaryDirectory() as tmp:
         old_root = Path(tmp) / "baseline"
         old_root.mkdir()
-        archive = subprocess.run(["git", "-C", str(ROOT), "archive", baseline], capture_output=True, check=True)
+        archive = subprocess.run(["git", "-C", str(repo), "archive", baseline], capture_output=True, check=True)
         subprocess.run(["tar", "-x", "-C", str(old_root)], input=archive.stdout, check=True)
         for label, root in (("current", ROOT), (f"baseline {baseline}", old_root)):
             result = time_in_subprocess(root, cases, Path(tmp))
@@ -330,6 +330,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--one-encoder", type=int, default=20, help="two-cart one-encoder friction cases")
     parser.add_argument("--speed", type=int, default=8, help="speed cases per cart count")
     parser.add_argument("--baseline-commit", default=BASELINE_COMMIT)
+    parser.add_argument("--repo", type=Path, default=ROOT,
+                        help="git checkout to take the baseline commit from (default: this one)")
     parser.add_argument("--encoder-m", type=float, default=None,
                         help="read every run through an encoder of this count (m), e.g. 1.786e-5 (ECP)")
     parser.add_argument("--skip-real", action="store_true")
@@ -350,7 +352,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     if not args.skip_real:
         results["realdata"] = run_realdata()
     if not args.skip_speed and args.speed:
-        results["speed"] = run_speed(args.speed, args.seed, args.baseline_commit)
+        results["speed"] = run_speed(args.speed, args.seed, args.baseline_commit, args.repo)
     if args.json is not None:
         args.json.write_text(json.dumps(results, indent=1, default=float))
     return 0
