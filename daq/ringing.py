@@ -28,8 +28,8 @@ Where the ringing began (`date_release`), two steps:
 2. fine: around that point, a piecewise model whose pieces join with the same position
    and velocity (the hand lets go: only the force jumps):
        t >= t0:  x = f(t)                              (the free response, σ, ω fixed)
-       t <  t0:  x = f(t0) + f'(t0)(t - t0) + p2 (t - t0)² + p3 (t - t0)³   (the hand)
-   linear in (c, d, A, B, p2, p3) for a given t0; t0 by a grid at the sample spacing, then
+       t <  t0:  x = f(t0) + f'(t0)(t - t0) + p2 (t - t0)² + p3 (t - t0)³ + p4 (t - t0)⁴  (the hand)
+   linear in (c, d, f, A, B, p2, p3, p4) for a given t0; t0 by a grid at the sample spacing, then
    50× finer around the best point.
 """
 
@@ -286,7 +286,7 @@ def date_release(t: Array, y: Array, vs: Array, free: FreeFit, t_coarse: float,
 
 
 def _joint_solve(t: Array, y: Array, vs: Array, free: FreeFit, t0: float) -> tuple[Array, float]:
-    """Coefficients (c, d, f, A, B, p2, p3) and RSS of the joined model for one `t0`."""
+    """Coefficients (c, d, f, A, B, p2, p3, p4) and RSS of the joined model for one `t0`."""
     g1, g2, _, _ = _basis(t, free.t_ref, free.sigma, free.omega)
     h1, h2, d1, d2 = _basis(np.array([t0]), free.t_ref, free.sigma, free.omega)
     before = t < t0
@@ -298,7 +298,7 @@ def _joint_solve(t: Array, y: Array, vs: Array, free: FreeFit, t0: float) -> tup
     col_f = np.where(before, -vs[k0], -vs)    # friction's shift of the centre, held by the hand before t0
     scale = max(float(np.max(np.abs(dt))), 1e-9)
     u = dt / scale
-    design = np.stack([np.ones_like(t), col_d, col_f, col_a, col_b, u ** 2, u ** 3], axis=1)
+    design = np.stack([np.ones_like(t), col_d, col_f, col_a, col_b, u ** 2, u ** 3, u ** 4], axis=1)
     coef, *_ = np.linalg.lstsq(design, y, rcond=None)
     residual = y - design @ coef
     return coef, float(residual @ residual)
