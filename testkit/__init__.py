@@ -16,5 +16,8 @@ submodules directly (`from testkit.waiting import wait_until`), never each other
 - data writers and readers: `mcap_runs` (daq-style MCAP runs), `ident_synth` (synthetic
   runs for identification), `synth_runs` (bench traces for the release detector),
   `lab_runs` (the three lab cases recorded by `daq run`), `sim_support` (reading and
-  decoding a finite port), `serialfaults` (serial fault injection and its truth).
+  decoding a finite port), `serialfaults` (serial fault injection and its truth),
+  `daq_records` (run metadata and sample batches).
+- judges: `release_judge` (an independent release instant in a real record),
+  `release_tally` (the release detector scored against a simulated hand).
 """

@@ -16,7 +16,7 @@ import pytest
 from daq.errors import DaqValueError
 from daq.sim.options import parse_sim_url
 from daq.sim.rig import Rig
-from tools.bench_releases import Tally, detect, samples
+from testkit.release_tally import Tally, detect, samples
 
 
 def _events(url: str) -> list[tuple[str, float]]:

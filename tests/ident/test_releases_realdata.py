@@ -2,7 +2,7 @@
 
 ECP-210 2025 (UCSD team 1): the releases of the PROVENANCE table, found from the raw files,
 none from the nudge or the later cart-1 moves, the ones cut by the end of the record
-flagged. Each release instant is checked against an independent judge (`release_judge`:
+flagged. Each release instant is checked against an independent judge (`testkit/release_judge.py`:
 a nonlinear free-response fit extrapolated backwards and a change-point fit of the data's
 departure from it, not the finder's smoothed-acceleration method) to within 20 ms. The
 by-eye times of the table (± 0.1 s) only say which release is which. Counts to metres at
@@ -17,9 +17,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from release_judge import judge_release
 
 from ident.cli import main
+from testkit.release_judge import judge_release
 
 M_PER_COUNT = 1.0 / 56000.0
 FOLDER_2025 = "ECP210_UCSD_2025_team1"
