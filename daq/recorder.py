@@ -96,6 +96,7 @@ class RunWriter:
         self.runs_dir = Path(runs_dir)
         self.run_id = metadata.run_id
         self.metadata = metadata
+        self.flush_count = 0
         self.path = part_path(self.runs_dir, self.run_id)
         self.flush_interval_s = flush_interval_s
         self.n_samples = 0
@@ -175,6 +176,7 @@ class RunWriter:
         self._writer.flush()
         self._file.flush()
         self._last_flush_s = now_s
+        self.flush_count += 1
 
     def finish(self, metadata: RunMetadata, finished: RunFinished) -> Path:
         """Write the final metadata, close the file, fsync it, rename `.part` → `.mcap`."""

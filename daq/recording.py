@@ -3,11 +3,13 @@
 A write that fails with "no space" (ENOSPC, EDQUOT) or "file too large" (EFBIG) ends the
 file being written (it stays as `<run_id>.mcap.part`, everything flushed so far in it) and
 suspends recording; the live stream is not touched (it is published before anything is
-written). The failure is logged once, naming the path and the run. While suspended, a new
-file is tried every `retry_s`; when one can be opened (space came back) recording goes on in
-a continuation `<run_id>-p<k>.mcap.part`, whose metadata marks the gap (`disk_full`, from
-the last sample written to the first sample of the continuation), and the suspended part is
-recovered at once into a finished file (`daq.recorder.recover_one`). When the run ends, the
+written). The failure is logged once, naming the path and the run. The batches not yet
+flushed, and every batch while suspended, are kept in memory (at most `backlog_samples`
+samples; beyond, the oldest go). A new file is tried every `retry_s`; when one can be opened
+(space came back) recording goes on in a continuation `<run_id>-p<k>.mcap.part`, which starts
+with the kept batches (so nothing is lost when the disk was full for less than the backlog),
+and whose metadata marks a gap (`disk_full`) only if batches had to be dropped; the suspended
+part is recovered at once into a finished file (`daq.recorder.recover_one`). When the run ends, the
 continuation is finished under its own name; a run that ends while the disk is still full
 leaves its part for recovery at the next start.
 
@@ -18,8 +20,9 @@ from __future__ import annotations
 
 import errno
 import logging
+from collections import deque
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import BinaryIO
 
@@ -43,14 +46,29 @@ def is_disk_full(exc: BaseException) -> bool:
     return False
 
 
+#: Most samples kept in memory while the disk is full (5 min at 1 kHz, about 10 MB).
+BACKLOG_SAMPLES = 300_000
+
+
 @dataclass
 class _Suspended:
-    """A run whose recording stopped on a full disk."""
+    """A run whose recording stopped on a full disk, and the batches kept meanwhile."""
 
     metadata: RunMetadata
     part: Path
     last_written_t_ns: int | None
     next_try_s: float
+    backlog: deque[SampleBatch] = field(default_factory=deque)
+    kept: int = 0
+    dropped_after_t_ns: int | None = None   # the last sample dropped from the backlog
+
+    def keep(self, batch: SampleBatch, limit: int) -> None:
+        self.backlog.append(batch)
+        self.kept += len(batch.t_ns)
+        while self.kept > limit and len(self.backlog) > 1:
+            old = self.backlog.popleft()
+            self.kept -= len(old.t_ns)
+            self.dropped_after_t_ns = old.t_ns[-1] if old.t_ns else self.dropped_after_t_ns
 
 
 class Recording:
@@ -58,14 +76,17 @@ class Recording:
 
     def __init__(self, runs_dir: Path, flush_interval_s: float, clock: Callable[[], float],
                  opener: Callable[[Path], BinaryIO] = open_exclusive, retry_s: float = 1.0,
-                 on_recovered: Callable[[RunFinished], None] | None = None) -> None:
+                 on_recovered: Callable[[RunFinished], None] | None = None,
+                 backlog_samples: int = BACKLOG_SAMPLES) -> None:
         self.runs_dir = runs_dir
         self.flush_interval_s = flush_interval_s
         self.clock = clock
         self.opener = opener
         self.retry_s = retry_s
         self.on_recovered = on_recovered
+        self.backlog_samples = backlog_samples
         self.writer: RunWriter | None = None
+        self._unflushed: list[SampleBatch] = []   # written since the writer's last flush
         self.suspended: _Suspended | None = None
         self.disk_full_events = 0
         self._pieces = 0
@@ -73,7 +94,7 @@ class Recording:
 
     # -- run lifecycle ------------------------------------------------------------------------
     def start(self, metadata: RunMetadata) -> None:
-        self._pieces, self._gaps = 0, []
+        self._pieces, self._gaps, self._unflushed = 0, [], []
         try:
             self.writer = RunWriter(self.runs_dir, metadata, self.clock(), self.flush_interval_s,
                                     opener=self.opener)
@@ -84,17 +105,32 @@ class Recording:
 
     def samples(self, batch: SampleBatch) -> None:
         if self.writer is None and self.suspended is not None:
-            self._try_resume(batch)
+            self.suspended.keep(batch, self.backlog_samples)
+            self._try_resume()
+            return
         if self.writer is not None:
-            self._guard(lambda w: w.write_samples(batch, self.clock()))
+            self._write(batch)
+
+    def _write(self, batch: SampleBatch) -> None:
+        writer = self.writer
+        assert writer is not None
+        flushes = writer.flush_count
+        self._unflushed.append(batch)
+        self._guard(lambda w: w.write_samples(batch, self.clock()))
+        if self.writer is not None and writer.flush_count != flushes:
+            self._unflushed = []   # the flush inside the write pushed this batch and the earlier ones
 
     def state(self, msg: DetectorStateMsg) -> None:
         if self.writer is not None:
             self._guard(lambda w: w.write_state(msg, self.clock()))
 
     def flush(self, now_s: float, always: bool = False) -> None:
-        if self.writer is not None:
+        writer = self.writer
+        if writer is not None:
+            flushes = writer.flush_count
             self._guard(lambda w: w.flush(now_s) if always else w.maybe_flush(now_s))
+            if self.writer is not None and writer.flush_count != flushes:
+                self._unflushed = []
 
     def finish(self, metadata: RunMetadata, finished: RunFinished) -> RunFinished:
         """Seal the run (or its continuation); returns the record to announce."""
@@ -136,7 +172,12 @@ class Recording:
                 raise
             self.writer = None
             writer.abandon_quietly()
-            self._suspend(writer.metadata, writer.path, writer.last_t_ns, exc)
+            unflushed, self._unflushed = self._unflushed, []
+            last = next((b.t_ns[0] for b in unflushed if b.t_ns), None)
+            self._suspend(writer.metadata, writer.path, writer.last_t_ns if last is None else last, exc)
+            assert self.suspended is not None
+            for kept in unflushed:   # what the part may not hold is written again after the gap
+                self.suspended.keep(kept, self.backlog_samples)
 
     def _suspend(self, metadata: RunMetadata, part: Path, last_t_ns: int | None, exc: BaseException) -> None:
         self.disk_full_events += 1
@@ -148,16 +189,17 @@ class Recording:
         log.error("disk full writing %s (run %s): %s; the live stream goes on, recording resumes "
                   "when space returns", path, run_id, exc)
 
-    def _try_resume(self, batch: SampleBatch) -> None:
+    def _try_resume(self) -> None:
         suspended = self.suspended
         assert suspended is not None
         now = self.clock()
-        if now < suspended.next_try_s or not batch.t_ns:
+        if now < suspended.next_try_s or not suspended.backlog:
             return
         piece_id = f"{run_file.run_id_of(suspended.part)}-p{self._pieces + 2}"
-        gap = GapInterval(start_t_ns=(suspended.last_written_t_ns or suspended.metadata.first_t_ns),
-                          end_t_ns=batch.t_ns[0], reason="disk_full")
-        gaps = [*self._gaps, gap]
+        gaps = list(self._gaps)
+        if suspended.dropped_after_t_ns is not None:   # the backlog overflowed: those samples are gone
+            gaps.append(GapInterval(start_t_ns=suspended.last_written_t_ns or suspended.metadata.first_t_ns,
+                                    end_t_ns=suspended.backlog[0].t_ns[0], reason="disk_full"))
         counters = suspended.metadata.counters.model_copy(
             update={"gap_intervals": [*suspended.metadata.counters.gap_intervals, *gaps]})
         metadata = suspended.metadata.model_copy(update={"run_id": piece_id, "counters": counters})
@@ -173,9 +215,16 @@ class Recording:
         self._pieces += 1
         self._gaps = gaps
         self.suspended = None
-        log.warning("space is back: run %s goes on in %s (gap of %.3f s marked)", suspended.metadata.run_id,
-                    self.writer.path.name, (gap.end_t_ns - gap.start_t_ns) / 1e9)
+        log.warning("space is back: run %s goes on in %s (the %d samples kept meanwhile first%s)",
+                    suspended.metadata.run_id, self.writer.path.name, suspended.kept,
+                    "; the backlog overflowed: a gap is marked" if suspended.dropped_after_t_ns is not None else "")
         self._recover(suspended.part)
+        for kept in suspended.backlog:
+            if self.writer is None:   # full again: the rest stays in the new suspension's backlog
+                assert self.suspended is not None
+                self.suspended.keep(kept, self.backlog_samples)
+            else:
+                self._write(kept)
 
     def _recover(self, part: Path) -> None:
         if not part.exists():

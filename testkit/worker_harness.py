@@ -22,6 +22,7 @@ from ident.worker.schedule import RunRef
 from schemas import keys
 from schemas.bus import BusConfig
 from schemas.daq import RunFinished
+from schemas.errors import SchemaError
 from schemas.fit import FitReport
 from testkit.repo import REPO
 from testkit.waiting import wait_until
@@ -42,6 +43,7 @@ class FitCollector:
     def __init__(self, session: zenoh.Session) -> None:
         self._queue: queue.Queue[bytes] = queue.Queue()
         self.messages: list[FitReport] = []
+        self.rejected = 0
         self._sub = zenoh.ext.declare_advanced_subscriber(
             session, keys.ALL_FITS, lambda s: self._queue.put(s.payload.to_bytes()),
             history=zenoh.ext.HistoryConfig(detect_late_publishers=True, max_samples=64),
@@ -50,9 +52,13 @@ class FitCollector:
     def drain(self) -> None:
         while True:
             try:
-                self.messages.append(FitReport.from_json_bytes(self._queue.get_nowait()))
+                payload = self._queue.get_nowait()
             except queue.Empty:
                 return
+            try:
+                self.messages.append(FitReport.from_json_bytes(payload))
+            except SchemaError:
+                self.rejected += 1   # garbage an abuse test put on the fit keys
 
     def finals(self) -> dict[RunRef, list[FitReport]]:
         self.drain()

@@ -1,6 +1,11 @@
-"""Faults survived, bad input refused, and a soak: the figures of issue 6.
+"""Faults survived, bad input refused, and a soak: the figures of issues 6 and 14.
 
     .venv/bin/python tools/bench_faults.py [--kill-trials 20] [--soak-s 3600] [--skip-soak] [--json FILE]
+    .venv/bin/python tools/bench_faults.py --issue14 [--csv-mb 224] [--load-repeat 3] [--json FILE]
+
+`--issue14` runs only the rows of issue 14 (`testkit/fault_rows.py`: every row tried for
+real, loopback only) and prints their table: fault, what was tried, outcome, data lost,
+crashes, double fits, runs left unfitted (the targets are all zero).
 
 Sections (each prints its figures; `--json` writes them all):
 1. serial corruption — a 1 kHz two-encoder `sim://` capture with 1 % of its lines corrupted
@@ -303,13 +308,36 @@ def soak(work: Path, duration_s: float) -> dict[str, Any]:
     return out
 
 
+def issue14(csv_mb: float, load_repeat: int, json_path: Path | None) -> int:
+    from dataclasses import asdict
+
+    from testkit import fault_rows
+
+    logging.basicConfig(level=logging.ERROR)
+    with tempfile.TemporaryDirectory(prefix="bench_faults14_") as tmp:
+        rows = fault_rows.all_rows(Path(tmp), csv_mb, load_repeat)
+    section("issue 14: every row")
+    fault_rows.print_table(rows)
+    bad = [r.fault for r in rows if not r.ok]
+    print(f"\n{len(rows) - len(bad)}/{len(rows)} rows at target (0 data lost, 0 crashes, 0 double fits, "
+          f"0 unfitted){': not ' + ', '.join(bad) if bad else ''}")
+    if json_path is not None:
+        json_path.write_text(json.dumps([asdict(r) for r in rows], indent=2))
+    return 0 if not bad else 1
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--kill-trials", type=int, default=20)
     parser.add_argument("--soak-s", type=float, default=3600.0, help="simulated seconds of the soak")
     parser.add_argument("--skip-soak", action="store_true")
     parser.add_argument("--json", type=Path, default=None, help="write every figure to this file")
+    parser.add_argument("--issue14", action="store_true", help="only the rows of issue 14, as a table")
+    parser.add_argument("--csv-mb", type=float, default=224.0, help="size of the CSV of row 8 (MB)")
+    parser.add_argument("--load-repeat", type=int, default=3, help="runs of the abuse tests under load (row 10)")
     args = parser.parse_args(argv)
+    if args.issue14:
+        return issue14(args.csv_mb, args.load_repeat, args.json)
     logging.getLogger("daq").setLevel(logging.ERROR)   # the faults below are expected: no warning per fault
     figures: dict[str, Any] = {}
     with tempfile.TemporaryDirectory(prefix="bench_faults_") as tmp:

@@ -18,8 +18,9 @@ worker that starts after the one that fitted a run is gone still learns that the
 from any survivor, and a worker about to publish learns of a claim that fences it.
 
 Bounds: a payload larger than `MAX_PAYLOAD_BYTES` is dropped in the callback (never copied);
-the event queue holds at most `MAX_QUEUED` events, and one that does not fit is dropped and
-counted (`take_dropped`), so the loop catches up by asking again. A fetched run file larger
+the event queue holds at most `MAX_QUEUED` events and `MAX_QUEUED_BYTES` of payload, and one
+that does not fit is dropped and counted (`take_dropped`), so the loop catches up by asking
+again. A fetched run file larger
 than `MAX_FETCH_BYTES` is refused before it touches the disk; every query has a timeout.
 """
 
@@ -29,6 +30,7 @@ import contextlib
 import json
 import queue
 import threading
+import time
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
@@ -51,6 +53,10 @@ HISTORY_SAMPLES = 64
 MAX_FIT_PUBLISHERS = 512
 #: Most events waiting for the loop; beyond, events are dropped and counted (then caught up).
 MAX_QUEUED = 2048
+#: Most payload bytes waiting for the loop (the count bound alone would allow 2048 x 4 MiB).
+MAX_QUEUED_BYTES = 64 << 20
+#: Largest `finished` record accepted (a RunFinished is well under 4 KiB).
+MAX_FINISHED_BYTES = 64 << 10
 #: Largest run file fetched from a daq (bytes): the reader's own file limit.
 MAX_FETCH_BYTES = 1 << 30
 #: Longest a fetch may take (s): a replier that never answers costs at most this.
@@ -93,6 +99,8 @@ class WorkerBus:
         self._claims: dict[str, bytes] = {}
         self._claim_snapshot: tuple[tuple[str, bytes], ...] = ()
         self._dropped = 0
+        self._queued_bytes = 0
+        self._bytes_lock = threading.Lock()
         self._transport_opened = threading.Event()
 
     # -- lifecycle ----------------------------------------------------------------------
@@ -146,19 +154,31 @@ class WorkerBus:
 
     # -- callbacks: enqueue only --------------------------------------------------------
     def _enqueue(self, event: BusEvent) -> None:
+        with self._bytes_lock:
+            if self._queued_bytes + len(event.payload) > MAX_QUEUED_BYTES:
+                self._dropped += 1
+                return
+            self._queued_bytes += len(event.payload)
         try:
             self._events.put_nowait(event)
         except queue.Full:
-            self._dropped += 1   # an int add: atomic enough under the GIL for a counter
+            self.taken(event)
+            self._dropped += 1
 
-    def _payload(self, sample: zenoh.Sample) -> bytes | None:
-        if len(sample.payload) > MAX_PAYLOAD_BYTES:
+    def taken(self, event: object) -> None:
+        """The loop took `event` off the queue: its bytes no longer count."""
+        if isinstance(event, BusEvent) and event.payload:
+            with self._bytes_lock:
+                self._queued_bytes -= len(event.payload)
+
+    def _payload(self, sample: zenoh.Sample, limit: int = MAX_PAYLOAD_BYTES) -> bytes | None:
+        if len(sample.payload) > limit:
             self._dropped += 1
             return None
         return sample.payload.to_bytes()
 
     def _on_finished(self, sample: zenoh.Sample) -> None:
-        payload = self._payload(sample)
+        payload = self._payload(sample, MAX_FINISHED_BYTES)
         if payload is not None:
             self._enqueue(BusEvent("finished", str(sample.key_expr), payload))
 
@@ -263,6 +283,16 @@ class WorkerBus:
         if it did; False after `timeout_s` (the link survived, or nothing answers)."""
         self._transport_opened.clear()
         return self._transport_opened.wait(timeout_s)
+
+    def wait_for_workers(self, names: set[str], timeout_s: float) -> bool:
+        """Wait (bounded) until every worker in `names` answers the liveliness query again;
+        False after `timeout_s` (some are really gone)."""
+        deadline = time.monotonic() + timeout_s
+        while not names <= self.alive_workers(timeout_s=0.5):
+            if time.monotonic() > deadline:
+                return False
+            time.sleep(0.05)   # polling the routing state: Zenoh has no event for "declarations synced"
+        return True
 
     def fetch_run(self, bench: str, run_id: str, dest: Path, timeout_s: float = FETCH_TIMEOUT_S,
                   max_bytes: int = MAX_FETCH_BYTES) -> Path:

@@ -30,7 +30,7 @@ from datetime import UTC, datetime
 from functools import partial
 from pathlib import Path
 
-from ident.worker.bus import MAX_QUEUED, BusEvent, RunUnavailable, WorkerBus
+from ident.worker.bus import MAX_FETCH_BYTES, MAX_QUEUED, BusEvent, RunUnavailable, WorkerBus
 from ident.worker.fitproc import DEFAULT_MAX_FIT_S, FitProcess, FitResult
 from ident.worker.job import FitJob, Fitter
 from ident.worker.runs_dir import (
@@ -48,6 +48,10 @@ from schemas.errors import SchemaError
 from schemas.fit import FitReport
 
 log = logging.getLogger("ident.worker")
+
+#: Bytes of run file allowed per sample the finished record claims (a fetch bound; real
+#: files hold well under 0.1 KiB per sample).
+FETCH_BYTES_PER_SAMPLE = 2048
 
 Event = BusEvent | FitResult
 
@@ -121,6 +125,7 @@ class Worker:
                     self.events.get_nowait()
             except queue.Empty:
                 return
+            self.bus.taken(event)
             self.handle(event)
 
     def handle(self, event: Event) -> None:
@@ -218,7 +223,11 @@ class Worker:
         gap, self._last_turn = now - self._last_turn, now
         if gap > self.options.stall_s:
             log.warning("the loop stalled %.1f s (stopped, or starved): syncing before publishing", gap)
+            known = self.sched.alive - {self.options.name}
             self.bus.wait_reconnected(timeout_s=self.options.reconnect_s)
+            # a new session learns the others' tokens and queryables a moment after it opens:
+            # sync only once the workers known before the stall are seen again (or given up)
+            self.bus.wait_for_workers(known, timeout_s=self.options.reconnect_s)
             self.catch_up()
             self.pump(self.options.sync_s)
 
@@ -249,8 +258,10 @@ class Worker:
     def _fetch(self, run: RunRef, finished: RunFinished, epoch: int) -> Path | None:
         """The run's bytes from its daq, or None (deferred: the daq is away or refused)."""
         dest = self.options.runs_dir / finished.bench / Path(finished.file).name
+        # a run file holds about 0.3 KiB per sample: bound the fetch by what the record claims
+        limit = min(MAX_FETCH_BYTES, (1 << 20) + finished.n_samples * FETCH_BYTES_PER_SAMPLE)
         try:
-            return self.bus.fetch_run(finished.bench, finished.run_id, dest)
+            return self.bus.fetch_run(finished.bench, finished.run_id, dest, max_bytes=limit)
         except RunUnavailable as exc:
             self._last_turn = self.clock()
             log.warning("%s: %s; retried when its daq is back (or in %.0f s)", run, exc,

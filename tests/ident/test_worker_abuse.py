@@ -98,7 +98,11 @@ def _finished(run: str, **change: object) -> dict[str, object]:
 
 def _announce_genuine_and_wait(setup: Setup, run_id: str) -> FitReport:
     (setup.runs_dir / f"{run_id}.mcap").write_bytes(b"genuine run bytes")
-    setup.session.put(keys.run_finished(BENCH, run_id), json.dumps(_finished(run_id)))
+    # As the daq publishes it: reliable and blocking. A plain put uses CongestionControl.DROP, so
+    # on a loaded machine, behind a flood still leaving this session, it was dropped at the sender
+    # (issue 14 row 10: the flood test failed under load for that reason).
+    setup.session.put(keys.run_finished(BENCH, run_id), json.dumps(_finished(run_id)),
+                      congestion_control=zenoh.CongestionControl.BLOCK)
     deadline = time.monotonic() + WAIT_S
     while True:
         assert setup.thread.is_alive(), f"the worker died: {setup.errors}"
