@@ -35,6 +35,7 @@ from schemas.bus import BusConfig
 from schemas.daq import DaqCounters, DaqStatus, RunFinished, RunList, ZeroReply
 from schemas.fit import FitReport
 from testkit import ports, zenoh_router
+from testkit.waiting import wait_until
 from testkit.zenoh_router import (
     DAQ_CLIENT,
     IDENT_CLIENT,
@@ -166,9 +167,7 @@ def test_a_session_opened_with_the_default_config_has_only_loopback_links(free_p
     endpoint = f"tcp/127.0.0.1:{free_port}"
     with zenoh.open(zenoh.Config.from_json5(BusConfig.listener(endpoint).zenoh_json5())) as listener, \
             zenoh.open(zenoh.Config.from_json5(BusConfig.connector(endpoint).zenoh_json5())) as peer:
-        deadline = time.monotonic() + WAIT_S
-        while not list(peer.info.peers_zid()) and time.monotonic() < deadline:
-            time.sleep(0.02)
+        wait_until(lambda: list(peer.info.peers_zid()), WAIT_S, "the peer to link")
         links = list(listener.info.links())
         assert links, "expected the connecting peer to be linked"
         for link in links:

@@ -12,7 +12,6 @@ from __future__ import annotations
 import logging
 import os
 import threading
-import time
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -25,6 +24,7 @@ from schemas import keys
 from schemas.bus import BusConfig
 from schemas.daq import DaqStatus, RunList, ZeroReply
 from testkit import ports
+from testkit.waiting import wait_until
 
 BENCH = "abuse"
 SIM = ("sim://?realtime=0&rate_hz=100&cases=cart1&seed=5&rest_s=0.3&pull_s=0.5&hold_s=0.8&c1=3"
@@ -72,14 +72,13 @@ def running(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Running]:
     thread.start()
     session = zenoh.open(zenoh.Config.from_json5(BusConfig.connector(endpoint).zenoh_json5()))
     try:
-        deadline = time.monotonic() + 60
-        runs = RunList(bench=BENCH, runs=[])
-        while not runs.runs:
+        def listed() -> RunList | None:
             assert not errors and thread.is_alive(), f"daq service died: {errors}"
-            assert time.monotonic() < deadline, "no finished run listed within 60 s"
             oks, _ = _ok_payloads(session, keys.daq_query(BENCH, "runs"))
-            runs = RunList.from_json_bytes(oks[0]) if oks else runs
-            time.sleep(0.05)
+            found = RunList.from_json_bytes(oks[0]) if oks else None
+            return found if found is not None and found.runs else None
+
+        runs = wait_until(listed, 60, "a finished run listed by the daq", poll_s=0.05)
         # A symlink inside the runs directory that points outside it.
         os.symlink(secret, runs_dir / "escape.mcap")
         yield Running(service, runs_dir, secret, session, runs.runs[0].run_id)
