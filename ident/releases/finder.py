@@ -9,7 +9,7 @@ Steps (arrays in, `Release` records out):
    hand episodes where it is large; weaker but sustained pushes (a held cart moved, which
    moves this one through the spring) also end a free response;
 4. a candidate release is the end of a hand episode followed by a free response: at least
-   one period without a hand, ringing (three turning points) with an amplitude well above
+   one period without a hand, ringing (two turning points) with an amplitude well above
    the noise and the dry-friction band. The pulled cart is the column whose hand episode it
    is; when a held cart moved as much as this one during the episode, a hand moved the held
    cart (a touch), not a release;
@@ -36,12 +36,15 @@ from ident.releases.record import EndedBy, Release
 #: A cart whose amplitude is below this fraction of the pulled cart's is held.
 HELD_FRACTION = 0.25
 #: During a touch the held cart moves at least this fraction of what the pulled cart moves.
-TOUCH_FRACTION = 0.5
-#: A release rings: at least this many turning points in its free response.
-MIN_TURNS = 3
+TOUCH_FRACTION = 0.2
+#: A release rings: at least this many turning points (a full cycle) in its free response.
+MIN_TURNS = 2
 #: Its first swing exceeds this many noise stds and this many dry-friction bands.
 MIN_AMPLITUDE_SIGMAS = 30.0
 MIN_AMPLITUDE_BANDS = 4.0
+#: The hand's largest force on a released cart is at least this fraction of the spring's
+#: force at the amplitude of the free response (per unit mass: wn²·A).
+HAND_FORCE_FRACTION = 0.3
 #: A sustained push: the residual's moving average over a quarter period beyond this many scales.
 SUSTAINED_SIGMAS = 2.5
 
@@ -59,26 +62,33 @@ def find_releases(t: NDArray[np.float64], y: NDArray[np.float64],
     if len(names) != n_cols:
         raise IdentDimensionError("carts", f"one cart number per column ({n_cols})", len(names))
     free = free_columns(m)
-    found: list[tuple[int, int, FreeModel]] = []   # (release index, column, model)
+    found: list[tuple[float, int, FreeModel]] = []   # (release time, column, model)
     stops: list[tuple[int, int]] = []              # (column, start index of a hand episode)
+    held = [i for i in range(n_cols) if i not in free]
     for j in free:
-        model = fit_free_model(m, j, tuple(i for i in free if i != j))
+        # every other cart's position enters: a held cart that wanders or is moved shifts
+        # this cart's rest through the spring, which is not a hand on this cart
+        model = fit_free_model(m, j, tuple(i for i in range(n_cols) if i != j), tuple(held))
         episodes = hand_episodes(m, model)
         # where a hand begins to act, conservatively: the derivatives' smoothing (T/20 each
         # side) and the sustained pushes' moving average (T/8 each side) see it late
         stops += [(j, max(0, a - m.samples(m.period_s / 20))) for a, _ in episodes]
-        stops += [(j, max(0, a - m.samples(m.period_s / 4))) for a, _ in sustained_pushes(m, model)]
+        # a hand moving a held cart (a touch) pushes this one through the spring: seen by the
+        # model without the held carts
+        alone = fit_free_model(m, j, tuple(i for i in free if i != j)) if held else model
+        stops += [(j, max(0, a - m.samples(m.period_s / 4))) for a, _ in sustained_pushes(m, alone)]
         for k, (a, b) in enumerate(episodes):
             nxt = episodes[k + 1][0] if k + 1 < len(episodes) else m.n_samples
             if is_release(m, model, a, b, nxt, free):
                 found.append((release_instant(m, model, a, b), j, model))
-    found = _one_per_event(m, sorted(found))
+    found = _one_per_event(m, sorted(found, key=lambda f: f[0]))
     releases = []
-    for number, (start, j, model) in enumerate(found, start=1):
+    for number, (when, j, model) in enumerate(found, start=1):
+        start = min(int(np.ceil((when - m.t[0]) / m.dt - 1e-9)), m.n_samples - 1)
         later = [a for c, a in stops if c == j and a > start + m.samples(0.5 * m.period_s)]
         end = min(later, default=m.n_samples - 1)
-        releases.append(_record(m, model, number, start, end, names, free,
-                                _ended_by(end, m, [s for s, _, _ in found])))
+        releases.append(_record(m, model, number, when, start, end, names, free,
+                                _ended_by(end, m, [_index(m, s) for s, _, _ in found])))
     return releases
 
 
@@ -90,8 +100,9 @@ def free_columns(m: Motion) -> list[int]:
 
 def hand_episodes(m: Motion, model: FreeModel) -> list[tuple[int, int]]:
     """(first, last) indices of the hand episodes: runs of `model.hand` joined across gaps
-    shorter than T/8, that move the cart (a cart stuck off its rest by dry friction shows
-    a residual but no motion), away from the smoothing's edge."""
+    shorter than T/8, that last at least T/10 (a hand's push; not a blip where dry friction
+    flips) and move the cart (a cart stuck off its rest by dry friction shows a residual but
+    no motion), away from the smoothing's edge."""
     edge = m.samples(0.05 * m.period_s) + 2
     mask = model.hand.copy()
     mask[:edge] = False
@@ -99,7 +110,8 @@ def hand_episodes(m: Motion, model: FreeModel) -> list[tuple[int, int]]:
     runs = _runs(mask, m.samples(m.period_s / 8))
     x = m.x[:, model.column]
     floor = 8.0 * float(m.noise_m[model.column])
-    return [(a, b) for a, b in runs if float(np.ptp(x[a:b + 1])) > floor]
+    shortest = m.samples(m.period_s / 10)
+    return [(a, b) for a, b in runs if b - a >= shortest and float(np.ptp(x[a:b + 1])) > floor]
 
 
 def sustained_pushes(m: Motion, model: FreeModel) -> list[tuple[int, int]]:
@@ -131,16 +143,24 @@ def _runs(mask: NDArray[np.bool_], join: int) -> list[tuple[int, int]]:
 def is_release(m: Motion, model: FreeModel, first: int, last: int, nxt: int, free: list[int]) -> bool:
     """Whether the hand episode [first, last] of `model.column` lets a cart go (step 4)."""
     j = model.column
-    if nxt - last < m.samples(m.period_s):
+    at_end = nxt >= m.n_samples
+    if nxt - last < m.samples(m.period_s * (0.5 if at_end else 1.0)):
         return False   # the hand took hold again within a period: handling
     x = m.x[:, j]
     stop = min(nxt, last + m.samples(3.0 * m.period_s))
     band = abs(model.dry) / max(float(model.stiffness[0]), 1e-12)
     level = max(MIN_AMPLITUDE_SIGMAS * float(m.noise_m[j]), MIN_AMPLITUDE_BANDS * band)
-    if turning_points(x[last:stop], max(level / 3.0, 2.0 * band)) < MIN_TURNS:
+    # the end of the record may cut a release after half a cycle
+    if turning_points(x[last:stop], max(level / 3.0, 2.0 * band)) < (1 if at_end else MIN_TURNS):
         return False
     span = x[last:min(stop, last + m.samples(m.period_s))]
-    if 0.5 * float(np.ptp(span)) < level:
+    amplitude = 0.5 * float(np.ptp(span))
+    if amplitude < level:
+        return False
+    # a hand that lets a cart go held it against the spring: its force was comparable with
+    # the spring's at the amplitude that follows (a touch while the cart rings is not)
+    push = float(np.max(np.abs(model.residual[first:last + 1])))
+    if push < HAND_FORCE_FRACTION * float(model.stiffness[0]) * amplitude:
         return False
     lead = max(0, first - m.samples(m.period_s / 8))
     own = float(np.ptp(x[lead:last + 1]))
@@ -169,12 +189,16 @@ def turning_points(x: FloatArray, hysteresis: float) -> int:
     return count
 
 
-def _one_per_event(m: Motion, found: list[tuple[int, int, FreeModel]]) -> list[tuple[int, int, FreeModel]]:
+def _index(m: Motion, when: float) -> int:
+    return min(int(np.ceil((when - m.t[0]) / m.dt - 1e-9)), m.n_samples - 1)
+
+
+def _one_per_event(m: Motion, found: list[tuple[float, int, FreeModel]]) -> list[tuple[float, int, FreeModel]]:
     """Candidates of several columns within half a period are one release: keep the one
     whose cart moved most around it (the pulled cart)."""
-    kept: list[tuple[int, int, FreeModel]] = []
+    kept: list[tuple[float, int, FreeModel]] = []
     for cand in found:
-        if kept and cand[0] - kept[-1][0] < m.samples(0.5 * m.period_s):
+        if kept and cand[0] - kept[-1][0] < 0.5 * m.period_s:
             if _swing(m, cand) > _swing(m, kept[-1]):
                 kept[-1] = cand
             continue
@@ -182,8 +206,8 @@ def _one_per_event(m: Motion, found: list[tuple[int, int, FreeModel]]) -> list[t
     return kept
 
 
-def _swing(m: Motion, cand: tuple[int, int, FreeModel]) -> float:
-    start, j, _ = cand
+def _swing(m: Motion, cand: tuple[float, int, FreeModel]) -> float:
+    start, j = _index(m, cand[0]), cand[1]
     return float(np.ptp(m.x[start:start + m.samples(m.period_s), j]))
 
 
@@ -194,7 +218,7 @@ def _ended_by(end: int, m: Motion, starts: list[int]) -> EndedBy:
     return "release" if nearest is not None and nearest <= m.samples(m.period_s) else "touch"
 
 
-def _record(m: Motion, model: FreeModel, number: int, start: int, end: int, names: tuple[int, ...],
+def _record(m: Motion, model: FreeModel, number: int, when: float, start: int, end: int, names: tuple[int, ...],
             free: list[int], ended_by: EndedBy) -> Release:
     j = model.column
     first = slice(start, min(end, start + m.samples(m.period_s)) + 1)
@@ -204,6 +228,6 @@ def _record(m: Motion, model: FreeModel, number: int, start: int, end: int, name
     tail = m.x[max(start, end - m.samples(m.period_s)):end + 1, j]
     rings = float(np.ptp(tail)) > max(10.0 * float(m.noise_m[j]), 2.0 * band)
     complete = not (ended_by == "record_end" and rings)
-    return Release(number=number, release_time_s=float(m.t[start]), end_time_s=float(m.t[end]),
+    return Release(number=number, release_time_s=when, end_time_s=float(m.t[end]),
                    pulled_cart=names[j], moving_carts=moving, amplitudes_m=tuple(float(a) for a in amp),
                    complete=complete, ended_by=ended_by, period_s=m.period_s)

@@ -2,10 +2,10 @@
 
 A free cart obeys (per unit mass, the other free carts' positions entering through springs)
 
-    a_j = -Σ_i k_ji x_i - c_j v_j - f_j·tanh(v_j / v_s) + b_j,
+    a_j = -Σ_i k_ji x_i - c_j v_j - f_j·sgn(v_j) + b_j,
 
-with stiffness `k`, viscous `c` and dry friction `f` (m/s², smoothed over a velocity `v_s`
-so that the regression stays linear) and an offset `b` (the rest position). The coefficients
+with stiffness `k`, viscous `c` and dry friction `f` (m/s²; sgn smoothed as the derivatives
+are, `friction_sign`, so that the regression stays linear) and an offset `b` (the rest position). The coefficients
 come from a robust regression (Tukey bisquare, iteratively reweighted) of the smoothed
 acceleration on those terms over the samples where the cart moves: hand phases are short
 and get weight zero. The residual `r_j` is then the hand's force per unit mass: large while
@@ -19,6 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
+from scipy.signal import savgol_filter
 
 from ident.releases.motion import FloatArray, Motion
 
@@ -35,7 +36,8 @@ class FreeModel:
     `column` the cart's column; `others` the columns whose positions enter; `stiffness`
     (len(others)+1,) k_jj first (1/s²); `viscous` c_j (1/s); `dry` f_j (m/s²); `offset` b_j
     (m/s²); `v_smooth` v_s (m/s); `residual` (N,) m/s²; `scale` its robust std over the
-    free samples; `hand` (N,) bool, where |residual| > HAND_SIGMAS·scale.
+    free samples; `hand` (N,) bool, where |residual - drift| > HAND_SIGMAS·scale (`drift`);
+    `slow` the columns of `others` entering by their period average (held carts).
     """
 
     column: int
@@ -48,6 +50,7 @@ class FreeModel:
     residual: FloatArray
     scale: float
     hand: NDArray[np.bool_]
+    slow: tuple[int, ...] = ()
 
     @property
     def wn(self) -> float:
@@ -60,19 +63,45 @@ class FreeModel:
         return (self.offset - load) / max(float(self.stiffness[0]), 1e-12)
 
 
-def regressors(m: Motion, column: int, others: tuple[int, ...], v_smooth: float) -> FloatArray:
-    """The regression matrix (N, 4 + len(others)): -x_j, -x_others, -v_j, -tanh(v_j/v_s), 1."""
-    cols = [-m.x[:, column]] + [-m.x[:, i] for i in others]
-    cols += [-m.v[:, column], -np.tanh(m.v[:, column] / v_smooth), np.ones(m.n_samples)]
+def regressors(m: Motion, column: int, others: tuple[int, ...], v_smooth: float,
+               slow: tuple[int, ...] = ()) -> FloatArray:
+    """The regression matrix (N, 4 + len(others)): -x_j, -x_others, -v_j, -tanh(v_j/v_s), 1.
+
+    A column in `slow` (a held cart) enters by its average over one period: where the hand
+    holds it (its wander, or a touch that moves it), not its weak following of this cart,
+    which is nearly proportional to x_j and would make the regression ill-posed."""
+    cols = [-m.x[:, column]] + [-(period_average(m, m.x[:, i]) if i in slow else m.x[:, i]) for i in others]
+    cols += [-m.v[:, column], -friction_sign(m, column, v_smooth), np.ones(m.n_samples)]
     return np.column_stack(cols)
 
 
-def fit_free_model(m: Motion, column: int, others: tuple[int, ...] = ()) -> FreeModel:
-    """Robust fit of the free equation of motion of `column` (see the module docstring)."""
+def friction_sign(m: Motion, column: int, v_smooth: float) -> FloatArray:
+    """sgn(v_j) as the smoothed acceleration sees it: the sign of the velocity (tanh over
+    `v_smooth` against noise) passed through the same Savitzky–Golay filter, so that a dry
+    friction force flipping at a velocity zero is blurred in the regressor as in the data."""
+    sign = np.tanh(m.v[:, column] / v_smooth)
+    if m.window >= m.n_samples:
+        return np.asarray(sign, dtype=np.float64)
+    return np.asarray(savgol_filter(sign, m.window, 3, mode="interp"), dtype=np.float64)
+
+
+def period_average(m: Motion, x: FloatArray) -> FloatArray:
+    """`x` (N,) averaged over one period (centred; the ends use the samples there are)."""
+    width = m.samples(m.period_s)
+    kernel = np.ones(width)
+    total = np.convolve(x, kernel, mode="same")
+    count = np.convolve(np.ones_like(x), kernel, mode="same")
+    return np.asarray(total / count, dtype=np.float64)
+
+
+def fit_free_model(m: Motion, column: int, others: tuple[int, ...] = (),
+                   slow: tuple[int, ...] = ()) -> FreeModel:
+    """Robust fit of the free equation of motion of `column` (see the module docstring);
+    the `slow` columns among `others` enter by their period average (`regressors`)."""
     v = m.v[:, column]
     speed = float(np.percentile(np.abs(v), 95))
     v_smooth = max(0.02 * speed, 3.0 * float(m.noise_m[column]) / m.dt / 10.0, 1e-9)
-    basis = regressors(m, column, others, v_smooth)
+    basis = regressors(m, column, others, v_smooth, slow)
     target = m.a[:, column]
     moving = np.abs(v) > 0.05 * speed
     if np.count_nonzero(moving) < basis.shape[1] * 4:
@@ -90,5 +119,22 @@ def fit_free_model(m: Motion, column: int, others: tuple[int, ...] = ()) -> Free
         weights = np.where(moving & (np.abs(u) < 1.0), (1.0 - u ** 2) ** 2, 0.0)
     resid = target - basis @ coef
     n_k = 1 + len(others)
+    hand = np.abs(resid - drift(resid, np.abs(resid) > HAND_SIGMAS * scale, m.samples(2.0 * m.period_s))) \
+        > HAND_SIGMAS * scale
     return FreeModel(column, others, np.asarray(coef[:n_k]), float(coef[n_k]), float(coef[n_k + 1]),
-                     float(coef[n_k + 2]), v_smooth, resid, scale, np.abs(resid) > HAND_SIGMAS * scale)
+                     float(coef[n_k + 2]), v_smooth, resid, scale, hand, slow)
+
+
+def drift(resid: FloatArray, hand: NDArray[np.bool_], width: int) -> FloatArray:
+    """The slow part of the residual outside the hand's episodes (N,): a running median over
+    `width` samples of the samples not flagged, held across the flagged ones. A held cart
+    moved to a new place shifts the pulled cart's rest for good; that shift is not a hand on
+    the pulled cart (the sustained-push test sees the move itself)."""
+    keep = np.flatnonzero(~hand)
+    if keep.size < 3:
+        return np.zeros_like(resid)
+    step = max(1, width // 8)
+    centres = keep[::step]
+    half = width // 2
+    values = np.array([np.median(resid[keep[(keep >= c - half) & (keep <= c + half)]]) for c in centres])
+    return np.asarray(np.interp(np.arange(resid.size), centres, values), dtype=np.float64)

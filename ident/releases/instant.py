@@ -11,7 +11,9 @@ below the limit, where that finer residual |r| exceeds
         free period that follows):
 
 a hand lets go by ramping its force down, and the free response begins where the force is
-down to a tenth of its peak. No I/O.
+down to the noise. The crossing is taken between samples, less the delay the smoothing
+adds to a force that drops at once from the level it had just before (`smoothing_delay`,
+computed from the filter itself). No I/O.
 """
 
 from __future__ import annotations
@@ -23,29 +25,32 @@ from ident.releases.hand import FreeModel, regressors
 from ident.releases.motion import Motion
 
 FINE_FRACTION = 1.0 / 25.0
-FRACTION_OF_PEAK = 0.1
+FRACTION_OF_PEAK = 0.02
 NOISE_SIGMAS = 4.0
 #: The force has ended when the residual stays below the limit this fraction of a period.
 QUIET_FRACTION = 1.0 / 12.0
 
 
-def release_instant(m: Motion, model: FreeModel, first: int, last: int) -> int:
-    """Index of the release after the hand episode [first, last] of `model.column`."""
+def release_instant(m: Motion, model: FreeModel, first: int, last: int) -> float:
+    """The release time (s, on `m.t`) after the hand episode [first, last] of `model.column`."""
     period_n = m.samples(m.period_s)
     window = max(5, 2 * round(FINE_FRACTION * period_n / 2) + 1)
     lo = max(0, first - window)
     hi = min(m.n_samples, last + 2 * period_n)
     if hi - lo <= window:
-        return min(last + 1, m.n_samples - 1)
+        return float(m.t[min(last + 1, m.n_samples - 1)])
     part = m.y[lo:hi]
     fine = Motion(m.t[lo:hi], part, savgol_filter(part, window, 3, axis=0),
                   savgol_filter(part, window, 3, deriv=1, delta=m.dt, axis=0),
                   savgol_filter(part, window, 3, deriv=2, delta=m.dt, axis=0),
-                  m.dt, m.period_s, m.noise_m)
+                  m.dt, m.period_s, m.noise_m, window)
     coef = np.concatenate([model.stiffness, [model.viscous, model.dry, model.offset]])
-    resid = fine.a[:, model.column] - regressors(fine, model.column, model.others, model.v_smooth) @ coef
-    after = np.abs(resid[last + m.samples(m.period_s / 4) - lo:last + period_n - lo])
-    noise = float(np.median(after)) / 0.6745 if after.size else 0.0
+    resid = fine.a[:, model.column] - regressors(fine, model.column, model.others, model.v_smooth, model.slow) @ coef
+    after = resid[last + m.samples(m.period_s / 4) - lo:last + period_n - lo]
+    # about its median: a held cart moved elsewhere offsets the residual for good
+    level = float(np.median(after)) if after.size else 0.0
+    noise = float(np.median(np.abs(after - level))) / 0.6745 if after.size else 0.0
+    resid = resid - level
     peak = float(np.max(np.abs(resid[first - lo:last + 1 - lo])))
     limit = max(FRACTION_OF_PEAK * peak, NOISE_SIGMAS * noise)
     seg = np.abs(resid[first - lo:hi - lo])
@@ -54,5 +59,28 @@ def release_instant(m: Motion, model: FreeModel, first: int, last: int) -> int:
     loud = np.flatnonzero(seg[start:] > limit) + start
     # the first gap between loud samples that lasts a quiet stretch: the force has ended
     gaps = np.flatnonzero(np.diff(np.concatenate([loud, [seg.size + quiet]])) > quiet)
-    release = first + int(loud[gaps[0]]) + 1 if loud.size else last + 1
-    return min(release, m.n_samples - 1)
+    if not loud.size:
+        return float(m.t[min(last + 1, m.n_samples - 1)])
+    k = int(loud[gaps[0]])
+    if k + 1 >= seg.size:
+        return float(m.t[first + k])
+    # where |r| crosses the limit, between samples, less the smoothing's delay for a force
+    # that drops at once from the level it had just before
+    before = float(np.max(seg[max(0, k - window):k + 1]))
+    crossing = k + (seg[k] - limit) / max(seg[k] - seg[k + 1], 1e-300)
+    release = first + crossing - smoothing_delay(window, limit / before)
+    return float(m.t[0] + np.clip(release, first, m.n_samples - 1) * m.dt)
+
+
+def smoothing_delay(window: int, level: float) -> float:
+    """Samples by which the cubic Savitzky–Golay second derivative over `window` samples sees
+    an acceleration that drops at once from 1 to 0 fall below `level` (0 < level < 1) after
+    the drop: the filter applied to x = ½·min(k - c, 0)² (acceleration 1 before c, 0 after)."""
+    n = 4 * window + 1
+    c = n // 2
+    k = np.arange(n, dtype=np.float64)
+    acc = savgol_filter(0.5 * np.minimum(k - c, 0.0) ** 2, window, 3, deriv=2)
+    level = float(np.clip(level, 0.01, 0.99))
+    above = np.flatnonzero(acc[c - window:c + window] > level) + c - window
+    j = int(above[-1])
+    return float(j + (acc[j] - level) / max(acc[j] - acc[j + 1], 1e-300) - c)

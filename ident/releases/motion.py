@@ -27,7 +27,8 @@ class Motion:
     """A record on a uniform grid with its smoothed position, velocity and acceleration.
 
     `t` (N,) s; `y`, `x`, `v`, `a` (N, n) in m, m/s, m/s²; `dt` s; `period_s` the dominant
-    oscillation period; `noise_m` (n,) the per-column measurement noise std.
+    oscillation period; `noise_m` (n,) the per-column measurement noise std; `window` the
+    smoothing window (samples).
     """
 
     t: FloatArray
@@ -38,6 +39,7 @@ class Motion:
     dt: float
     period_s: float
     noise_m: FloatArray
+    window: int = 5
 
     @property
     def n_samples(self) -> int:
@@ -91,7 +93,8 @@ def motion(t: FloatArray, y: FloatArray) -> Motion:
     x = savgol_filter(y_u, window, 3, axis=0, mode="interp")
     v = savgol_filter(y_u, window, 3, deriv=1, delta=dt, axis=0, mode="interp")
     a = savgol_filter(y_u, window, 3, deriv=2, delta=dt, axis=0, mode="interp")
-    return Motion(t_u, y_u, x, v, a, dt, period, measurement_noise(np.asarray(y, dtype=np.float64).reshape(len(t), -1)))
+    return Motion(t_u, y_u, x, v, a, dt, period,
+                  measurement_noise(np.asarray(y, dtype=np.float64).reshape(len(t), -1)), window)
 
 
 def measurement_noise(y: FloatArray) -> FloatArray:
