@@ -144,7 +144,8 @@ def student_record(seed: int, rate_hz: float, releases: int | None = None, *,
     for i in range(n_rel):
         if rng.random() < 0.3:
             d = float(rng.uniform(0.2, 0.5))
-            plan.append(("nudge", cursor, {"duration": d, "height": float(rng.choice([-1, 1]) * rng.uniform(2e-3, 8e-3))}))
+            height = float(rng.choice([-1, 1]) * rng.uniform(2e-3, 8e-3))
+            plan.append(("nudge", cursor, {"duration": d, "height": height}))
             cursor += d + float(rng.uniform(0.3, 0.8))
             events.append("nudge")
         flick = rng.random() < 0.7
@@ -165,7 +166,8 @@ def student_record(seed: int, rate_hz: float, releases: int | None = None, *,
         if not both and rng.random() < 0.3 and ring > 2.5:
             t_touch = release_at + float(rng.uniform(1.5, min(3.0, ring - 0.8)))
             dur = float(rng.uniform(0.3, 0.6))
-            touches.append((t_touch, dur, float(rng.choice([-1, 1]) * rng.uniform(3e-3, 8e-3)), bool(rng.random() < 0.5)))
+            height = float(rng.choice([-1, 1]) * rng.uniform(3e-3, 8e-3))
+            touches.append((t_touch, dur, height, bool(rng.random() < 0.5)))
             events.append("touch")
         cursor = release_at + ring
         if not last and rng.random() < 0.2:
@@ -230,7 +232,8 @@ def handling_record(seed: int, rate_hz: float, duration_s: float = 60.0) -> Stud
     while cursor < duration_s - 2.0:
         if rng.random() < 0.5:
             d = float(rng.uniform(0.2, 0.5))
-            plan.append(("nudge", cursor, {"duration": d, "height": float(rng.choice([-1, 1]) * rng.uniform(2e-3, 8e-3))}))
+            height = float(rng.choice([-1, 1]) * rng.uniform(2e-3, 8e-3))
+            plan.append(("nudge", cursor, {"duration": d, "height": height}))
         else:
             d = float(rng.uniform(0.3, 0.6))
             touches.append((cursor, d, float(rng.choice([-1, 1]) * rng.uniform(3e-3, 8e-3)), bool(rng.random() < 0.5)))

@@ -15,7 +15,7 @@ from pathlib import Path
 from typing import Any
 
 from ident.commands.aliases import add_deprecated_alias
-from ident.commands.run_file_options import add_run_file_options
+from ident.commands.run_file_options import add_release_options, add_run_file_options
 
 
 def add_parser(subparsers: Any) -> None:
@@ -32,7 +32,8 @@ def add_parser(subparsers: Any) -> None:
     parser.add_argument("--rate-hz", dest="rate_hz", type=float, default=None,
                         help="sample rate (Hz) of an export without a time column")
     add_deprecated_alias(parser, "--rate", "--rate-hz", "rate_hz", float)
-    parser.add_argument("--json", action="store_true", help="print one JSON object")
+    add_release_options(parser)
+    parser.add_argument("--json", action="store_true", help="print one JSON object (an array with --all)")
     parser.add_argument("--figures", type=Path, default=None, help="write figures (PNG, SVG) here")
     parser.set_defaults(func=run)
 
@@ -41,35 +42,86 @@ def run(args: argparse.Namespace) -> int:
     from ident.errors import IdentError
 
     try:
-        result = diagnose_file(args)
+        results = diagnose_releases(args)
     except IdentError as exc:
         print(f"ident diagnose: error: {exc}", file=sys.stderr)
         return 2
-    report = result.report
     if args.figures is not None:
         from ident.diagnose.figures import write_figures
         from ident.progress import stage
 
         stage("writing figures")
-        write_figures(result, args.figures)
-    print(report.model_dump_json(indent=2) if args.json else summary(report))
+        for number, (result, carts) in results.items():
+            out = args.figures if not args.all else args.figures / f"release{number}"
+            write_figures(result, out, cart_numbers=carts)
+    reports = [result.report for result, _ in results.values()]
+    if args.all:
+        print("[" + ",\n".join(r.model_dump_json(indent=2) for r in reports) + "]" if args.json
+              else "\n\n".join(f"release {k}:\n{summary(r)}" for k, r in zip(results, reports, strict=True)))
+    else:
+        print(reports[0].model_dump_json(indent=2) if args.json else summary(reports[0]))
     return 0
 
 
-def diagnose_file(args: argparse.Namespace) -> Any:
-    """Load the file as the arguments say and diagnose it (a `Diagnosis`)."""
+def diagnose_releases(args: argparse.Namespace) -> dict[int, tuple[Any, tuple[int, ...]]]:
+    """Load the file raw, pick the release(s) and diagnose each: release number (0 for the
+    whole record) -> (`Diagnosis`, the cart numbers of its columns)."""
     from ident.data import make_uniform
-    from ident.diagnose import diagnose
+    from ident.errors import IdentValueError
     from ident.io import load
     from ident.progress import stage
+    from ident.releases import FIRST_COMPLETE, choose, releases_of
 
     stage("loading")
-    # raw: the diagnosis finds the release window itself (a record may start in motion)
+    # raw: a record may hold several releases, or start in motion
     data = make_uniform(load(args.path, time_col=args.time_col, pos_cols=args.pos_cols, scale=args.scale,
                              input_col=args.input_col, rate_hz=args.rate_hz, raw=True))
+    if args.input_col is not None:   # a motor input: the record as one response
+        return {0: diagnose_window(args, data, None)}
+    stage("finding the releases")
+    releases = releases_of(data)
+    if args.all:
+        if not releases:
+            raise IdentValueError("--all", "a record with releases (see `ident releases`)", "none found")
+        return {r.number: diagnose_window(args, data, r) for r in releases}
+    if not releases and args.release_number is None:
+        return {0: diagnose_window(args, data, None)}
+    release = choose(releases, args.release_number or FIRST_COMPLETE)
+    return {release.number: diagnose_window(args, data, release)}
+
+
+def diagnose_window(args: argparse.Namespace, data: Any, release: Any) -> tuple[Any, tuple[int, ...]]:
+    """Diagnose `data` on the release's window (None: the whole record) with the carts that
+    move freely (`--carts` overrides): a held or constant column is never fitted as free."""
+    from ident.diagnose import diagnose
+    from ident.errors import IdentValueError
+    from ident.progress import stage
+    from ident.releases import moving_columns
+
+    numbers = data.cart_numbers()
+    moving = moving_columns(data, release)
+    if not moving:
+        raise IdentValueError("positions", "a cart that moves", "constant positions")
+    carts = args.carts or min(len(moving), 2)
+    if carts == 1 and args.carts is None:
+        # the free cart first, then the others (a held cart's motion may enter as an input)
+        columns = moving[:1] + [j for j in range(data.n_outputs) if j not in moving]
+    else:
+        columns = moving[:2] if len(moving) >= carts else list(range(data.n_outputs))
+    y = data.y[:, columns]
     stage("fitting the linear model and selecting effects")
-    return diagnose(data.t, data.y, carts=args.carts, step_m=args.step_m, source=Path(args.path).name,
-                    u=None if args.input_col is None else data.u)
+    result = diagnose(data.t, y, carts=carts, step_m=args.step_m, source=Path(args.path).name,
+                      u=None if args.input_col is None else data.u,
+                      start_s=None if release is None else release.release_time_s,
+                      stop_s=None if release is None else release.end_time_s)
+    return result, tuple(numbers[j] for j in columns[:carts])
+
+
+def diagnose_file(args: argparse.Namespace) -> Any:
+    """Load the file as the arguments say and diagnose its first complete release, or the
+    whole record when none is found (a `Diagnosis`)."""
+    args = argparse.Namespace(**{"release_number": None, "all": False, **vars(args)})
+    return next(iter(diagnose_releases(args).values()))[0]
 
 
 def summary(report: Any) -> str:

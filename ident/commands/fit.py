@@ -14,7 +14,7 @@ from pathlib import Path
 from typing import Any
 
 from ident.commands.aliases import add_deprecated_alias
-from ident.commands.run_file_options import add_run_file_options
+from ident.commands.run_file_options import add_release_options, add_run_file_options
 
 METHODS = ("pem", "rk4", "euler", "all")
 
@@ -30,10 +30,8 @@ def add_parser(subparsers: Any) -> None:
                         help="sample rate (Hz) of an export without a time column")
     add_deprecated_alias(parser, "--rate", "--rate-hz", "rate_hz", float)
     parser.add_argument("--release-s", dest="release", type=float, default=None,
-                        help="release time (s) if known")
-    # `--release` alone is left for choosing a release by its number (issue 10); until then the old
-    # spelling of the time still works
-    add_deprecated_alias(parser, "--release", "--release-s", "release", float)
+                        help="release time (s) if known (fits the whole record from there)")
+    add_release_options(parser)
     parser.add_argument("--step-m", type=float, default=0.15, help="pull distance (m), default 0.15")
     parser.add_argument("--order", type=int, default=None, help="PEM order (default: 2 per cart)")
     parser.add_argument("--noise-model", choices=("oe", "innovation"), default="oe",
@@ -47,11 +45,20 @@ def run(args: argparse.Namespace) -> int:
     from ident.report.text import format_fit_report
 
     try:
-        fit = fit_path(args)
+        numbers = release_numbers(args)
+        fits = [fit_path(args, number) for number in numbers]
     except IdentError as exc:
         print(f"ident fit: error: {exc}", file=sys.stderr)
         return 2
-    report = fit.report
+    failed = [f.report for f in fits if f.report.status == "failed"]
+    if args.all:
+        if args.json:
+            print("[" + ",\n".join(f.report.model_dump_json(indent=2) for f in fits) + "]")
+        else:
+            print("\n\n".join(f"release {k}:\n" + format_fit_report(f.report, args.path)
+                              for k, f in zip(numbers, fits, strict=True)))
+        return 2 if len(failed) == len(fits) else 0
+    report = fits[0].report
     if report.status == "failed":
         print(f"ident fit: error: {report.reason}", file=sys.stderr)
         return 2
@@ -59,10 +66,38 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def fit_path(args: argparse.Namespace) -> Any:
-    """The use case on `args.path` as the options say: a `ident.fitrun.RunFit`."""
+def release_numbers(args: argparse.Namespace) -> list[int | None]:
+    """Which releases to fit: all of them (`--all`), release K (`--release K`), or the first
+    complete one; none (the whole record as loaded) with a motor input or a known release time."""
+    from ident.releases import FIRST_COMPLETE
+
+    if args.input_col is not None or args.release is not None:
+        if args.all or args.release_number is not None:
+            from ident.errors import IdentValueError
+
+            raise IdentValueError("--release/--all", "no --input or --release-s with them "
+                                  "(a release is found in a raw record of a hand release)", "both")
+        return [None]
+    if args.all:
+        from ident.io import load
+        from ident.releases import releases_of
+
+        data = load(args.path, args.time_col, args.pos_cols, args.scale, rate_hz=args.rate_hz, raw=True)
+        count = len(releases_of(data))
+        if count == 0:
+            from ident.errors import IdentValueError
+
+            raise IdentValueError("--all", "a record with releases (see `ident releases`)", "none found")
+        return list(range(1, count + 1))
+    return [args.release_number if args.release_number is not None else FIRST_COMPLETE]
+
+
+def fit_path(args: argparse.Namespace, number: int | None = None) -> Any:
+    """The use case on `args.path` as the options say, on release `number` (None: the
+    record as loaded): a `ident.fitrun.RunFit`."""
     from ident.fitrun import FitSettings, RunFileOptions, RunIdentity, fit_file
     from ident.fitrun.analysis import Method
+    from ident.releases.select import select_or_whole
 
     options = RunFileOptions(time_col=args.time_col,
                              pos_cols=None if args.pos_cols is None else tuple(args.pos_cols),
@@ -72,7 +107,8 @@ def fit_path(args: argparse.Namespace) -> Any:
     settings = FitSettings(methods=methods, carts=args.carts, order=args.order,
                            noise_model=args.noise_model, step_input=args.input_col is None)
     who = RunIdentity(run_id=run_id_of(Path(args.path)), worker="ident-fit")
-    return fit_file(args.path, who, options=options, settings=settings, diagnose=False)
+    return fit_file(args.path, who, options=options, settings=settings, diagnose=False,
+                    release=number, select=select_or_whole)
 
 
 def run_id_of(path: Path) -> str:

@@ -15,3 +15,14 @@ def add_run_file_options(parser: argparse.ArgumentParser, carts_help: str | None
     parser.add_argument("--pos", dest="pos_cols", nargs="+", default=None,
                         help="position column name(s), cart 1 first (text exports)")
     parser.add_argument("--scale", type=float, default=None, help="metres per unit of the position columns")
+
+
+def add_release_options(parser: argparse.ArgumentParser) -> None:
+    """`--release K` (dest `release_number`) and `--all` (dest `all`): which release of a raw
+    record (see `ident releases`)."""
+    group = parser.add_mutually_exclusive_group()
+    group.add_argument("--release", dest="release_number", type=int, default=None, metavar="K",
+                       help="release K of the record (1-based, as `ident releases` lists them); "
+                            "default: the first complete release")
+    group.add_argument("--all", action="store_true",
+                       help="every release of the record, one result each (a JSON array with --json)")

@@ -17,8 +17,14 @@ if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
 
-def response_figure(d: Diagnosis) -> Figure:
-    """Measured positions with the linear and the extended simulations, one axis per cart."""
+def _cart(j: int, cart_numbers: tuple[int, ...] | None) -> int:
+    """The cart the j-th fitted column reads (its column's number, else j + 1)."""
+    return cart_numbers[j] if cart_numbers is not None and j < len(cart_numbers) else j + 1
+
+
+def response_figure(d: Diagnosis, cart_numbers: tuple[int, ...] | None = None) -> Figure:
+    """Measured positions with the linear and the extended simulations, one axis per cart
+    (labelled by `cart_numbers`, the carts the fitted columns read; default 1, 2)."""
     carts = d.y.shape[1]
     fig, axes = plotting.new_figure(carts)
     rep = d.report
@@ -30,12 +36,12 @@ def response_figure(d: Diagnosis) -> Figure:
             ax.plot(d.t, d.extended[:, j],
                     label=f"with {rep.cause.replace('_', ' ')}, fit {rep.extended.fit_percent:.2f} %",
                     **plotting.ESTIMATE_STYLES[1])
-        plotting.label_axes(ax, "time (s)", f"cart {j + 1} position (m)")
+        plotting.label_axes(ax, "time (s)", f"cart {_cart(j, cart_numbers)} position (m)")
         ax.legend(loc="best")
     return fig
 
 
-def residual_figure(d: Diagnosis) -> Figure:
+def residual_figure(d: Diagnosis, cart_numbers: tuple[int, ...] | None = None) -> Figure:
     """Residuals (measured minus simulated) of both models, in mm."""
     carts = d.y.shape[1]
     fig, axes = plotting.new_figure(carts)
@@ -44,7 +50,7 @@ def residual_figure(d: Diagnosis) -> Figure:
         if d.report.cause != "none":
             ax.plot(d.t, 1e3 * (d.y[:, j] - d.extended[:, j]), label="extended model",
                     **plotting.ESTIMATE_STYLES[1])
-        plotting.label_axes(ax, "time (s)", f"cart {j + 1} residual (mm)")
+        plotting.label_axes(ax, "time (s)", f"cart {_cart(j, cart_numbers)} residual (mm)")
         ax.legend(loc="best")
     return fig
 
@@ -62,10 +68,10 @@ def envelope_figure(d: Diagnosis) -> Figure:
     return fig
 
 
-def write_figures(d: Diagnosis, directory: Path) -> list[Path]:
-    """Save the three figures as PNG and SVG in `directory`; return the paths."""
-    written: list[Path] = []
-    for name, build in (("diagnosis_response", response_figure), ("diagnosis_residuals", residual_figure),
-                        ("diagnosis_envelope", envelope_figure)):
-        written += plotting.save(build(d), directory / name)
+def write_figures(d: Diagnosis, directory: Path, cart_numbers: tuple[int, ...] | None = None) -> list[Path]:
+    """Save the three figures as PNG and SVG in `directory` (axes labelled by `cart_numbers`,
+    the carts the fitted columns read); return the paths."""
+    written = plotting.save(response_figure(d, cart_numbers), directory / "diagnosis_response")
+    written += plotting.save(residual_figure(d, cart_numbers), directory / "diagnosis_residuals")
+    written += plotting.save(envelope_figure(d), directory / "diagnosis_envelope")
     return written

@@ -84,9 +84,11 @@ def only_release(data: IdData, release: int) -> IdData:
 def load_run(path: str | Path, options: RunFileOptions = RunFileOptions(),
              release: int | None = None, select: ReleaseSelector = only_release) -> IdData:
     """Load a run file; with `release` K, the run cut to its K-th release by `select`."""
+    # raw when a release is picked: a record of several releases, or one that starts in
+    # motion, has no single release to build the step from
     data = load(path, options.time_col, None if options.pos_cols is None else list(options.pos_cols),
                 options.scale, options.release_time_s, options.step_m, options.input_col,
-                options.rate_hz)
+                options.rate_hz, raw=release is not None)
     return data if release is None else select(data, release)
 
 

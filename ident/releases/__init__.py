@@ -4,12 +4,15 @@ frozen `Release` records out; no files, clocks or printing.
 
 Modules: `record` (the `Release` record), `motion` (grid, period, smoothed derivatives),
 `hand` (the force no free cart explains: where a hand acts), `instant` (the release instant
-to a sample), `finder` (`find_releases`).
+between samples), `finder` (`find_releases`), `select` (release K of a loaded record and the
+record cut to its free response).
 """
 
 from __future__ import annotations
 
 from ident.releases.finder import find_releases
 from ident.releases.record import Release
+from ident.releases.select import FIRST_COMPLETE, choose, moving_columns, releases_of, select_release, window_of
 
-__all__ = ["Release", "find_releases"]
+__all__ = ["FIRST_COMPLETE", "Release", "choose", "find_releases", "moving_columns", "releases_of",
+           "select_release", "window_of"]

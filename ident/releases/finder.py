@@ -9,11 +9,13 @@ Steps (arrays in, `Release` records out):
    hand episodes where it is large; weaker but sustained pushes (a held cart moved, which
    moves this one through the spring) also end a free response;
 4. a candidate release is the end of a hand episode followed by a free response: at least
-   one period without a hand, ringing (two turning points) with an amplitude well above
-   the noise and the dry-friction band. The pulled cart is the column whose hand episode it
-   is; when a held cart moved as much as this one during the episode, a hand moved the held
+   one period without a hand, ringing (two turning points) with an amplitude of at least
+   a centimetre (`MIN_RELEASE_AMPLITUDE_M`) and well above the noise and the dry-friction
+   band, after a hand force comparable with the spring's at that amplitude (a touch while
+   the cart rings is not). The pulled cart is the column whose hand episode it is; when a
+   held cart moved a fifth as much as this one during the episode, a hand moved the held
    cart (a touch), not a release;
-5. `instant`: the release instant to a sample, where the free response begins;
+5. `instant`: the release instant, between samples, where the free response begins;
 6. the free response ends where the next hand episode on the pulled cart begins (the next
    release or a touch) or at the end of the record, cut when the cart still rings there.
 A record that starts in motion has no hand episode before its first free stretch: that
@@ -39,7 +41,11 @@ HELD_FRACTION = 0.25
 TOUCH_FRACTION = 0.2
 #: A release rings: at least this many turning points (a full cycle) in its free response.
 MIN_TURNS = 2
-#: Its first swing exceeds this many noise stds and this many dry-friction bands.
+#: Its first swing exceeds this many metres: students release carts by centimetres (flicks to
+#: 3–5 cm, pulls to 15 cm), while handling (nudges, a held cart's wander and touches) moves
+#: them by millimetres. `find_releases(min_amplitude_m=...)` changes it.
+MIN_RELEASE_AMPLITUDE_M = 0.01
+#: ... and this many noise stds and this many dry-friction bands.
 MIN_AMPLITUDE_SIGMAS = 30.0
 MIN_AMPLITUDE_BANDS = 4.0
 #: The hand's largest force on a released cart is at least this fraction of the spring's
@@ -50,11 +56,13 @@ SUSTAINED_SIGMAS = 2.5
 
 
 def find_releases(t: NDArray[np.float64], y: NDArray[np.float64],
-                  carts: Sequence[int] | None = None) -> list[Release]:
+                  carts: Sequence[int] | None = None,
+                  min_amplitude_m: float = MIN_RELEASE_AMPLITUDE_M) -> list[Release]:
     """Every release in a record `y` (N,) or (N, n) m on `t` (N,) s, in time order.
 
     `carts` names the columns (cart numbers, default 1..n); times are on `t`'s time base
-    (a non-uniform `t` is interpolated onto a uniform grid from `t[0]`).
+    (a non-uniform `t` is interpolated onto a uniform grid from `t[0]`); a free response
+    whose first swing is below `min_amplitude_m` (m) is handling, not a release.
     """
     m = motion(t, y)
     n_cols = m.y.shape[1]
@@ -70,6 +78,7 @@ def find_releases(t: NDArray[np.float64], y: NDArray[np.float64],
         # this cart's rest through the spring, which is not a hand on this cart
         model = fit_free_model(m, j, tuple(i for i in range(n_cols) if i != j), tuple(held))
         episodes = hand_episodes(m, model)
+        pushes = sustained_pushes(m, model)
         # where a hand begins to act, conservatively: the derivatives' smoothing (T/20 each
         # side) and the sustained pushes' moving average (T/8 each side) see it late
         stops += [(j, max(0, a - m.samples(m.period_s / 20))) for a, _ in episodes]
@@ -78,8 +87,11 @@ def find_releases(t: NDArray[np.float64], y: NDArray[np.float64],
         alone = fit_free_model(m, j, tuple(i for i in free if i != j)) if held else model
         stops += [(j, max(0, a - m.samples(m.period_s / 4))) for a, _ in sustained_pushes(m, alone)]
         for k, (a, b) in enumerate(episodes):
-            nxt = episodes[k + 1][0] if k + 1 < len(episodes) else m.n_samples
-            if is_release(m, model, a, b, nxt, free):
+            # the free stretch lasts until the next hand episode or sustained push
+            nxt = min([episodes[k + 1][0]] if k + 1 < len(episodes) else [m.n_samples])
+            nxt = min([nxt] + [max(p, b + m.samples(m.period_s / 4)) for p, q in pushes
+                               if q > b + m.samples(m.period_s / 4)])
+            if is_release(m, model, a, b, nxt, free, min_amplitude_m):
                 found.append((release_instant(m, model, a, b), j, model))
     found = _one_per_event(m, sorted(found, key=lambda f: f[0]))
     releases = []
@@ -140,7 +152,8 @@ def _runs(mask: NDArray[np.bool_], join: int) -> list[tuple[int, int]]:
     return [(int(a), int(b)) for a, b in zip(starts, ends, strict=True)]
 
 
-def is_release(m: Motion, model: FreeModel, first: int, last: int, nxt: int, free: list[int]) -> bool:
+def is_release(m: Motion, model: FreeModel, first: int, last: int, nxt: int, free: list[int],
+               min_amplitude_m: float = MIN_RELEASE_AMPLITUDE_M) -> bool:
     """Whether the hand episode [first, last] of `model.column` lets a cart go (step 4)."""
     j = model.column
     at_end = nxt >= m.n_samples
@@ -155,7 +168,7 @@ def is_release(m: Motion, model: FreeModel, first: int, last: int, nxt: int, fre
         return False
     span = x[last:min(stop, last + m.samples(m.period_s))]
     amplitude = 0.5 * float(np.ptp(span))
-    if amplitude < level:
+    if amplitude < max(level, min_amplitude_m):
         return False
     # a hand that lets a cart go held it against the spring: its force was comparable with
     # the spring's at the amplitude that follows (a touch while the cart rings is not)

@@ -97,7 +97,18 @@ def period_average(m: Motion, x: FloatArray) -> FloatArray:
 def fit_free_model(m: Motion, column: int, others: tuple[int, ...] = (),
                    slow: tuple[int, ...] = ()) -> FreeModel:
     """Robust fit of the free equation of motion of `column` (see the module docstring);
-    the `slow` columns among `others` enter by their period average (`regressors`)."""
+    the `slow` columns among `others` enter by their period average (`regressors`). A spring
+    to another cart is part of this cart's own stiffness (|k_ji| <= k_jj): a fit that breaks
+    that (a short record where a held cart's average says nothing) is redone without them."""
+    model = _fit(m, column, others, slow)
+    k = model.stiffness
+    if slow and any(abs(float(k[1 + others.index(i)])) > abs(float(k[0])) for i in slow if i in others):
+        kept = tuple(i for i in others if i not in slow)
+        return _fit(m, column, kept, ())
+    return model
+
+
+def _fit(m: Motion, column: int, others: tuple[int, ...], slow: tuple[int, ...]) -> FreeModel:
     v = m.v[:, column]
     speed = float(np.percentile(np.abs(v), 95))
     v_smooth = max(0.02 * speed, 3.0 * float(m.noise_m[column]) / m.dt / 10.0, 1e-9)

@@ -47,7 +47,6 @@ def test_scan_sees_the_options_it_checks() -> None:
 @pytest.mark.parametrize(("command", "old", "new", "dest"), [
     ("diagnose", "--step", "--step-m", "step_m"),
     ("fit", "--rate", "--rate-hz", "rate_hz"),
-    ("fit", "--release", "--release-s", "release"),
 ])
 def test_old_spellings_still_work_and_say_the_new_name(command: str, old: str, new: str, dest: str,
                                                        capsys: pytest.CaptureFixture[str]) -> None:
@@ -59,3 +58,13 @@ def test_old_spellings_still_work_and_say_the_new_name(command: str, old: str, n
         ident_main([command, "--help"])
     shown = capsys.readouterr().out
     assert new in shown and f"{old} " not in shown.replace(new, "")
+
+
+def test_release_picks_a_release_by_its_number_in_fit_and_diagnose() -> None:
+    # issue 10: `--release K` is the K-th release of the record (the time is `--release-s`)
+    for command in ("fit", "diagnose"):
+        args = ident_parser().parse_args([command, "run.csv", "--release", "2"])
+        assert args.release_number == 2 and args.all is False
+        assert ident_parser().parse_args([command, "run.csv", "--all"]).all is True
+        with pytest.raises(SystemExit):
+            ident_parser().parse_args([command, "run.csv", "--release", "0.25"])

@@ -1,0 +1,90 @@
+"""A release of a loaded record, and the record cut to its free response.
+
+`choose(releases, number)`: release K (1-based), or with `FIRST_COMPLETE` the first release
+the record does not cut (else the first); `window_of(data, release)`: the record from the
+release instant to the end of its free response, with the release step at that instant;
+`select_release(data, number)`: both, as `ident.fitrun`'s release selector. No file I/O.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import replace
+
+import numpy as np
+
+from ident.data import IdData, from_release
+from ident.errors import IdentValueError
+from ident.releases.finder import find_releases
+from ident.releases.record import Release
+
+#: `number` meaning "the first complete release" (the default of `ident fit` and `diagnose`).
+FIRST_COMPLETE = 0
+#: Fewest samples a window keeps (the fitters' minimum is 20).
+MIN_WINDOW_SAMPLES = 50
+
+
+def choose(releases: Sequence[Release], number: int) -> Release:
+    """Release `number` (1-based) or, for `FIRST_COMPLETE`, the first complete one."""
+    if not releases:
+        raise IdentValueError("release", "a record with a release (a free response after a hand "
+                              "let a cart go; see `ident releases`)", "none found")
+    if number == FIRST_COMPLETE:
+        return next((r for r in releases if r.complete), releases[0])
+    if not 1 <= number <= len(releases):
+        raise IdentValueError("release", f"a number from 1 to {len(releases)} (see `ident releases`)",
+                              number)
+    return releases[number - 1]
+
+
+def window_of(data: IdData, release: Release, step_m: float | None = None) -> IdData:
+    """`data` from the sample before the release to the end of its free response (at least
+    `MIN_WINDOW_SAMPLES` samples), the input a step at the release, the pulled cart known."""
+    # one sample before the release: the fitters see the step happen inside the window
+    start = max(0, int(np.searchsorted(data.t, release.release_time_s, side="left")) - 1)
+    stop = int(np.searchsorted(data.t, release.end_time_s, side="right"))
+    stop = min(max(stop, start + MIN_WINDOW_SAMPLES), data.n_samples)
+    start = max(0, min(start, stop - MIN_WINDOW_SAMPLES))
+    t, y = data.t[start:stop], data.y[start:stop]
+    step = step_m if step_m is not None else (data.step_amplitude or 0.15)
+    numbers = data.cart_numbers()
+    pulled = numbers.index(release.pulled_cart) + 1 if release.pulled_cart in numbers else None
+    cut = from_release(t, y, float(max(release.release_time_s, t[0])), step, pulled, data.name)
+    note = (f"release {release.number}: {release.release_time_s:.4f} s to {release.end_time_s:.4f} s "
+            f"(cart {release.pulled_cart} pulled, {'complete' if release.complete else 'cut by the record'})")
+    return replace(cut, notes=(*data.notes, note), columns=data.columns)
+
+
+def releases_of(data: IdData) -> list[Release]:
+    """Every release in a loaded record, named by its columns' carts."""
+    return find_releases(data.t, data.y, data.cart_numbers())
+
+
+def select_release(data: IdData, number: int) -> IdData:
+    """`ident.fitrun`'s release selector: the record cut to release `number`."""
+    return window_of(data, choose(releases_of(data), number))
+
+
+def moving_columns(data: IdData, release: Release | None) -> list[int]:
+    """0-based columns of the carts that move freely: the release's, or without one, the
+    columns whose swing is at least a quarter of the largest (a constant column never)."""
+    if release is not None:
+        numbers = data.cart_numbers()
+        return [numbers.index(c) for c in release.moving_carts if c in numbers]
+    swing = np.ptp(data.y, axis=0)
+    if float(np.max(swing)) <= 0.0:
+        return []
+    return [j for j in range(data.n_outputs) if swing[j] >= 0.25 * float(np.max(swing))]
+
+
+def select_or_whole(data: IdData, number: int) -> IdData:
+    """The record cut to release `number`; for `FIRST_COMPLETE` in a record where no release
+    is found (a daq run the finder cannot place, a motor input), the whole record with the
+    release step where it is known or estimated, as before releases were found."""
+    releases = releases_of(data)
+    if releases or number != FIRST_COMPLETE:
+        return window_of(data, choose(releases, number))
+    step = data.step_amplitude or 0.15
+    whole = from_release(data.t, data.y, data.release_time_s, step, data.pulled_cart, data.name)
+    return replace(whole, notes=(*data.notes, *whole.notes, "no release found: the whole record is fitted"),
+                   columns=data.columns)

@@ -1,0 +1,66 @@
+"""Every complete real hand release, through `ident diagnose` with no `--carts`, names dry
+friction among its effects with a positive gain, fits the released cart alone (the held
+cart is never fitted as free) and labels it with its own number (shared/realdata, skipped
+when absent).
+
+ECP-210 2025 records (cart 2 flicked, cart 1 held): `--all` diagnoses each release on its
+own window; the 2023 `DOF1_en2_manual2` hand steps (encoder 2 only): the default release.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from ident.cli import main
+
+M_PER_COUNT_2025 = 1.0 / 56000.0
+M_PER_COUNT_2023 = 1.0 / 560 / 100
+RECORDS_2025 = ["07-Feb-2025_11_29_09.txt", "07-Feb-2025_11_32_48.txt", "14-Feb-2025_09_22_43.txt",
+                "14-Feb-2025_09_44_21.txt"]
+
+
+def _check(report: dict[str, object]) -> None:
+    effects = [e["effect"] for e in report["effects"]]   # type: ignore[attr-defined]
+    print(f"  release {report['release_time_s']:.3f} s: cause {report['cause']}, effects {effects}, "
+          f"gain {report['gain_points']:+.2f}, fit {report['baseline']['fit_percent']:.1f} -> "   # type: ignore[index]
+          f"{report['extended']['fit_percent']:.1f} %")   # type: ignore[index]
+    assert report["carts"] == 1
+    assert "coulomb_friction" in effects
+    assert float(report["gain_points"]) > 0.0   # type: ignore[arg-type]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", RECORDS_2025)
+def test_each_complete_2025_release_shows_dry_friction(realdata_dir: Path, name: str, tmp_path: Path,
+                                                       capsys: pytest.CaptureFixture[str]) -> None:
+    path = realdata_dir / "ECP210_UCSD_2025_team1" / name
+    if not path.exists():
+        pytest.skip(f"{name} not in the real-data folder")
+    assert main(["releases", str(path), "--scale", repr(M_PER_COUNT_2025), "--json"]) == 0
+    releases = json.loads(capsys.readouterr().out)
+    assert main(["diagnose", str(path), "--scale", repr(M_PER_COUNT_2025), "--all", "--json",
+                 "--figures", str(tmp_path)]) == 0
+    reports = json.loads(capsys.readouterr().out)
+    assert len(reports) == len(releases)
+    for release, report in zip(releases, reports, strict=True):
+        # the diagnosis is fitted inside the release's window
+        assert release["release_time_s"] - 1e-9 <= report["window_start_s"]
+        assert report["window_end_s"] <= release["end_time_s"] + 1e-9
+        if release["complete"]:
+            _check(report)
+    svg = (tmp_path / "release1" / "diagnosis_response.svg").read_text()
+    assert "cart 2 position" in svg and "cart 1 position" not in svg
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("test", range(1, 6))
+def test_each_2023_hand_step_shows_dry_friction(realdata_dir: Path, test: int,
+                                               capsys: pytest.CaptureFixture[str]) -> None:
+    path = realdata_dir / "ECP210_UCSD_2023_Parker-Knopf" / "Open_Loop" / f"DOF1_en2_manual2_test{test}.csv"
+    if not path.exists():
+        pytest.skip(f"{path.name} not in the real-data folder")
+    assert main(["diagnose", str(path), "--pos", "Encoder 2", "--scale", repr(M_PER_COUNT_2023), "--json"]) == 0
+    _check(json.loads(capsys.readouterr().out))
