@@ -5,8 +5,8 @@ Flicks and pull-hold-releases, 1–4 per record, nudges, a loosely held cart tha
 is touched, records that start in motion, back-to-back releases, the last one cut, at 50,
 100, 200 and 1000 Hz. At least 90 % of the true releases must be found once (at most 5 %
 elsewhere), with the right pulled cart and the held cart not among the moving ones, at the
-simulator's instant within two sample periods or 5 ms (the smoothing of a 50 Hz record spans a tenth of a period); nothing may be
-found in records of handling only.
+simulator's instant within two sample periods or 5 ms (the smoothing of a 50 Hz record spans
+a tenth of a period); nothing may be found in records of handling only.
 """
 
 from __future__ import annotations
