@@ -89,8 +89,9 @@ def find_releases(t: NDArray[np.float64], y: NDArray[np.float64],
         for k, (a, b) in enumerate(episodes):
             # the free stretch lasts until the next hand episode or sustained push
             nxt = min([episodes[k + 1][0]] if k + 1 < len(episodes) else [m.n_samples])
+            # (one that only trails the episode by the moving average's width is the episode)
             nxt = min([nxt] + [max(p, b + m.samples(m.period_s / 4)) for p, q in pushes
-                               if q > b + m.samples(m.period_s / 4)])
+                               if q > b + m.samples(m.period_s / 2)])
             if is_release(m, model, a, b, nxt, free, min_amplitude_m):
                 found.append((release_instant(m, model, a, b), j, model))
     found = _one_per_event(m, sorted(found, key=lambda f: f[0]))
