@@ -88,7 +88,7 @@ def load_run(path: str | Path, options: RunFileOptions = RunFileOptions(),
     # motion, has no single release to build the step from
     data = load(path, options.time_col, None if options.pos_cols is None else list(options.pos_cols),
                 options.scale, options.release_time_s, options.step_m, options.input_col,
-                options.rate_hz, raw=release is not None)
+                options.rate_hz, raw=release is not None and select is not only_release)
     return data if release is None else select(data, release)
 
 

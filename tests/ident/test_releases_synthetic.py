@@ -11,10 +11,15 @@ a tenth of a period); nothing may be found in records of handling only.
 
 from __future__ import annotations
 
+import json
+from pathlib import Path
+
 import numpy as np
 import pytest
 
+from ident.cli import main
 from ident.releases import find_releases
+from testkit.effects import make_case
 from testkit.student_records import RATES_HZ, handling_record, student_record
 
 SEEDS = range(20, 30)
@@ -83,3 +88,33 @@ def test_a_flat_record_has_no_release() -> None:
     t = np.arange(0.0, 5.0, 0.01)
     y = np.zeros((t.size, 2))
     assert find_releases(t, y) == []
+
+
+def _csv(path: Path, t: np.ndarray, y: np.ndarray) -> Path:
+    rows = "\n".join(",".join(f"{v:.8f}" for v in (ti, *yi)) for ti, yi in zip(t, y, strict=True))
+    path.write_text("time_s,pos1_m,pos2_m\n" + rows + "\n")
+    return path
+
+
+def test_diagnose_fits_the_moving_cart_of_a_run_with_a_constant_column(tmp_path: Path,
+                                                                       capsys: pytest.CaptureFixture[str]) -> None:
+    # the demo's one-cart runs: cart 1 pinned (reads 0), cart 2 released
+    case = make_case(5, "coulomb_friction", carts=1, release="hold")
+    t, y = case.observed.t, case.observed.y
+    path = _csv(tmp_path / "one_cart.csv", t, np.column_stack([np.zeros(t.size), y[:, 0]]))
+    assert main(["diagnose", str(path), "--json", "--figures", str(tmp_path / "fig")]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert report["carts"] == 1 and report["cause"] == "coulomb_friction"
+    assert np.isfinite(report["baseline"]["fit_percent"])
+    svg = (tmp_path / "fig" / "diagnosis_response.svg").read_text()
+    assert "cart 2 position" in svg and "cart 1 position" not in svg
+
+
+def test_diagnose_never_fits_a_wandering_held_cart_as_free(tmp_path: Path,
+                                                           capsys: pytest.CaptureFixture[str]) -> None:
+    rec = student_record(31, 200.0, 2, both_free=False, start_in_motion=False)
+    path = _csv(tmp_path / "held.csv", rec.t, rec.y)
+    assert main(["diagnose", str(path), "--all", "--json"]) == 0
+    reports = json.loads(capsys.readouterr().out)
+    assert len(reports) == len(find_releases(rec.t, rec.y)) >= 1
+    assert all(r["carts"] == 1 for r in reports)
