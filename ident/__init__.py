@@ -7,6 +7,13 @@ function shares its name with a module (`ident.pem` is the function, defined in
 `ident.lti`, its matrix form in `ident.zoh`).
 """
 
+import os
+
+# The fits are small dense problems: a multi-threaded BLAS only adds contention (2-5x slower
+# measured on a loaded 2-core bench PC). OpenBLAS reads this once, when numpy first loads,
+# which the imports below do; so it is set here, before them (a value already set wins).
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
 __version__ = "0.1.0"
 
 from ident.comparison import ResidualTest, compare, fit_percent, resid, simulate

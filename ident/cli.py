@@ -4,13 +4,10 @@ from __future__ import annotations
 
 import argparse
 import importlib
-import os
 import sys
 from collections.abc import Sequence
 
-# The fits here are small dense problems: a multi-threaded BLAS only adds contention
-# (2-5x slower measured on a loaded 2-core bench PC). Must be set before numpy loads.
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+# One BLAS thread for the small fits: set by `ident/__init__.py`, which runs before this module.
 
 #: Commands that show progress on stderr (a terminal only; `-q/--quiet` turns it off).
 WITH_PROGRESS: tuple[str, ...] = ("fit", "diagnose", "report")

@@ -3,7 +3,10 @@
 from __future__ import annotations
 
 import importlib
+import os
 import pkgutil
+import subprocess
+import sys
 from types import ModuleType
 
 import numpy as np
@@ -42,3 +45,25 @@ def test_pem_and_compare_stay_callable_after_their_modules_are_imported() -> Non
 def test_unknown_names_raise_attribute_error() -> None:
     with pytest.raises(AttributeError, match="no attribute 'nope'"):
         _ = ident.nope
+
+
+_BLAS_THREADS = """
+import ctypes, glob, os, sys
+import ident.cli
+import numpy
+libs = glob.glob(os.path.join(os.path.dirname(numpy.__file__), os.pardir, "numpy.libs", "*openblas*"))
+getters = [getattr(ctypes.CDLL(lib), name, None) for lib in libs
+           for name in ("scipy_openblas_get_num_threads64_", "openblas_get_num_threads64_",
+                        "openblas_get_num_threads")]
+found = [g for g in getters if g is not None]
+print(found[0]() if found else "unknown")
+"""
+
+
+def test_the_command_line_runs_blas_on_one_thread() -> None:
+    env = {k: v for k, v in os.environ.items() if k != "OPENBLAS_NUM_THREADS"}
+    out = subprocess.run([sys.executable, "-c", _BLAS_THREADS], env=env, capture_output=True, text=True,
+                         check=True, timeout=120).stdout.strip()
+    if out == "unknown":
+        pytest.skip("numpy's bundled OpenBLAS not found: cannot ask it for its thread count")
+    assert out == "1"
