@@ -181,6 +181,7 @@ def analyse_fits(data: IdData, settings: FitSettings = FitSettings()) -> RunAnal
     case, moving = choose_case(data, settings.carts)
     columns = [c - 1 for c in moving]
     cart_data = data.select_outputs(columns) if data.n_outputs != len(columns) else data
+    case, moving = _named(data, case, columns)
     timings: dict[str, float] = {}
     errors: dict[str, str] = {}
     simple: list[SimpleResult] = []
@@ -201,6 +202,16 @@ def analyse_fits(data: IdData, settings: FitSettings = FitSettings()) -> RunAnal
     analysis = RunAnalysis(case, cart_data, moving, tuple(simple), model, y_hat,
                            timings_s=timings, errors=errors)
     return dataclasses.replace(analysis, envelope=envelope_of(analysis))
+
+
+def _named(data: IdData, case: LabCase, columns: list[int]) -> tuple[LabCase, tuple[int, ...]]:
+    """The case and carts by the carts the columns read (`IdData.cart_numbers`: a file whose
+    only column is 'Encoder 2 Pos' is cart 2, not cart 1)."""
+    numbers = data.cart_numbers()
+    named = tuple(numbers[c] for c in columns)
+    if len(named) == 1 and named[0] in (1, 2):
+        return ("cart1" if named[0] == 1 else "cart2"), named
+    return case, named if set(named) <= {1, 2} else tuple(c + 1 for c in columns)
 
 
 def envelope_of(analysis: RunAnalysis) -> Envelope | None:
