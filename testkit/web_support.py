@@ -290,8 +290,11 @@ def chromium_paths() -> tuple[str | None, str | None]:
     return browser, driver
 
 
-def chromium_driver(user_data_dir: str) -> Any:
-    """A Selenium driver on Debian's headless Chromium (Selenium Manager downloads nothing)."""
+def chromium_driver(user_data_dir: str, extra_flags: tuple[str, ...] = ()) -> Any:
+    """A Selenium driver on Debian's headless Chromium (Selenium Manager downloads nothing).
+
+    `extra_flags`: more command-line flags, e.g. ``--host-resolver-rules=MAP name 127.0.0.1``
+    to play a DNS-rebinding page."""
     from selenium import webdriver
     from selenium.webdriver.chrome.service import Service
 
@@ -299,7 +302,7 @@ def chromium_driver(user_data_dir: str) -> Any:
     assert browser and driver, "chromium and chromedriver must be installed"
     options = webdriver.ChromeOptions()
     options.binary_location = browser
-    for flag in (*CHROMIUM_FLAGS, f"--user-data-dir={user_data_dir}"):
+    for flag in (*CHROMIUM_FLAGS, *extra_flags, f"--user-data-dir={user_data_dir}"):
         options.add_argument(flag)
     return webdriver.Chrome(service=Service(executable_path=driver), options=options)
 

@@ -2,6 +2,7 @@
 
     python -m daq.web [--host 127.0.0.1] [--port 8000] [--connect tcp/127.0.0.1:7447]
                       [--listen ENDPOINT] [--zenoh-config FILE] [--runs-dir DIR]
+                      [--allow-host NAME]
 
 By default the server is a Zenoh peer that connects to a daq on this machine
 (`tcp/127.0.0.1:7447`, the daq's default listener) and serves on loopback only.
@@ -37,6 +38,10 @@ def build_parser() -> argparse.ArgumentParser:
                         help="Zenoh JSON5 config file, used as it is (overrides the above)")
     parser.add_argument("--runs-dir", type=Path, default=None,
                         help="the daq's runs directory, to serve MCAP files, reports, figures")
+    parser.add_argument("--allow-host", action="append", default=[], metavar="NAME",
+                        help="a name the page may be reached by besides localhost and --host "
+                        "(repeatable; e.g. the lab PC's name when serving the room with "
+                        "--host 0.0.0.0); requests with any other Host are refused")
     parser.add_argument("--display-hz", type=float, default=DEFAULT_DISPLAY_HZ,
                         help=f"points per second per cart sent to the page "
                         f"(default {DEFAULT_DISPLAY_HZ:g}; recording is never decimated)")
@@ -47,7 +52,8 @@ def settings_from_args(args: argparse.Namespace) -> WebSettings:
     connect = list(args.connect) or ([] if args.listen else [DEFAULT_LISTEN])
     bus = BusConfig(mode=args.mode, listen=list(args.listen), connect=connect,
                     config_file=None if args.zenoh_config is None else str(args.zenoh_config))
-    return WebSettings(bus=bus, runs_dir=args.runs_dir, display_hz=args.display_hz)
+    return WebSettings(bus=bus, runs_dir=args.runs_dir, display_hz=args.display_hz,
+                       allow_hosts=tuple(args.allow_host))
 
 
 def serve(settings: WebSettings, host: str, port: int) -> None:

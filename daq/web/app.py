@@ -11,6 +11,7 @@
 | `GET /files/R/fit/F` | a file of the run's fit folder (report, figures) |
 
 Names in paths are checked by `schemas.keys.check_name`; files never leave the runs dir.
+Every route answers only to a Host the server knows (`daq.web.hosts`: DNS rebinding).
 """
 
 from __future__ import annotations
@@ -23,12 +24,14 @@ from pathlib import Path
 from typing import Any
 
 from starlette.applications import Starlette
+from starlette.middleware import Middleware
 from starlette.requests import Request
 from starlette.responses import FileResponse, JSONResponse, PlainTextResponse, Response, StreamingResponse
 from starlette.routing import Mount, Route
 from starlette.staticfiles import StaticFiles
 
 from daq.web.files import RunFileError, fit_file_path, mcap_path
+from daq.web.hosts import HostCheck, allowed_hosts
 from daq.web.hub import Event
 from daq.web.service import WebService
 from schemas import keys, topics
@@ -52,8 +55,8 @@ def _bench_param(request: Request) -> str | None:
     return None if bench is None else keys.check_name("bench", bench)
 
 
-def build_app(service: WebService) -> Starlette:
-    """The Starlette app around a (not yet started) `WebService`."""
+def build_app(service: WebService, bind_host: str = "127.0.0.1") -> Starlette:
+    """The Starlette app around a (not yet started) `WebService`, served on `bind_host`."""
 
     @asynccontextmanager
     async def lifespan(app: Starlette) -> AsyncIterator[None]:
@@ -153,7 +156,9 @@ def build_app(service: WebService) -> Starlette:
         Mount("/static", StaticFiles(directory=STATIC_DIR), name="static"),
     ]
     handlers: dict[Any, Any] = {SchemaError: bad_name, RunFileError: missing_file}
-    app = Starlette(routes=routes, lifespan=lifespan, exception_handlers=handlers)
+    hosts = allowed_hosts(bind_host, service.settings.allow_hosts)
+    app = Starlette(routes=routes, lifespan=lifespan, exception_handlers=handlers,
+                    middleware=[Middleware(HostCheck, allowed=hosts)])
     app.state.service = service
     return app
 

@@ -23,7 +23,7 @@ from daq.web.service import WebService, WebSettings
 class BenchPageServer(uvicorn.Server):
     def __init__(self, settings: WebSettings, host: str = "127.0.0.1", port: int = 8000) -> None:
         self.service = WebService(settings)
-        config = uvicorn.Config(build_app(self.service), host=host, port=port, log_level="warning",
+        config = uvicorn.Config(build_app(self.service, host), host=host, port=port, log_level="warning",
                                 lifespan="on", timeout_graceful_shutdown=2)
         super().__init__(config)
 

@@ -54,6 +54,8 @@ class WebSettings:
     flush_s: float = 0.05
     status_every_s: float = 1.0
     query_timeout_s: float = 2.0
+    #: Host names (or addresses) the page answers to besides loopback and its bind address.
+    allow_hosts: tuple[str, ...] = ()
 
 
 class WebService:

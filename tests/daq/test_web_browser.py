@@ -279,3 +279,26 @@ def test_an_unplugged_encoder_port_is_reported_and_cleared(browser: Any, page: P
     finally:
         log = unplugging.stop()
     assert "back after" in log
+
+
+def test_a_dns_rebinding_page_is_refused(page: PageServer, workdir: Path) -> None:
+    """A foreign name resolved to 127.0.0.1 (what DNS rebinding does) gets neither the page nor
+    the buttons: the server refuses its Host, the browser's own same-origin fetch included."""
+    rules = "--host-resolver-rules=MAP rebind.example 127.0.0.1"
+    driver = chromium_driver(str(workdir / "chromium-rebind"), (rules,))
+    try:
+        driver.set_page_load_timeout(20)
+        driver.get(f"http://rebind.example:{page.port}/")
+        assert "expected one of" in driver.find_element("tag name", "body").text
+        assert not driver.find_elements("id", "plot")
+        result = driver.execute_async_script("""
+            const done = arguments[arguments.length - 1];
+            const post = (p) => fetch(p, {method: 'POST', headers: {'X-Cartlab-Action': '1'}}).then(r => r.status);
+            Promise.all([post('/api/bench/benchA/zero'), post('/api/bench/benchA/arm'),
+                         fetch('/api/snapshot').then(r => r.status), fetch('/files/x/mcap').then(r => r.status)])
+              .then(done, (e) => done(String(e)));""")
+        assert result == [403, 403, 403, 403]
+        driver.get(f"http://127.0.0.1:{page.port}/")                 # the right name still works
+        assert driver.find_elements("id", "plot")
+    finally:
+        driver.quit()

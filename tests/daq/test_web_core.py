@@ -172,7 +172,9 @@ def test_command_line_defaults_and_errors(tmp_path: Path, capsys: pytest.Capture
 
     settings = settings_from_args(build_parser().parse_args([]))
     assert settings.bus.connect == ["tcp/127.0.0.1:7447"] and settings.bus.listen == []
-    assert settings.runs_dir is None and settings.display_hz == 250.0
+    assert settings.runs_dir is None and settings.display_hz == 250.0 and settings.allow_hosts == ()
+    assert settings_from_args(build_parser().parse_args(
+        ["--allow-host", "labpc", "--allow-host", "labpc.local"])).allow_hosts == ("labpc", "labpc.local")
     settings = settings_from_args(build_parser().parse_args(
         ["--listen", "tcp/127.0.0.1:7450", "--runs-dir", str(tmp_path), "--display-hz", "100"]))
     assert settings.bus.connect == [] and settings.bus.listen == ["tcp/127.0.0.1:7450"]
@@ -183,3 +185,15 @@ def test_command_line_defaults_and_errors(tmp_path: Path, capsys: pytest.Capture
         with pytest.raises(SystemExit) as exc:
             main(argv)
         assert exc.value.code == 2 and message in capsys.readouterr().err
+
+
+def test_host_names_and_the_allowed_set() -> None:
+    from daq.web.hosts import allowed_hosts, host_name
+    assert host_name("LocalHost:8000") == "localhost"
+    assert host_name("[::1]:8000") == "::1" and host_name("[::1]") == "::1"
+    assert host_name("evil.example.") == "evil.example"
+    assert allowed_hosts("0.0.0.0") == frozenset({"localhost", "127.0.0.1", "::1"})
+    assert allowed_hosts("::") == frozenset({"localhost", "127.0.0.1", "::1"})
+    assert "192.168.1.20" in allowed_hosts("192.168.1.20")
+    assert "fe80::1" in allowed_hosts("fe80::1")
+    assert "labpc" in allowed_hosts("0.0.0.0", ["LabPC:8000"])

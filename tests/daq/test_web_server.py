@@ -244,3 +244,24 @@ def test_the_command_serves_and_stops_cleanly_on_a_signal_with_a_page_open(
         if proc.poll() is None:
             proc.kill()
             proc.wait(5)
+
+
+def test_a_foreign_host_header_is_refused_on_every_route(page: PageServer, daq: FakeDaq,
+                                                          events: SseReader) -> None:
+    """DNS rebinding: a foreign name resolved to 127.0.0.1 sends its own Host; it gets nothing."""
+    routes = [("GET", "/"), ("GET", "/api/snapshot?bench=bench1"), ("GET", "/api/events?bench=bench1"),
+              ("GET", "/api/stats"), ("GET", "/files/r1/mcap"), ("GET", "/files/r1/fit/report.json"),
+              ("GET", "/static/app.js"), ("POST", "/api/bench/bench1/zero"), ("POST", "/api/bench/bench1/arm")]
+    for host in ("evil.example", f"evil.example:{page.port}", "127.0.0.1.evil.example", ""):
+        for method, path in routes:
+            headers = {"Host": host, "X-Cartlab-Action": "1"}
+            status, body = page.request(method, path, headers=headers)
+            assert status == 403 and b"expected one of" in body, (host, method, path, status)
+    assert daq.st.zero_calls == 0
+    for host in (f"127.0.0.1:{page.port}", f"localhost:{page.port}", "LOCALHOST", f"[::1]:{page.port}"):
+        assert page.request("GET", "/api/stats", headers={"Host": host})[0] == 200, host
+    status, _ = page.request("POST", "/api/bench/bench1/zero", headers={"Host": f"localhost:{page.port}"})
+    assert status == 403 and daq.st.zero_calls == 0      # the cross-site header is still needed
+    status, _ = page.request("POST", "/api/bench/bench1/zero",
+                             headers={"Host": f"localhost:{page.port}", "X-Cartlab-Action": "1"})
+    assert status == 200 and daq.st.zero_calls == 1
