@@ -3,7 +3,8 @@
 A plain state machine fed with `schemas` records (by the Zenoh adapter, on the event
 loop, never on a Zenoh thread). Every change queues an `Event`; `flush()` hands out the
 queued events plus one decimated `samples` event per bench, so the page receives at most
-one batch per bench per flush (the server flushes every 50 ms: at most 20 updates/s).
+one batch per bench per flush (the server flushes every 50 ms: at most 20 updates/s). What
+was flushed also goes to the bench's bounded `History`, which the snapshot carries.
 
 Pure: no clock, no I/O, no Zenoh. Names in events are JSON-ready dicts.
 """
@@ -14,7 +15,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
-from daq.web.live import DEFAULT_DISPLAY_HZ, Decimator
+from daq.web.live import DEFAULT_DISPLAY_HZ, Decimator, History
 from daq.web.runs_view import fit_summary, run_row
 from schemas.daq import DaqStatus, DetectorStateMsg, RunFinished, RunList, SampleBatch
 from schemas.fit import FitReport
@@ -44,6 +45,7 @@ class BenchView:
     finished: dict[str, RunFinished] = field(default_factory=dict)
     fits: dict[str, FitReport] = field(default_factory=dict)
     decimator: Decimator = field(default_factory=Decimator)
+    history: History = field(default_factory=History)
 
 
 def bench_problems(view: BenchView) -> list[str]:
@@ -85,7 +87,8 @@ class Hub:
     def bench(self, name: str) -> BenchView:
         view = self.benches.get(name)
         if view is None:
-            view = BenchView(name=name, decimator=Decimator(self.display_hz))
+            view = BenchView(name=name, decimator=Decimator(self.display_hz),
+                             history=History(self.display_hz))
             self.benches[name] = view
         return view
 
@@ -169,7 +172,7 @@ class Hub:
         if bench is None:
             nobody = {"bench": None, "alive": False, "status": None, "problems": [NO_DAQ]}
             return {"bench": None, "benches": self.bench_list(), "state": None,
-                    "status": nobody, "runs": []}
+                    "status": nobody, "runs": [], "history": None}
         view = self.benches.get(bench) or BenchView(name=bench)  # a name asked for is not stored
         return {
             "bench": bench,
@@ -177,6 +180,7 @@ class Hub:
             "state": None if view.state is None else view.state.model_dump(mode="json"),
             "status": status_view(view),
             "runs": self.rows(bench),
+            "history": view.history.as_event(bench),
         }
 
     def flush(self) -> list[Event]:
@@ -185,5 +189,6 @@ class Hub:
         for name, view in self.benches.items():
             pending = view.decimator.take()
             if pending is not None:
+                view.history.extend(pending)
                 events.append(Event("samples", name, pending.as_event(name)))
         return events

@@ -7,11 +7,16 @@ the kept samples stay evenly spaced in time. A missing second channel is sent as
 (JSON has no NaN). The rate is read from the batch itself,
 `rate_hz = (n - 1) / (t_ns[-1] - t_ns[0]) * 1e9`.
 
+`History` keeps the last 30 s of what was sent, so that a page that opens shows the recent
+past at once (in its snapshot) and then streams.
+
 Pure: no clock, no I/O, no Zenoh. The recording (MCAP) never passes through here.
 """
 
 from __future__ import annotations
 
+import math
+from collections import deque
 from dataclasses import dataclass, field
 
 from schemas.daq import SampleBatch
@@ -82,3 +87,47 @@ class Decimator:
             return None
         self._pending = DecimatedSamples()
         return pending
+
+
+#: Seconds of display samples a page gets when it opens (the widest plot window).
+HISTORY_S = 30.0
+
+
+class History:
+    """The last `seconds` of display samples of one bench, bounded, for pages that open late.
+
+    Holds at most ``ceil(display_hz * seconds) + 1`` points (a 30 s window at 250 points/s:
+    7501 points per cart, about 0.2 MB of JSON) and drops points older than `seconds`
+    before the newest; a clock that jumps back by more than 1 s (a restarted daq) starts
+    it afresh, as the page does.
+    """
+
+    def __init__(self, display_hz: float = DEFAULT_DISPLAY_HZ, seconds: float = HISTORY_S) -> None:
+        if not (display_hz > 0 and seconds > 0):
+            raise ValueError(f"history: expected display_hz > 0 and seconds > 0, got "
+                             f"{display_hz!r} and {seconds!r}")
+        self.seconds = seconds
+        self.capacity = math.ceil(display_hz * seconds) + 1
+        self.t_s: deque[float] = deque(maxlen=self.capacity)
+        self.pos1_m: deque[float] = deque(maxlen=self.capacity)
+        self.pos2_m: deque[float | None] = deque(maxlen=self.capacity)
+        self.has_pos2 = False
+
+    def extend(self, kept: DecimatedSamples) -> None:
+        if not kept.t_s:
+            return
+        if self.t_s and kept.t_s[0] < self.t_s[-1] - 1.0:
+            self.t_s.clear(); self.pos1_m.clear(); self.pos2_m.clear()  # noqa: E702
+        pos2 = kept.pos2_m if kept.pos2_m is not None else [None] * len(kept.t_s)
+        self.has_pos2 = self.has_pos2 or kept.pos2_m is not None
+        self.t_s.extend(kept.t_s)
+        self.pos1_m.extend(kept.pos1_m)
+        self.pos2_m.extend(pos2)
+        oldest = self.t_s[-1] - self.seconds
+        while self.t_s and self.t_s[0] < oldest:
+            self.t_s.popleft(); self.pos1_m.popleft(); self.pos2_m.popleft()  # noqa: E702
+
+    def as_event(self, bench: str) -> dict[str, object]:
+        """The same shape as a `samples` event (`n_raw` 0: these samples were counted)."""
+        return {"bench": bench, "t_s": list(self.t_s), "pos1_m": list(self.pos1_m),
+                "pos2_m": list(self.pos2_m) if self.has_pos2 else None, "n_raw": 0}

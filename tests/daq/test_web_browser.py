@@ -8,6 +8,7 @@ key: this tests the page, not the fitter.
 
 from __future__ import annotations
 
+import itertools
 import json
 import tempfile
 import urllib.request
@@ -300,5 +301,38 @@ def test_a_dns_rebinding_page_is_refused(page: PageServer, workdir: Path) -> Non
         assert result == [403, 403, 403, 403]
         driver.get(f"http://127.0.0.1:{page.port}/")                 # the right name still works
         assert driver.find_elements("id", "plot")
+    finally:
+        driver.quit()
+
+
+def test_a_page_opened_late_shows_the_recent_past_within_a_second(
+        page: PageServer, daq: DaqProcess, workdir: Path) -> None:
+    hub = page.service.hub
+
+    def server_span() -> float:
+        t = hub.benches[BENCH].history.t_s
+        return t[-1] - t[0] if len(t) > 1 else 0.0
+
+    wait_until(lambda: server_span() >= 5.0, 30, "5 s of history on the server", poll_s=0.2)
+    driver = chromium_driver(str(workdir / "chromium-late"))
+    try:
+        driver.set_page_load_timeout(20)
+        driver.get(f"{page.url}/#bench={BENCH}")
+        loaded_ms = wait_until(lambda: js(driver, "window.cartlab.historyLoadedMs"), 10, "the history")
+        assert loaded_ms < 1000, f"history drawn {loaded_ms:.0f} ms after navigation"
+        t, p1 = js(driver, "[window.cartlab.trace.t.slice(), window.cartlab.trace.p1.slice()]")
+        assert t[-1] - t[0] >= 5.0 and js(driver, "window.cartlab.historyPoints") > 1000
+        # the history is the server's own samples (nothing made up in between) ...
+        server = hub.benches[BENCH].history.as_event(BENCH)
+        common = sorted(set(t) & set(server["t_s"]))
+        assert len(common) > 1000
+        page_p1 = dict(zip(t, p1, strict=True))
+        server_p1 = dict(zip(server["t_s"], server["pos1_m"], strict=True))
+        assert all(page_p1[x] == server_p1[x] for x in common)
+        # ... drawn on the first frames, then streaming continues on the same trace
+        wait_until(lambda: blue_pixels(driver) > 500, 2, "the history painted")
+        assert all(b > a for a, b in itertools.pairwise(t))   # no point twice, in order
+        last = t[-1]
+        wait_until(lambda: js(driver, "window.cartlab.lastT") > last + 0.5, 10, "streaming after it")
     finally:
         driver.quit()

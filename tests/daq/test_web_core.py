@@ -197,3 +197,31 @@ def test_host_names_and_the_allowed_set() -> None:
     assert "192.168.1.20" in allowed_hosts("192.168.1.20")
     assert "fe80::1" in allowed_hosts("fe80::1")
     assert "labpc" in allowed_hosts("0.0.0.0", ["LabPC:8000"])
+
+
+def test_history_keeps_the_last_window_bounded_and_restarts_with_the_clock() -> None:
+    from daq.web.live import DecimatedSamples, History
+    history = History(display_hz=100.0, seconds=2.0)
+    assert history.capacity == 201
+    for k in range(50):                                   # 5 s at 100 points/s, in batches of 10
+        t = [(k * 10 + i) * 0.01 for i in range(10)]
+        history.extend(DecimatedSamples(t_s=t, pos1_m=[x * 2 for x in t], pos2_m=None, raw_count=40))
+    event = history.as_event("b")
+    t_s = event["t_s"]
+    assert isinstance(t_s, list) and len(t_s) <= history.capacity
+    assert t_s[-1] == pytest.approx(4.99) and t_s[0] >= 4.99 - 2.0 and t_s[0] < 4.99 - 1.9
+    assert event["pos1_m"] == [x * 2 for x in t_s] and event["pos2_m"] is None
+    history.extend(DecimatedSamples(t_s=[0.5, 0.51], pos1_m=[1.0, 1.0], pos2_m=[2.0, None], raw_count=2))
+    event = history.as_event("b")
+    assert event["t_s"] == [0.5, 0.51] and event["pos2_m"] == [2.0, None]   # a restarted daq
+
+
+def test_a_snapshot_carries_what_was_flushed() -> None:
+    hub = Hub(display_hz=250.0)
+    assert hub.snapshot("benchX")["history"]["t_s"] == []
+    hub.on_samples(batch(0, 40, 1000.0, bench="benchX", two=False))
+    assert hub.snapshot("benchX")["history"]["t_s"] == []       # not sent yet: not history yet
+    (event,) = [e for e in hub.flush() if e.name == "samples"]
+    history = hub.snapshot("benchX")["history"]
+    assert history["t_s"] == event.data["t_s"] and history["pos1_m"] == event.data["pos1_m"]
+    assert len(history["t_s"]) == 10

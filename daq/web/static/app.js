@@ -6,7 +6,7 @@
 const cartlab = window.cartlab = {
   bench: null, connected: false, state: null, status: null,
   eventsReceived: 0, sampleEvents: 0, samplesRaw: 0, pointsReceived: 0,
-  framesDrawn: 0, pointsDrawn: 0, drawMs: 0, handlerMs: 0, lastT: null, lastAction: null, runs: {}, stateHistory: [],
+  framesDrawn: 0, pointsDrawn: 0, historyPoints: 0, historyLoadedMs: null, drawMs: 0, handlerMs: 0, lastT: null, lastAction: null, runs: {}, stateHistory: [],
   startedMs: performance.now(),
 };
 
@@ -14,30 +14,45 @@ const $ = (id) => document.getElementById(id);
 const CAPACITY = 40000;          // points per channel kept (30 s at up to ~1.3 kHz)
 
 // ---- trace buffer ------------------------------------------------------------------
-const trace = { t: [], p1: [], p2: [], dirty: true };
+const trace = cartlab.trace = { t: [], p1: [], p2: [], dirty: true };
 
 function clearTrace() {
   trace.t = []; trace.p1 = []; trace.p2 = []; trace.dirty = true; cartlab.lastT = null;
 }
 
-function appendSamples(d) {
+function appendPoints(d) {
+  // Points at or before the last one held are skipped: a batch flushed while a page opens
+  // can reach it both in the snapshot's history and as the first samples event.
   const n = d.t_s.length;
-  if (n === 0) return;
+  if (n === 0) return 0;
   if (cartlab.lastT !== null && d.t_s[0] < cartlab.lastT - 1.0) clearTrace(); // clock restarted
+  let added = 0;
   for (let i = 0; i < n; i++) {
+    if (cartlab.lastT !== null && d.t_s[i] <= cartlab.lastT) continue;
     trace.t.push(d.t_s[i]);
     trace.p1.push(d.pos1_m[i]);
     trace.p2.push(d.pos2_m ? d.pos2_m[i] : null);
+    cartlab.lastT = d.t_s[i];
+    added++;
   }
   if (trace.t.length > CAPACITY) {
     const cut = trace.t.length - CAPACITY;
     trace.t.splice(0, cut); trace.p1.splice(0, cut); trace.p2.splice(0, cut);
   }
-  cartlab.lastT = d.t_s[n - 1];
-  cartlab.pointsReceived += n;
+  trace.dirty = true;
+  return added;
+}
+
+function appendSamples(d) {
+  cartlab.pointsReceived += appendPoints(d);
   cartlab.samplesRaw += d.n_raw;
   cartlab.sampleEvents += 1;
-  trace.dirty = true;
+}
+
+function loadHistory(h) {
+  clearTrace();
+  if (h) cartlab.historyPoints = appendPoints(h);
+  cartlab.historyLoadedMs = performance.now();  // ms since the page's navigation began
 }
 
 // ---- plot ----------------------------------------------------------------------------
@@ -248,7 +263,7 @@ function connect(bench) {
   on("snapshot", (d) => {
     cartlab.bench = d.bench;
     if (d.bench) history.replaceState(null, "", "#bench=" + encodeURIComponent(d.bench));
-    showBenches(d.benches); showState(d.state); showStatus(d.status);
+    showBenches(d.benches); showState(d.state); showStatus(d.status); loadHistory(d.history);
     cartlab.runs = {}; for (const r of d.runs) cartlab.runs[r.run_id] = r; renderRuns();
   });
   on("samples", appendSamples);
