@@ -75,6 +75,7 @@ from daq.ringing import (
 
 State = Literal["idle", "armed", "released", "settled"]
 METHOD = "piecewise-polynomial-onset-fit"
+SPAN_S = 1.5    # held or free is judged on the carts' spans in the first 1.5 s after the release
 
 
 @dataclass(frozen=True, slots=True)
@@ -364,9 +365,10 @@ class ReleaseDetector:
         if t_s - self._release_t >= settings.max_run_s:
             self.state = "settled"
             return [Settled(t_s, "max_run")]
-        for c, x in enumerate(sample):
-            self._run_low[c] = min(self._run_low[c], x)
-            self._run_high[c] = max(self._run_high[c], x)
+        if t_s - self._release_t <= SPAN_S:   # free carts swing most at first; later a hand may move one
+            for c, x in enumerate(sample):
+                self._run_low[c] = min(self._run_low[c], x)
+                self._run_high[c] = max(self._run_high[c], x)
         if self._run_channel in turned and self._handled_again():
             self.state = "settled"
             self._unmute()

@@ -32,6 +32,7 @@ from daq.calibration import Calibration
 from daq.decode import make_decoder
 from daq.detector import (
     METHOD,
+    SPAN_S,
     Armed,
     DetectorSettings,
     Disarmed,
@@ -395,10 +396,13 @@ class Acquisition:
         run.batch_seq += 1
         run.n_samples += len(batch.t_ns)
         run.last_t_ns = batch.t_ns[-1]
+        release_ns = run.metadata.release_t_ns or 0
+        span_end_ns = release_ns + int(SPAN_S * 1e9)   # a later touch of a held cart is no swing
+        keep = [i for i, t in enumerate(batch.t_ns) if release_ns <= t <= span_end_ns]
         for c, pos in enumerate((batch.pos1_m, batch.pos2_m)):
-            if pos:
-                run.low_m[c] = min(run.low_m[c], min(pos))
-                run.high_m[c] = max(run.high_m[c], max(pos))
+            if pos and keep:
+                run.low_m[c] = min(run.low_m[c], min(pos[i] for i in keep))
+                run.high_m[c] = max(run.high_m[c], max(pos[i] for i in keep))
         self.outputs.run_samples(batch)
 
 
@@ -414,9 +418,9 @@ def _lab_case(run: _Run) -> str | None:
     """The lab case from the carts' amplitudes: `cart1`/`cart2` (the other cart held) or `both`.
 
     The other cart is held (pinned, or loosely held by a hand that wanders and lets it follow
-    the pulled cart a little through the spring) when its span in the run is below
-    `PINNED_SPAN_M` or below `HELD_RATIO` times the pulled cart's span: held or free is told by
-    the amplitude, not by whether it moved at all.
+    the pulled cart a little through the spring) when its span in the first `SPAN_S` after the
+    release is below `PINNED_SPAN_M` or below `HELD_RATIO` times the pulled cart's span: held or
+    free is told by the amplitude, not by whether it moved at all (nor by a later touch).
     """
     pulled = run.metadata.pulled_cart
     if run.calibration.n_channels != 2 or pulled not in (1, 2) or run.n_samples == 0:

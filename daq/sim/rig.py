@@ -90,7 +90,7 @@ class Rig:
         else:
             knobs = StudentKnobs(o.student, o.student_releases, o.flick_m, o.wander_m, o.follow, o.p_nudge,
                                  o.p_touch, o.p_moving, o.tremor_m, o.carts, o.duration_s or 600.0)
-            self.hand = StudentHand(knobs, hand_rng, self.state)
+            self.hand = StudentHand(knobs, hand_rng, self.state, self._rest_of)
         self.rate_hz = o.rate_hz
         self.next_sample_s = 0.0
         self._rate_t0 = 0.0          # sample times are _rate_t0 + k / rate_hz: no drift
@@ -118,6 +118,15 @@ class Rig:
             except OSError as exc:
                 raise SimOptionError("sim option 'capture'", "a writable file path", o.capture) from exc
         self._boot()
+
+    def _rest_of(self, cart: int) -> float:
+        """Where `cart` comes to rest with the other cart held where it is now (linear springs)."""
+        p, s = self.params, self.state
+        if p.carts == 1:
+            return 0.0
+        if cart == 1:
+            return p.k2 * s.x2 / (p.k1 + p.k2)
+        return p.k2 * s.x1 / (p.k2 + p.k3)
 
     @property
     def events(self) -> list[ScriptEvent]:

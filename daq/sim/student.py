@@ -90,10 +90,11 @@ class Swing:
 @dataclass(frozen=True, slots=True)
 class Bump:
     """A nudge: taken at `x0` (t0), out by `dx` and back along `sin²` in `dur`, ending still at
-    the rest 0 (a cart caught while it rings is brought to rest too), plus tremor."""
+    `rest` (a cart caught while it rings is brought to rest too), plus tremor."""
 
     t0: float
     x0: float
+    rest: float
     dx: float
     dur: float
     tremor: Sines = ()
@@ -101,7 +102,8 @@ class Bump:
     def __call__(self, t: float) -> float:
         u = min(1.0, max(0.0, (t - self.t0) / self.dur))
         bump = math.sin(math.pi * u)
-        return self.x0 * (1.0 - _min_jerk(u)) + self.dx * bump * bump + bump * _sines(t, self.tremor, self.t0)
+        x = self.x0 + (self.rest - self.x0) * _min_jerk(u)
+        return x + self.dx * bump * bump + bump * _sines(t, self.tremor, self.t0)
 
 
 @dataclass(frozen=True, slots=True)
@@ -165,8 +167,10 @@ class _Act:
 class StudentHand:
     """Runs a drawn timeline of acts; the same interface as `daq.sim.hand.Hand` for the rig."""
 
-    def __init__(self, knobs: StudentKnobs, rng: np.random.Generator, state: ChainState) -> None:
+    def __init__(self, knobs: StudentKnobs, rng: np.random.Generator, state: ChainState,
+                 rest_of: Callable[[int], float]) -> None:
         self.knobs = knobs
+        self.rest_of = rest_of      # where a cart is at rest now (the other cart where it is held)
         self.rng = rng
         self.state = state
         self.cases = ("student",)
@@ -310,17 +314,18 @@ class StudentHand:
         if act.kind == "flick":
             assert isinstance(act.path, Swing)
             p = act.path
-            self._set_path(act.cart, Swing(t, x, 0.0, p.catch_s, p.hold_s, p.amp, p.dur, tremor))
+            self._set_path(act.cart, Swing(t, x, self.rest_of(act.cart), p.catch_s, p.hold_s, p.amp, p.dur, tremor))
             self._event("grab", t)
         elif act.kind in ("pull", "slow", "back"):
             assert isinstance(act.path, PullHold)
-            self._set_path(act.cart, PullHold(t, x, act.path.x1, act.path.dur, tremor))
+            target = self.rest_of(act.cart) + act.path.x1      # pulls are drawn from the rest
+            self._set_path(act.cart, PullHold(t, x, target, act.path.dur, tremor))
             if act.kind != "back":
                 self._event("grab", t)
         elif act.kind == "nudge":
             dur = self._u(0.2, 0.5)
             dx = self._u(0.003, 0.010) * (1.0 if self.rng.random() < 0.5 else -1.0)
-            self._set_path(act.cart, Bump(t, x, dx, dur, tremor))
+            self._set_path(act.cart, Bump(t, x, self.rest_of(act.cart), dx, dur, tremor))
             self._acts.insert(self._next, _Act(t + dur, "letgo", act.cart))
             self._event("nudge", t)
         elif act.kind in ("release", "letgo"):
