@@ -44,6 +44,9 @@ class BenchView:
     status_error: str | None = None
     finished: dict[str, RunFinished] = field(default_factory=dict)
     fits: dict[str, FitReport] = field(default_factory=dict)
+    #: Unix time (s) since which what is shown is no longer current (daq gone or silent,
+    #: port unplugged), None while it is; set from the caller's clock (the hub has none).
+    stale_since: float | None = None
     decimator: Decimator = field(default_factory=Decimator)
     history: History = field(default_factory=History)
 
@@ -62,6 +65,25 @@ def bench_problems(view: BenchView) -> list[str]:
     return problems
 
 
+def stale_reason(view: BenchView) -> str | None:
+    """Why the state and positions shown are not current (None: they are): short, for badges."""
+    if not view.alive:
+        return "daq gone"
+    if view.status_error:
+        return "daq not answering"
+    if view.status is not None and not view.status.connected:
+        return "port gone"
+    return None
+
+
+def update_stale(view: BenchView, now_s: float | None) -> None:
+    """Start the stale clock when the bench turns stale (at `now_s`), stop it when it is back."""
+    if stale_reason(view) is None:
+        view.stale_since = None
+    elif view.stale_since is None:
+        view.stale_since = now_s
+
+
 def status_view(view: BenchView) -> dict[str, Any]:
     status = view.status
     return {
@@ -69,6 +91,8 @@ def status_view(view: BenchView) -> dict[str, Any]:
         "alive": view.alive,
         "status": None if status is None else status.model_dump(mode="json"),
         "problems": bench_problems(view),
+        "stale": stale_reason(view),
+        "stale_since": view.stale_since,
     }
 
 
@@ -104,13 +128,15 @@ class Hub:
     def _emit(self, name: str, bench: str | None, data: dict[str, Any]) -> None:
         self._events.append(Event(name, bench, data))
 
-    def on_alive(self, bench: str, alive: bool) -> None:
+    def on_alive(self, bench: str, alive: bool, now_s: float | None = None) -> None:
+        """The daq's liveliness; `now_s` (unix s) dates a turn to stale."""
         view = self.bench(bench)
         if view.alive == alive:
             return
         view.alive = alive
         if not alive:
             view.status_error = None
+        update_stale(view, now_s)
         self._emit("benches", None, {"benches": self.bench_list()})
         self._emit("status", bench, status_view(view))
 
@@ -122,9 +148,12 @@ class Hub:
         self.bench(msg.bench).state = msg
         self._emit("state", msg.bench, msg.model_dump(mode="json"))
 
-    def on_status(self, bench: str, status: DaqStatus | None, error: str | None) -> None:
+    def on_status(self, bench: str, status: DaqStatus | None, error: str | None,
+                  now_s: float | None = None) -> None:
+        """A status reply (or the error of asking); `now_s` (unix s) dates a turn to stale."""
         view = self.bench(bench)
         view.status, view.status_error = (status or view.status), error
+        update_stale(view, now_s)
         if status is not None and (view.state is None or view.state.state != status.state):
             view.state = DetectorStateMsg(bench=bench, state=status.state,
                                           t_ns=status.last_t_ns or 0, run_id=status.run_id)
@@ -170,7 +199,8 @@ class Hub:
     def snapshot(self, bench: str | None) -> dict[str, Any]:
         """Everything a page showing `bench` needs when it (re)connects."""
         if bench is None:
-            nobody = {"bench": None, "alive": False, "status": None, "problems": [NO_DAQ]}
+            nobody = {"bench": None, "alive": False, "status": None, "problems": [NO_DAQ],
+                      "stale": None, "stale_since": None}
             return {"bench": None, "benches": self.bench_list(), "state": None,
                     "status": nobody, "runs": [], "history": None}
         view = self.benches.get(bench) or BenchView(name=bench)  # a name asked for is not stored

@@ -19,6 +19,7 @@ import asyncio
 import contextlib
 import logging
 import queue
+import time
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -130,7 +131,7 @@ class WebService:
         try:
             if item.kind == "alive":
                 bench = keys.bench_of(item.key)
-                self.hub.on_alive(bench, item.up)
+                self.hub.on_alive(bench, item.up, time.time())
                 if item.up:
                     self.link.follow(bench)
                     task = asyncio.get_running_loop().create_task(self.refresh(bench))
@@ -177,9 +178,10 @@ class WebService:
             status = await self._call(self.link.status, bench)
         except (QueryFailed, ValueError) as exc:
             if self.hub.bench(bench).alive:
-                self.hub.on_status(bench, None, f"daq for bench {bench} does not answer: {exc}")
+                self.hub.on_status(bench, None, f"daq for bench {bench} does not answer: {exc}",
+                                  time.time())
             return
-        self.hub.on_status(bench, status, None)
+        self.hub.on_status(bench, status, None, time.time())
 
     async def refresh(self, bench: str) -> None:
         """Runs and status of a bench whose daq just appeared."""
@@ -233,7 +235,7 @@ class WebService:
             status = await self._call(self.link.arm, bench)
         except (QueryFailed, ValueError) as exc:
             return {"ok": False, "message": f"arm failed: {exc}"}
-        self.hub.on_status(bench, status, None)
+        self.hub.on_status(bench, status, None, time.time())
         return {"ok": status.state == "armed", "message": f"detector {status.state}",
                 "reply": status.model_dump(mode="json")}
 

@@ -11,6 +11,7 @@ from __future__ import annotations
 import itertools
 import json
 import tempfile
+import time
 import urllib.request
 from collections.abc import Iterator
 from pathlib import Path
@@ -336,3 +337,32 @@ def test_a_page_opened_late_shows_the_recent_past_within_a_second(
         wait_until(lambda: js(driver, "window.cartlab.lastT") > last + 0.5, 10, "streaming after it")
     finally:
         driver.quit()
+
+
+def test_the_state_turns_stale_when_the_daq_is_killed(browser: Any, page: PageServer, daq: DaqProcess,
+                                                     runs_dir: Path, endpoints: dict[str, str]) -> None:
+    doomed = DaqProcess("sim://?rate_hz=200&cases=idle&idle_s=600&realtime=1", "benchK", runs_dir,
+                        ports.endpoint(), ("--connect", endpoints["page"]))
+    try:
+        wait_until(lambda: browser.find_elements("css selector", '#bench-select option[value="benchK"]'), 30,
+                   "benchK in the selector")
+        browser.execute_script("const s = document.getElementById('bench-select');"
+                               "s.value = 'benchK'; s.dispatchEvent(new Event('change'));")
+        wait_until(lambda: js(browser, "window.cartlab.bench === 'benchK' && window.cartlab.status !== null"
+                              " && window.cartlab.status.connected && window.cartlab.connected"), 20, "benchK live")
+        assert browser.find_element("id", "link").text == "live"
+        assert browser.find_element("id", "state-text").text.lower() != "stale"
+        killed_at = time.time()
+        doomed.proc.kill()                                            # SIGKILL: no goodbye
+        wait_until(lambda: browser.find_element("id", "state-text").text.lower() == "stale", 20,
+                   "the state box to say stale")
+        since = js(browser, "window.cartlab.stale.since")
+        assert killed_at - 1 <= since <= time.time()
+        badge = browser.find_element("id", "link").text
+        assert badge.startswith("stale: daq") and " since " in badge
+        assert "since" in browser.find_element("id", "state-run").text
+        assert browser.find_element("id", "st-port").text.startswith("daq ")
+        assert "not running" in browser.find_element("id", "problems").text or \
+            "does not answer" in browser.find_element("id", "problems").text
+    finally:
+        doomed.stop()

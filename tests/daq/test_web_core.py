@@ -225,3 +225,23 @@ def test_a_snapshot_carries_what_was_flushed() -> None:
     history = hub.snapshot("benchX")["history"]
     assert history["t_s"] == event.data["t_s"] and history["pos1_m"] == event.data["pos1_m"]
     assert len(history["t_s"]) == 10
+
+
+def test_a_bench_turns_stale_with_the_time_it_did_and_back() -> None:
+    hub = Hub()
+    ok, unplugged = status("b1", state="released"), status("b1", connected=False, state="released")
+    hub.on_alive("b1", True, 100.0)
+    hub.on_status("b1", ok, None, 101.0)
+    assert hub.snapshot("b1")["status"]["stale"] is None
+    hub.on_status("b1", unplugged, None, 102.0)
+    hub.on_status("b1", unplugged, None, 103.0)
+    view = hub.snapshot("b1")["status"]
+    assert (view["stale"], view["stale_since"]) == ("port gone", 102.0)      # since the first
+    hub.on_status("b1", ok, None, 104.0)
+    assert hub.snapshot("b1")["status"]["stale_since"] is None
+    hub.on_status("b1", None, "daq for bench b1 does not answer: timeout", 105.0)
+    hub.on_alive("b1", False, 106.0)
+    view = hub.snapshot("b1")["status"]
+    assert (view["stale"], view["stale_since"]) == ("daq gone", 105.0)
+    events = [e for e in hub.flush() if e.name == "status"]
+    assert events[-1].data["stale"] == "daq gone" and events[-1].data["stale_since"] == 105.0

@@ -6,7 +6,7 @@
 const cartlab = window.cartlab = {
   bench: null, connected: false, state: null, status: null,
   eventsReceived: 0, sampleEvents: 0, samplesRaw: 0, pointsReceived: 0,
-  framesDrawn: 0, pointsDrawn: 0, historyPoints: 0, historyLoadedMs: null, drawMs: 0, handlerMs: 0, lastT: null, lastAction: null, runs: {}, stateHistory: [],
+  framesDrawn: 0, pointsDrawn: 0, historyPoints: 0, historyLoadedMs: null, drawMs: 0, handlerMs: 0, lastT: null, lastAction: null, stale: null, stateMsg: null, runs: {}, stateHistory: [],
   startedMs: performance.now(),
 };
 
@@ -135,10 +135,35 @@ function draw() {
 function showState(msg) {
   cartlab.state = msg ? msg.state : null;
   if (msg && cartlab.stateHistory[cartlab.stateHistory.length - 1] !== msg.state) cartlab.stateHistory.push(msg.state);
-  const el = $("state");
-  el.className = "state state-" + (msg ? msg.state : "unknown");
-  $("state-text").textContent = msg ? msg.state : "—";
-  $("state-run").textContent = msg && msg.run_id ? "run " + msg.run_id : "";
+  cartlab.stateMsg = msg;
+  renderState();
+}
+
+// A stale bench never shows its last state as if current: the box turns grey and says
+// "stale", with the last state known and since when (the server dates the turn).
+function renderState() {
+  const msg = cartlab.stateMsg, stale = cartlab.stale;
+  $("state").className = "state state-" + (stale ? "stale" : msg ? msg.state : "unknown");
+  $("state-text").textContent = stale ? "stale" : msg ? msg.state : "—";
+  const last = msg ? `last ${msg.state}${msg.run_id ? " · run " + msg.run_id : ""}` : "";
+  $("state-run").textContent = stale ? `${stale.reason}${stale.since ? " since " + clock(stale.since) : ""}${last ? " · " + last : ""}`
+    : msg && msg.run_id ? "run " + msg.run_id : "";
+  renderLink();
+}
+
+function clock(unixS) {
+  return new Date(unixS * 1000).toLocaleTimeString([], { hour12: false });
+}
+
+function renderLink() {
+  const badge = $("link");
+  if (!cartlab.connected) { badge.className = "link down"; badge.textContent = "page server gone: reconnecting…"; return; }
+  if (cartlab.stale) {
+    badge.className = "link down";
+    badge.textContent = `stale: ${cartlab.stale.reason}` + (cartlab.stale.since ? ` since ${clock(cartlab.stale.since)}` : "");
+    return;
+  }
+  badge.className = "link up"; badge.textContent = "live";
 }
 
 const fmt = (v, digits) => (v === null || v === undefined ? "—" : Number(v).toFixed(digits));
@@ -147,7 +172,11 @@ function showStatus(view) {
   if (!view) return;
   const s = view.status;
   cartlab.status = s;
-  $("st-port").textContent = s ? `${s.connected ? "connected" : "NOT CONNECTED"} · ${s.dialect} · ${s.port}` : "—";
+  cartlab.stale = view.bench && view.stale ? { reason: view.stale, since: view.stale_since } : null;
+  $("status").classList.toggle("stale", cartlab.stale !== null);
+  const portText = s ? `${s.connected ? "connected" : "NOT CONNECTED"} · ${s.dialect} · ${s.port}` : "—";
+  $("st-port").textContent = cartlab.stale && cartlab.stale.reason !== "port gone"
+    ? `${cartlab.stale.reason} (last: ${portText})` : portText;
   $("st-port").title = s ? s.port : "";
   const pos = s && s.last_pos_m ? s.last_pos_m : [];
   $("st-pos1").textContent = pos.length > 0 ? fmt(pos[0], 4) + " m" : "—";
@@ -158,6 +187,7 @@ function showStatus(view) {
   list.replaceChildren(...view.problems.map((p) => { const li = document.createElement("li"); li.textContent = p; return li; }));
   list.hidden = view.problems.length === 0;
   $("zero-btn").disabled = !view.alive; $("arm-btn").disabled = !view.alive;
+  renderState();
 }
 
 function showBenches(benches) {
@@ -258,8 +288,8 @@ function connect(bench) {
     cartlab.eventsReceived++; fn(JSON.parse(ev.data));
     cartlab.handlerMs += performance.now() - started;
   });
-  source.onopen = () => { cartlab.connected = true; $("link").className = "link up"; $("link").textContent = "live"; };
-  source.onerror = () => { cartlab.connected = false; $("link").className = "link down"; $("link").textContent = "reconnecting…"; };
+  source.onopen = () => { cartlab.connected = true; renderLink(); };
+  source.onerror = () => { cartlab.connected = false; renderLink(); };
   on("snapshot", (d) => {
     cartlab.bench = d.bench;
     if (d.bench) history.replaceState(null, "", "#bench=" + encodeURIComponent(d.bench));
