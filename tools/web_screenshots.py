@@ -8,6 +8,9 @@ Chromium and saves:
     2-during-run.png   about 1.5 s after the release (state RELEASED, the carts ringing)
     3-settled.png      when the detector says settled (run in the list, fit pending)
     4-after-fit.png    when the run's fit report is in the list
+    5-paused-cursor.png  paused, the cursor on the ringing (read-out under the plot)
+    6-phone.png        the same page at phone width (390 x 844)
+    7-stale.png        after the daq was killed (SIGKILL): the state box and badge stale
 
     .venv/bin/python tools/web_screenshots.py OUT_DIR [--case both] [--rate-hz 1000]
 
@@ -20,6 +23,8 @@ import argparse
 import tempfile
 from pathlib import Path
 from typing import Any
+
+from selenium.webdriver.common.action_chains import ActionChains
 
 from testkit.benchkit import Bench, sim_url
 from testkit.ports import endpoint, free_port
@@ -56,7 +61,7 @@ def run(out: Path, case: str, rate_hz: float, timeout_s: float, worker: bool) ->
                     bench.start_worker("w1", runs, extra=["--connect", page_ep])
                 url = sim_url([case], rate_hz=rate_hz, realtime=True, rest_s=2, pull_s=1.0,
                               hold_s=2.0, tail_s=600)
-                bench.start_daq("daq", url, BENCH, runs, extra=["--connect", page_ep])
+                daq = bench.start_daq("daq", url, BENCH, runs, extra=["--connect", page_ep])
                 driver = chromium_driver(work / "profile", 1280, 1040)
                 driver.get(page.url + "/")
                 wait_until(lambda: js(driver, "window.cartlab.state") == "armed", timeout_s, "armed")
@@ -76,6 +81,18 @@ def run(out: Path, case: str, rate_hz: float, timeout_s: float, worker: bool) ->
                                           "(r.fit.status === 'ok' || r.fit.status === 'failed'))"),
                                timeout_s, "the fit report")
                     shoot(driver, out, "4-after-fit.png")
+                driver.find_element("id", "pause-btn").click()
+                canvas = driver.find_element("id", "plot")
+                ActionChains(driver).move_to_element_with_offset(canvas, canvas.size["width"] // 4, 0).perform()
+                wait_until(lambda: js(driver, "window.cartlab.cursor"), 5, "the cursor")
+                shoot(driver, out, "5-paused-cursor.png")
+                driver.find_element("id", "pause-btn").click()
+                driver.set_window_size(390, 844)
+                shoot(driver, out, "6-phone.png")
+                driver.set_window_size(1280, 1040)
+                daq.kill9()
+                wait_until(lambda: js(driver, "window.cartlab.stale"), 20, "the page to turn stale")
+                shoot(driver, out, "7-stale.png")
                 print(f"rates seen by the page: {js(driver, 'JSON.stringify(window.cartlab.rates)')}")
             finally:
                 if driver is not None:

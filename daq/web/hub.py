@@ -11,6 +11,7 @@ Pure: no clock, no I/O, no Zenoh. Names in events are JSON-ready dicts.
 
 from __future__ import annotations
 
+from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
@@ -19,6 +20,9 @@ from daq.web.live import DEFAULT_DISPLAY_HZ, Decimator, History
 from daq.web.runs_view import fit_summary, run_row
 from schemas.daq import DaqStatus, DetectorStateMsg, RunFinished, RunList, SampleBatch
 from schemas.fit import FitReport
+
+#: Detector state changes kept per bench for the plot's marks (a run is 2-3 of them).
+MAX_STATE_MARKS = 64
 
 NO_DAQ = ("no daq found on Zenoh: start one (`daq run --port ... --bench NAME`) and check that "
           "this server connects to it (--connect ENDPOINT, default tcp/127.0.0.1:7447)")
@@ -48,6 +52,9 @@ class BenchView:
     #: port unplugged), None while it is; set from the caller's clock (the hub has none).
     stale_since: float | None = None
     decimator: Decimator = field(default_factory=Decimator)
+    #: The last detector state changes (device time), for the release and run marks of a
+    #: page that opens late; bounded.
+    states: deque[DetectorStateMsg] = field(default_factory=lambda: deque(maxlen=MAX_STATE_MARKS))
     history: History = field(default_factory=History)
 
 
@@ -145,7 +152,10 @@ class Hub:
         self.bench(batch.bench).decimator.feed(batch)
 
     def on_state(self, msg: DetectorStateMsg) -> None:
-        self.bench(msg.bench).state = msg
+        view = self.bench(msg.bench)
+        view.state = msg
+        if not view.states or view.states[-1] != msg:
+            view.states.append(msg)
         self._emit("state", msg.bench, msg.model_dump(mode="json"))
 
     def on_status(self, bench: str, status: DaqStatus | None, error: str | None,
@@ -202,7 +212,7 @@ class Hub:
             nobody = {"bench": None, "alive": False, "status": None, "problems": [NO_DAQ],
                       "stale": None, "stale_since": None}
             return {"bench": None, "benches": self.bench_list(), "state": None,
-                    "status": nobody, "runs": [], "history": None}
+                    "status": nobody, "runs": [], "history": None, "states": []}
         view = self.benches.get(bench) or BenchView(name=bench)  # a name asked for is not stored
         return {
             "bench": bench,
@@ -211,6 +221,7 @@ class Hub:
             "status": status_view(view),
             "runs": self.rows(bench),
             "history": view.history.as_event(bench),
+            "states": [m.model_dump(mode="json") for m in view.states],
         }
 
     def flush(self) -> list[Event]:

@@ -234,6 +234,69 @@ def test_zero_button_zeroes(browser: Any, session: zenoh.Session) -> None:
     assert "0.000" in browser.find_element("id", "st-pos1").text
 
 
+def canvas_png(browser: Any) -> str:
+    return str(js(browser, "document.getElementById('plot').toDataURL()"))
+
+
+def test_pause_freezes_the_plot_and_the_cursor_reads_the_samples(browser: Any, page: PageServer) -> None:
+    from selenium.webdriver.common.action_chains import ActionChains
+
+    wait_until(lambda: js(browser, "window.cartlab.bench") == BENCH and js(browser, "window.cartlab.lastT"),
+               20, "benchA streaming")
+    browser.find_element("id", "pause-btn").click()
+    assert js(browser, "window.cartlab.view.paused") is True
+    frames, png = js(browser, "window.cartlab.framesDrawn"), canvas_png(browser)
+    t_paused = js(browser, "window.cartlab.lastT")
+    wait_until(lambda: js(browser, "window.cartlab.lastT") > t_paused + 1.0, 10, "data to keep arriving")
+    assert js(browser, "window.cartlab.framesDrawn") == frames and canvas_png(browser) == png   # frozen
+
+    # the cursor, moved across the frozen plot, reads out the samples themselves
+    canvas = browser.find_element("id", "plot")
+    width = canvas.size["width"]
+    server = page.service.hub.benches[BENCH].history.as_event(BENCH)
+    server_p1 = dict(zip(server["t_s"], server["pos1_m"], strict=True))
+    server_p2 = dict(zip(server["t_s"], server["pos2_m"], strict=True))
+    for frac in (0.2, 0.5, 0.9):
+        ActionChains(browser).move_to_element_with_offset(canvas, int(width * (frac - 0.5)), 0).perform()
+        cur = wait_until(lambda: js(browser, "window.cartlab.cursor"), 5, "the cursor")
+        t, p1, p2 = js(browser, f"[window.cartlab.trace.t[{cur['i']}], window.cartlab.trace.p1[{cur['i']}],"
+                                f" window.cartlab.trace.p2[{cur['i']}]]")
+        assert (cur["t"], cur["p1"], cur["p2"]) == (t, p1, p2)
+        assert server_p1[t] == p1 and server_p2[t] == p2                   # what the daq sent
+        text = browser.find_element("id", "cursor").text
+        assert f"t {t:.3f} s" in text and f"cart 1 {p1:.5f} m" in text and f"cart 2 {p2:.5f} m" in text
+        # the nearest sample to the time under the pointer
+        g = js(browser, "window.cartlab.view.geom")
+        rect_left = js(browser, "document.getElementById('plot').getBoundingClientRect().left")
+        pointer_x = rect_left + width / 2 + int(width * (frac - 0.5))
+        t_pointer = g["tStart"] + (pointer_x - rect_left - g["left"]) / g["pw"] * g["spanS"]
+        times = js(browser, "window.cartlab.trace.t")
+        assert abs(t - t_pointer) <= min(abs(x - t_pointer) for x in times) + 1e-12
+
+    # zoom on a stretch by dragging: the view becomes that stretch
+    ActionChains(browser).move_to_element_with_offset(canvas, -int(width * 0.2), 0).click_and_hold() \
+        .move_by_offset(int(width * 0.3), 0).release().perform()
+    zoom = js(browser, "window.cartlab.view.zoom")
+    window_s = js(browser, "Number(document.getElementById('window-select').value)")
+    assert zoom is not None and 0 < zoom[1] - zoom[0] < window_s
+    assert browser.find_element("id", "zoom-reset").is_displayed()
+    browser.find_element("id", "zoom-reset").click()
+    assert js(browser, "window.cartlab.view.zoom") is None
+
+    # resume: the plot follows the stream again
+    browser.find_element("id", "pause-btn").click()
+    wait_until(lambda: js(browser, "window.cartlab.framesDrawn") > frames + 5, 5, "redraws after resume")
+    assert canvas_png(browser) != png
+
+
+def test_the_release_instant_is_marked_on_the_plot(browser: Any) -> None:
+    marks = wait_until(lambda: js(browser, "window.cartlab.marks.filter(m => m.state === 'released')"), 30,
+                       "a release mark")
+    states = [m["state"] for m in js(browser, "window.cartlab.marks")]
+    assert "released" in states and states.index("released") < len(states) - 1   # the span ended
+    assert marks[0]["run_id"]
+
+
 def test_bench_selector_failed_fit_and_daq_gone(browser: Any, page: PageServer, daq: DaqProcess,
                                                endpoints: dict[str, str]) -> None:
     other = FakeDaq("benchB", endpoints["page"], connect=True)   # a second daq, via the page's peer

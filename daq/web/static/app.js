@@ -17,7 +17,7 @@ const CAPACITY = 40000;          // points per channel kept (30 s at up to ~1.3 
 const trace = cartlab.trace = { t: [], p1: [], p2: [], dirty: true };
 
 function clearTrace() {
-  trace.t = []; trace.p1 = []; trace.p2 = []; trace.dirty = true; cartlab.lastT = null;
+  trace.t = []; trace.p1 = []; trace.p2 = []; trace.dirty = true; cartlab.lastT = null; cartlab.cursor = null;
 }
 
 function appendPoints(d) {
@@ -39,7 +39,7 @@ function appendPoints(d) {
     const cut = trace.t.length - CAPACITY;
     trace.t.splice(0, cut); trace.p1.splice(0, cut); trace.p2.splice(0, cut);
   }
-  trace.dirty = true;
+  if (!view.paused) trace.dirty = true;   // a paused plot is not redrawn: it stays as it was
   return added;
 }
 
@@ -62,6 +62,52 @@ function niceStep(span, target) {
   return 10 * mag;
 }
 
+// What the plot shows: the window ending at the latest sample (live), or frozen at the
+// moment of Pause, or a zoomed stretch [t0, t1] (a zoom pauses). Device time in s.
+const view = cartlab.view = { paused: false, frozenEnd: null, zoom: null, absolute: false, cursorX: null, geom: null };
+const marks = cartlab.marks = [];   // detector state changes {state, t_s, run_id}
+
+function addMark(msg) {
+  if (!msg || !msg.t_ns) return;
+  const t = msg.t_ns * 1e-9, last = marks[marks.length - 1];
+  if (last && last.t_s === t && last.state === msg.state) return;
+  marks.push({ state: msg.state, t_s: t, run_id: msg.run_id });
+  if (marks.length > 64) marks.shift();
+  trace.dirty = true;
+}
+
+// Runs as spans: from a release to the next settled/idle/armed change (or still open).
+function runSpans() {
+  const spans = [];
+  for (let i = 0; i < marks.length; i++) {
+    if (marks[i].state !== "released") continue;
+    const end = marks.slice(i + 1).find((m) => m.state !== "released");
+    spans.push({ t0: marks[i].t_s, t1: end ? end.t_s : null, run_id: marks[i].run_id });
+  }
+  return spans;
+}
+
+function visibleRange() {
+  if (view.zoom) return view.zoom;
+  const windowS = Number($("window-select").value);
+  const end = view.paused ? view.frozenEnd : cartlab.lastT;
+  const tEnd = end === null ? 0 : end;
+  return [tEnd - windowS, tEnd];
+}
+
+function firstAtOrAfter(t) {         // binary search in the sorted trace times
+  let lo = 0, hi = trace.t.length;
+  while (lo < hi) { const mid = (lo + hi) >> 1; if (trace.t[mid] < t) lo = mid + 1; else hi = mid; }
+  return lo;
+}
+
+function nearestSample(t) {
+  const i = firstAtOrAfter(t);
+  if (i >= trace.t.length) return trace.t.length - 1;
+  if (i > 0 && t - trace.t[i - 1] < trace.t[i] - t) return i - 1;
+  return i;
+}
+
 function draw() {
   requestAnimationFrame(draw);
   if (!trace.dirty) return;
@@ -75,46 +121,60 @@ function draw() {
   ctx.clearRect(0, 0, w, h);
   const left = 62, right = 12, top = 10, bottom = 36;
   const pw = w - left - right, ph = h - top - bottom;
-  const windowS = Number($("window-select").value);
-  const tEnd = cartlab.lastT === null ? 0 : cartlab.lastT, tStart = tEnd - windowS;
-  let first = trace.t.length;
-  while (first > 0 && trace.t[first - 1] >= tStart) first--;
+  const [tStart, tEnd] = visibleRange(), spanS = Math.max(tEnd - tStart, 1e-6);
+  const first = firstAtOrAfter(tStart), stop = firstAtOrAfter(tEnd + 1e-9);
   let lo = Infinity, hi = -Infinity;
-  for (let i = first; i < trace.t.length; i++) {
+  for (let i = first; i < stop; i++) {
     const a = trace.p1[i], b = trace.p2[i];
     if (a < lo) lo = a; if (a > hi) hi = a;
     if (b !== null) { if (b < lo) lo = b; if (b > hi) hi = b; }
   }
   if (!isFinite(lo)) { lo = -0.05; hi = 0.05; }
-  const mid = (lo + hi) / 2, half = Math.max((hi - lo) / 2 * 1.1, 0.01);
+  const mid = (lo + hi) / 2, half = Math.max((hi - lo) / 2 * 1.1, view.zoom ? 0.0005 : 0.01);
   lo = mid - half; hi = mid + half;
-  const x = (t) => left + (t - tStart) / windowS * pw;
+  const x = (t) => left + (t - tStart) / spanS * pw;
   const y = (p) => top + (hi - p) / (hi - lo) * ph;
+  view.geom = { left, pw, tStart, spanS };
 
   ctx.font = "12px system-ui, sans-serif"; ctx.fillStyle = "#5b6575"; ctx.strokeStyle = "#e3e6eb"; ctx.lineWidth = 1;
   const ys = niceStep(hi - lo, 6);
   ctx.textAlign = "right"; ctx.textBaseline = "middle";
   for (let v = Math.ceil(lo / ys) * ys; v <= hi; v += ys) {
     ctx.beginPath(); ctx.moveTo(left, y(v)); ctx.lineTo(left + pw, y(v)); ctx.stroke();
-    ctx.fillText(v.toFixed(ys < 0.01 ? 3 : 2), left - 6, y(v));
+    ctx.fillText(v.toFixed(ys < 0.001 ? 4 : ys < 0.01 ? 3 : 2), left - 6, y(v));
   }
-  const xs = niceStep(windowS, 10);
+  const xs = niceStep(spanS, 10), dig = xs < 0.1 ? 2 : xs < 1 ? 1 : 0;
   ctx.textAlign = "center"; ctx.textBaseline = "top";
-  for (let v = 0; v <= windowS + 1e-9; v += xs) {
-    const px = left + pw - v / windowS * pw;
-    ctx.beginPath(); ctx.moveTo(px, top); ctx.lineTo(px, top + ph); ctx.stroke();
-    ctx.fillText(v === 0 ? "0" : "−" + v.toFixed(xs < 1 ? 1 : 0), px, top + ph + 4);
+  if (view.absolute) {                 // device time ticks
+    for (let v = Math.ceil(tStart / xs) * xs; v <= tEnd + 1e-9; v += xs) {
+      ctx.beginPath(); ctx.moveTo(x(v), top); ctx.lineTo(x(v), top + ph); ctx.stroke();
+      ctx.fillText(v.toFixed(dig), x(v), top + ph + 4);
+    }
+    ctx.fillText("device time (s)", left + pw / 2, top + ph + 19);
+  } else {                             // seconds before the right edge
+    for (let v = 0; v <= spanS + 1e-9; v += xs) {
+      const px = left + pw - v / spanS * pw;
+      ctx.beginPath(); ctx.moveTo(px, top); ctx.lineTo(px, top + ph); ctx.stroke();
+      ctx.fillText(v === 0 ? "0" : "−" + v.toFixed(dig), px, top + ph + 4);
+    }
+    ctx.fillText(view.paused ? "time before the right edge (s)" : "time before latest sample (s)", left + pw / 2, top + ph + 19);
   }
-  ctx.fillText("time before latest sample (s)", left + pw / 2, top + ph + 19);
   ctx.save(); ctx.translate(14, top + ph / 2); ctx.rotate(-Math.PI / 2); ctx.textBaseline = "middle";
   ctx.fillText("position (m)", 0, 0); ctx.restore();
   ctx.strokeStyle = "#9aa3b1"; ctx.strokeRect(left, top, pw, ph);
 
+  ctx.save(); ctx.beginPath(); ctx.rect(left, top, pw, ph); ctx.clip();
+  for (const s of runSpans()) {        // run spans shaded, the release instant as a red line
+    const x0 = x(s.t0), x1 = s.t1 === null ? left + pw : x(s.t1);
+    ctx.fillStyle = "rgba(192, 57, 43, 0.08)"; ctx.fillRect(x0, top, Math.max(x1 - x0, 1), ph);
+    ctx.strokeStyle = "#c0392b"; ctx.lineWidth = 1.5; ctx.beginPath(); ctx.moveTo(x0, top); ctx.lineTo(x0, top + ph); ctx.stroke();
+    ctx.fillStyle = "#c0392b"; ctx.textAlign = "left"; ctx.fillText("release" + (s.run_id ? " · " + s.run_id : ""), Math.max(x0, left) + 4, top + 2);
+  }
   let drawn = 0;
   const line = (values, color, dash) => {
     ctx.strokeStyle = color; ctx.lineWidth = 2; ctx.setLineDash(dash); ctx.beginPath();
     let pen = false;
-    for (let i = first; i < trace.t.length; i++) {
+    for (let i = first; i < stop; i++) {
       const v = values[i];
       if (v === null) { pen = false; continue; }
       if (pen) ctx.lineTo(x(trace.t[i]), y(v)); else { ctx.moveTo(x(trace.t[i]), y(v)); pen = true; }
@@ -122,13 +182,89 @@ function draw() {
     }
     ctx.stroke(); ctx.setLineDash([]);
   };
-  ctx.save(); ctx.beginPath(); ctx.rect(left, top, pw, ph); ctx.clip();
   line(trace.p1, "#1f5fbf", []);
   line(trace.p2, "#d9631e", [7, 4]);
+  if (view.drag) {
+    ctx.fillStyle = "rgba(31, 95, 191, 0.12)";
+    ctx.fillRect(Math.min(view.drag.x0, view.drag.x1), top, Math.abs(view.drag.x1 - view.drag.x0), ph);
+  }
+  if (cartlab.cursor) {
+    const c = cartlab.cursor;
+    ctx.strokeStyle = "#2a3444"; ctx.lineWidth = 1; ctx.setLineDash([3, 3]);
+    ctx.beginPath(); ctx.moveTo(x(c.t), top); ctx.lineTo(x(c.t), top + ph); ctx.stroke(); ctx.setLineDash([]);
+    for (const [v, color] of [[c.p1, "#1f5fbf"], [c.p2, "#d9631e"]]) {
+      if (v === null) continue;
+      ctx.fillStyle = color; ctx.beginPath(); ctx.arc(x(c.t), y(v), 4, 0, 2 * Math.PI); ctx.fill();
+    }
+  }
   ctx.restore();
   cartlab.framesDrawn += 1;
   cartlab.pointsDrawn += drawn;
   cartlab.drawMs += performance.now() - started;
+}
+
+// ---- reading the plot: pause, cursor, zoom, time axis --------------------------------
+function setPaused(paused) {
+  view.paused = paused;
+  view.frozenEnd = paused ? cartlab.lastT : null;
+  if (!paused) view.zoom = null;
+  $("pause-btn").textContent = paused ? "Resume" : "Pause";
+  $("pause-btn").classList.toggle("on", paused);
+  $("zoom-reset").hidden = view.zoom === null;
+  trace.dirty = true;
+}
+
+function timeAtX(clientX) {
+  const g = view.geom, rect = $("plot").getBoundingClientRect();
+  if (!g) return null;
+  return g.tStart + (clientX - rect.left - g.left) / g.pw * g.spanS;
+}
+
+function readCursor(clientX) {
+  const t = timeAtX(clientX);
+  if (t === null || trace.t.length === 0) return;
+  const [t0, t1] = visibleRange();
+  if (t < t0 || t > t1) { clearCursor(); return; }
+  const i = nearestSample(t);
+  const c = cartlab.cursor = { i, t: trace.t[i], p1: trace.p1[i], p2: trace.p2[i] };
+  const shown = view.absolute ? `t ${c.t.toFixed(3)} s` : `t ${c.t.toFixed(3)} s (${(c.t - t1).toFixed(3)} s)`;
+  $("cursor").textContent = `${shown} · cart 1 ${fmt(c.p1, 5)} m · cart 2 ${fmt(c.p2, 5)} m`;
+  $("cursor").classList.add("on");
+  trace.dirty = true;
+}
+
+function clearCursor() {
+  if (!cartlab.cursor) return;
+  cartlab.cursor = null; $("cursor").classList.remove("on"); trace.dirty = true;
+  $("cursor").textContent = "move over the plot to read a sample; drag to zoom on a stretch";
+}
+
+function plotEvents() {
+  const canvas = $("plot");
+  canvas.addEventListener("mousedown", (e) => {
+    const rect = canvas.getBoundingClientRect();
+    view.drag = { x0: e.clientX - rect.left, x1: e.clientX - rect.left, t0: timeAtX(e.clientX) };
+  });
+  canvas.addEventListener("mousemove", (e) => {
+    if (view.drag) { view.drag.x1 = e.clientX - canvas.getBoundingClientRect().left; trace.dirty = true; }
+    readCursor(e.clientX);
+  });
+  canvas.addEventListener("mouseup", (e) => {
+    const drag = view.drag; view.drag = null;
+    if (!drag) return;
+    const t1 = timeAtX(e.clientX);
+    if (Math.abs(e.clientX - canvas.getBoundingClientRect().left - drag.x0) > 6 && drag.t0 !== null && t1 !== null) {
+      if (!view.paused) setPaused(true);
+      view.zoom = [Math.min(drag.t0, t1), Math.max(drag.t0, t1)];
+      $("zoom-reset").hidden = false;
+    }
+    trace.dirty = true;
+  });
+  canvas.addEventListener("mouseleave", () => { view.drag = null; clearCursor(); });
+  canvas.addEventListener("dblclick", () => { view.zoom = null; $("zoom-reset").hidden = true; trace.dirty = true; });
+  $("pause-btn").addEventListener("click", () => setPaused(!view.paused));
+  $("zoom-reset").addEventListener("click", () => { view.zoom = null; $("zoom-reset").hidden = true; trace.dirty = true; });
+  $("abs-time").addEventListener("change", (e) => { view.absolute = e.target.checked; trace.dirty = true; });
 }
 
 // ---- state, status, problems -------------------------------------------------------
@@ -136,6 +272,7 @@ function showState(msg) {
   cartlab.state = msg ? msg.state : null;
   if (msg && cartlab.stateHistory[cartlab.stateHistory.length - 1] !== msg.state) cartlab.stateHistory.push(msg.state);
   cartlab.stateMsg = msg;
+  addMark(msg);
   renderState();
 }
 
@@ -293,6 +430,7 @@ function connect(bench) {
   on("snapshot", (d) => {
     cartlab.bench = d.bench;
     if (d.bench) history.replaceState(null, "", "#bench=" + encodeURIComponent(d.bench));
+    marks.length = 0; for (const m of d.states || []) addMark(m);
     showBenches(d.benches); showState(d.state); showStatus(d.status); loadHistory(d.history);
     cartlab.runs = {}; for (const r of d.runs) cartlab.runs[r.run_id] = r; renderRuns();
   });
@@ -321,5 +459,6 @@ $("bench-select").addEventListener("change", (e) => connect(e.target.value));
 $("window-select").addEventListener("change", () => { trace.dirty = true; });
 const fromHash = new URLSearchParams(location.hash.slice(1)).get("bench");
 connect(fromHash);
+plotEvents();
 rateMeter();
 requestAnimationFrame(draw);
