@@ -53,6 +53,7 @@ function loadHistory(h) {
   clearTrace();
   if (h) cartlab.historyPoints = appendPoints(h);
   cartlab.historyLoadedMs = performance.now();  // ms since the page's navigation began
+  cartlab.sampleEventsBeforeHistory = cartlab.sampleEvents;
 }
 
 // ---- plot ----------------------------------------------------------------------------
