@@ -11,7 +11,11 @@ plain SSE client. Over a measurement window it reports:
 - for the browser page (its `window.cartlab` counters): samples/s, points/s, updates/s,
   canvas frames/s, milliseconds per frame spent drawing and the main-thread share spent in
   drawing plus event handling;
-- CPU share of one core of the page server and of the daq.
+- CPU share of one core of the page server and of the daq;
+- the page paused (its Pause button) for the same window: frames drawn, main-thread share
+  and CPU of the whole Chromium process tree, against the same figures live;
+- how long after navigation a freshly opened page has drawn its history (median of 5
+  reloads), and how many points it held.
 
     .venv/bin/python tools/bench_web.py [--rate-hz 1000] [--seconds 15] [--display-hz 250]
 """
@@ -19,6 +23,7 @@ plain SSE client. Over a measurement window it reports:
 from __future__ import annotations
 
 import argparse
+import contextlib
 import http.client
 import json
 import tempfile
@@ -95,6 +100,48 @@ def browser_counters(driver: Any) -> dict[str, float]:
         "const c = window.cartlab; return {" + ", ".join(f"{k}: c.{k}" for k in BROWSER_COUNTERS) + "};"))
 
 
+def tree_cpu_seconds(root: int) -> float:
+    """CPU seconds of a process and all its descendants (Linux /proc): the whole browser."""
+    children: dict[int, list[int]] = {}
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            pid, rest = stat.read_text().split(" ", 1)
+            children.setdefault(int(rest.rsplit(")", 1)[1].split()[1]), []).append(int(pid))
+        except (OSError, ValueError, IndexError):
+            continue                                   # a process that ended meanwhile
+    total, todo = 0.0, [root]
+    while todo:
+        pid = todo.pop()
+        with contextlib.suppress(OSError, ValueError, IndexError):   # ended meanwhile
+            total += cpu_seconds(pid)
+        todo.extend(children.get(pid, []))
+    return total
+
+
+def browser_window(driver: Any, seconds: float) -> dict[str, float]:
+    """Frames/s, main-thread busy % and browser-tree CPU % of one core over `seconds`."""
+    root = driver.service.process.pid
+    b0, c0, t0 = browser_counters(driver), tree_cpu_seconds(root), time.monotonic()
+    threading.Event().wait(seconds)
+    b1, c1, t1 = browser_counters(driver), tree_cpu_seconds(root), time.monotonic()
+    wall = t1 - t0
+    return {"frames_per_s": (b1["framesDrawn"] - b0["framesDrawn"]) / wall,
+            "busy_percent": ((b1["drawMs"] - b0["drawMs"]) + (b1["handlerMs"] - b0["handlerMs"])) / wall / 10,
+            "cpu_percent": 100 * (c1 - c0) / wall}
+
+
+def history_load_ms(driver: Any, url: str, times: int = 5) -> tuple[float, float]:
+    """Median ms from navigation to the history drawn, and the points it held."""
+    loads, points = [], 0.0
+    for _ in range(times):
+        driver.get(url)
+        ms = wait_until(lambda: driver.execute_script("return window.cartlab.historyLoadedMs"), 20, "the history")
+        wait_until(lambda: driver.execute_script("return !window.cartlab.trace.dirty"), 5, "the first frame")
+        loads.append(float(ms))
+        points = float(driver.execute_script("return window.cartlab.historyPoints"))
+    return sorted(loads)[len(loads) // 2], points
+
+
 def measure(rate_hz: float, seconds: float, display_hz: float) -> None:
     with tempfile.TemporaryDirectory(prefix="cartlab-benchweb-") as tmp:
         work = Path(tmp)
@@ -125,6 +172,10 @@ def measure(rate_hz: float, seconds: float, display_hz: float) -> None:
                 pause.wait(seconds)
                 s1, b1, e1 = stats(page.port), browser_counters(driver), sse.snapshot()
                 cpu1 = (cpu_seconds(page.proc.pid), cpu_seconds(daq.popen.pid), time.monotonic())
+                live = browser_window(driver, seconds)
+                driver.find_element("id", "pause-btn").click()
+                paused = browser_window(driver, seconds)
+                load_ms, load_points = history_load_ms(driver, page.url + "/")
             finally:
                 if sse is not None:
                     sse.stop.set()
@@ -145,6 +196,12 @@ def measure(rate_hz: float, seconds: float, display_hz: float) -> None:
     print(f"  browser main thread       {(b1['drawMs'] - b0['drawMs']) / frames:8.2f} ms per frame drawn  "
           f"{((b1['drawMs'] - b0['drawMs']) + (b1['handlerMs'] - b0['handlerMs'])) / wall / 10:5.2f} % busy "
           "(drawing + event handlers)")
+    for name, w in (("live", live), ("paused", paused)):
+        print(f"  browser page {name:<7}      {w['frames_per_s']:5.1f} frames/s  "
+              f"main thread {w['busy_percent']:5.2f} % busy  "
+              f"Chromium processes {w['cpu_percent']:5.1f} % of a core")
+    print(f"  page opened               history drawn {load_ms:6.0f} ms after navigation (median of 5), "
+          f"{load_points:.0f} points")
     print(f"  CPU, one core             page server {100 * (cpu1[0] - cpu0[0]) / wall:5.1f} %   "
           f"daq {100 * (cpu1[1] - cpu0[1]) / wall:5.1f} %   (1 browser page + 1 SSE client)")
 

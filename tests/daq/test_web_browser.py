@@ -205,7 +205,7 @@ def test_live_trace_moves_release_settles_and_the_run_appears_with_its_fit(
     assert cells[4].splitlines() == ["5.500", "PEM order 2"]
     assert cells[5:9] == ["0.0400", "97.3", "coulomb_friction", "+0.80 pts"]
     links = row_links(browser, run_id)
-    assert set(links) == {"MCAP", "pem_cart1.png", "report"}
+    assert set(links) == {"MCAP", "pem_cart1.png", "report"}      # the figure folded under "1 file"
     with urllib.request.urlopen(links["MCAP"], timeout=10) as resp:
         assert resp.read(8) == b"\x89MCAP0\r\n"
     with urllib.request.urlopen(links["report"], timeout=10) as resp:
@@ -288,6 +288,30 @@ def test_pause_freezes_the_plot_and_the_cursor_reads_the_samples(browser: Any, p
     browser.find_element("id", "pause-btn").click()
     wait_until(lambda: js(browser, "window.cartlab.framesDrawn") > frames + 5, 5, "redraws after resume")
     assert canvas_png(browser) != png
+
+
+def overflow_px(browser: Any) -> int:
+    return int(js(browser, "document.documentElement.scrollWidth - document.documentElement.clientWidth"))
+
+
+def test_no_horizontal_overflow_at_laptop_and_phone_width(browser: Any) -> None:
+    wait_until(lambda: js(browser, "window.cartlab.bench") == BENCH and run_ids(browser), 20, "benchA's runs")
+    size = browser.get_window_size()
+    try:
+        for width, height in ((1280, 800), (390, 844)):
+            browser.set_window_size(width, height)
+            wait_until(lambda w=width: js(browser, "window.innerWidth") <= w, 5, f"the window at {width} px")
+            assert overflow_px(browser) <= 0, f"{overflow_px(browser)} px of horizontal overflow at {width} px"
+            table = js(browser, "document.querySelector('.runs table').getBoundingClientRect().right")
+            assert table <= js(browser, "document.documentElement.clientWidth") + 0.5
+        # no raw fit-file names in the row until asked for
+        run_id = run_ids(browser)[0]
+        shown = browser.execute_script(
+            "const r = document.querySelector(`#runs-body tr[data-run=\"${arguments[0]}\"] td.files`);"
+            "return r.innerText;", run_id)
+        assert ".png" not in shown
+    finally:
+        browser.set_window_size(size["width"], size["height"])
 
 
 def test_the_release_instant_is_marked_on_the_plot(browser: Any) -> None:

@@ -14,10 +14,18 @@ const $ = (id) => document.getElementById(id);
 const CAPACITY = 40000;          // points per channel kept (30 s at up to ~1.3 kHz)
 
 // ---- trace buffer ------------------------------------------------------------------
-const trace = cartlab.trace = { t: [], p1: [], p2: [], dirty: true };
+const trace = cartlab.trace = { t: [], p1: [], p2: [], dirty: false };
+
+// One animation frame is asked for only when something must be drawn: an idle or paused
+// page schedules no frames at all (a loop of empty frames still costs the browser CPU).
+let frameAsked = false;
+function redraw() {
+  trace.dirty = true;
+  if (!frameAsked) { frameAsked = true; requestAnimationFrame(draw); }
+}
 
 function clearTrace() {
-  trace.t = []; trace.p1 = []; trace.p2 = []; trace.dirty = true; cartlab.lastT = null; cartlab.cursor = null;
+  trace.t = []; trace.p1 = []; trace.p2 = []; redraw(); cartlab.lastT = null; cartlab.cursor = null;
 }
 
 function appendPoints(d) {
@@ -39,7 +47,7 @@ function appendPoints(d) {
     const cut = trace.t.length - CAPACITY;
     trace.t.splice(0, cut); trace.p1.splice(0, cut); trace.p2.splice(0, cut);
   }
-  if (!view.paused) trace.dirty = true;   // a paused plot is not redrawn: it stays as it was
+  if (!view.paused) redraw();   // a paused plot is not redrawn: it stays as it was
   return added;
 }
 
@@ -74,7 +82,7 @@ function addMark(msg) {
   if (last && last.t_s === t && last.state === msg.state) return;
   marks.push({ state: msg.state, t_s: t, run_id: msg.run_id });
   if (marks.length > 64) marks.shift();
-  trace.dirty = true;
+  if (!view.paused) redraw();
 }
 
 // Runs as spans: from a release to the next settled/idle/armed change (or still open).
@@ -110,7 +118,7 @@ function nearestSample(t) {
 }
 
 function draw() {
-  requestAnimationFrame(draw);
+  frameAsked = false;
   if (!trace.dirty) return;
   trace.dirty = false;
   const started = performance.now();
@@ -212,7 +220,7 @@ function setPaused(paused) {
   $("pause-btn").textContent = paused ? "Resume" : "Pause";
   $("pause-btn").classList.toggle("on", paused);
   $("zoom-reset").hidden = view.zoom === null;
-  trace.dirty = true;
+  redraw();
 }
 
 function timeAtX(clientX) {
@@ -231,12 +239,12 @@ function readCursor(clientX) {
   const shown = view.absolute ? `t ${c.t.toFixed(3)} s` : `t ${c.t.toFixed(3)} s (${(c.t - t1).toFixed(3)} s)`;
   $("cursor").textContent = `${shown} · cart 1 ${fmt(c.p1, 5)} m · cart 2 ${fmt(c.p2, 5)} m`;
   $("cursor").classList.add("on");
-  trace.dirty = true;
+  redraw();
 }
 
 function clearCursor() {
   if (!cartlab.cursor) return;
-  cartlab.cursor = null; $("cursor").classList.remove("on"); trace.dirty = true;
+  cartlab.cursor = null; $("cursor").classList.remove("on"); redraw();
   $("cursor").textContent = "move over the plot to read a sample; drag to zoom on a stretch";
 }
 
@@ -247,7 +255,7 @@ function plotEvents() {
     view.drag = { x0: e.clientX - rect.left, x1: e.clientX - rect.left, t0: timeAtX(e.clientX) };
   });
   canvas.addEventListener("mousemove", (e) => {
-    if (view.drag) { view.drag.x1 = e.clientX - canvas.getBoundingClientRect().left; trace.dirty = true; }
+    if (view.drag) { view.drag.x1 = e.clientX - canvas.getBoundingClientRect().left; redraw(); }
     readCursor(e.clientX);
   });
   canvas.addEventListener("mouseup", (e) => {
@@ -259,13 +267,13 @@ function plotEvents() {
       view.zoom = [Math.min(drag.t0, t1), Math.max(drag.t0, t1)];
       $("zoom-reset").hidden = false;
     }
-    trace.dirty = true;
+    redraw();
   });
   canvas.addEventListener("mouseleave", () => { view.drag = null; clearCursor(); });
-  canvas.addEventListener("dblclick", () => { view.zoom = null; $("zoom-reset").hidden = true; trace.dirty = true; });
+  canvas.addEventListener("dblclick", () => { view.zoom = null; $("zoom-reset").hidden = true; redraw(); });
   $("pause-btn").addEventListener("click", () => setPaused(!view.paused));
-  $("zoom-reset").addEventListener("click", () => { view.zoom = null; $("zoom-reset").hidden = true; trace.dirty = true; });
-  $("abs-time").addEventListener("change", (e) => { view.absolute = e.target.checked; trace.dirty = true; });
+  $("zoom-reset").addEventListener("click", () => { view.zoom = null; $("zoom-reset").hidden = true; redraw(); });
+  $("abs-time").addEventListener("change", (e) => { view.absolute = e.target.checked; redraw(); });
 }
 
 // ---- state, status, problems -------------------------------------------------------
@@ -392,8 +400,17 @@ function renderRuns() {
     if (row.file) files.append(link(`/files/${enc}/mcap?bench=${encodeURIComponent(row.bench)}`, "MCAP"));
     const names = new Set(row.fit_files || []);
     if (row.fit && (row.fit.status === "ok" || row.fit.status === "failed")) for (const n of row.fit.figures) names.add(n);
-    for (const n of [...names].sort()) files.append(link(`/files/${enc}/fit/${encodeURIComponent(n)}`, n === "report.json" ? "report" : n));
+    if (names.has("report.json")) { files.append(link(`/files/${enc}/fit/report.json`, "report")); names.delete("report.json"); }
+    if (names.size > 0) {             // the fit folder's other files, folded: raw names never widen the table
+      const more = el("details"), list = el("div", null, "more-files");
+      more.append(el("summary", `${names.size} file${names.size > 1 ? "s" : ""}`), list);
+      for (const n of [...names].sort()) list.append(link(`/files/${enc}/fit/${encodeURIComponent(n)}`, n));
+      files.append(more);
+    }
     tr.append(files);
+    const heads = [...document.querySelectorAll(".runs thead th")].map((th) => th.textContent);
+    let col = 0;                      // each cell labelled by its column (phone layout)
+    for (const td of tr.cells) { td.dataset.label = td.colSpan > 1 ? "fit" : heads[col] || ""; col += td.colSpan; }
     return tr;
   }));
 }
@@ -457,9 +474,10 @@ function rateMeter() {
 $("zero-btn").addEventListener("click", () => act("zero"));
 $("arm-btn").addEventListener("click", () => act("arm"));
 $("bench-select").addEventListener("change", (e) => connect(e.target.value));
-$("window-select").addEventListener("change", () => { trace.dirty = true; });
+$("window-select").addEventListener("change", () => { redraw(); });
+window.addEventListener("resize", () => redraw());
 const fromHash = new URLSearchParams(location.hash.slice(1)).get("bench");
 connect(fromHash);
 plotEvents();
 rateMeter();
-requestAnimationFrame(draw);
+redraw();
