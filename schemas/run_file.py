@@ -19,8 +19,9 @@ stops at the first damaged one (`ReadOutcome.complete` is then False). Chunks ar
 here, not by `mcap`, so that every size is checked before anything is allocated:
 
     file bytes ≤ max_file_bytes, each record ≤ max_record_bytes,
-    each chunk's decompressed size ≤ max_record_bytes, all chunks ≤ max_decompressed_bytes,
-    messages ≤ max_messages, samples ≤ max_samples.
+    each chunk's decompressed size ≤ max_record_bytes and (past 1 MiB) ≤ max_expansion × its
+    compressed size, all chunks ≤ max_decompressed_bytes, messages ≤ max_messages,
+    samples ≤ max_samples.
 
 A limit exceeded is a refusal (`RunFileTooLarge`), never a partial read: a bomb is not data.
 Samples are turned into arrays batch by batch, so memory stays near the arrays' size
@@ -137,6 +138,10 @@ class Limits:
     max_decompressed_bytes: int = 2 << 30
     max_messages: int = 25_000_000   # /position holds one message per sample
     max_samples: int = 10_000_000
+    #: Decompressed bytes per compressed byte of a chunk larger than `expansion_after_bytes`
+    #: decompressed: real chunks compress 5-20x; a bomb (one batch repeated) thousands of times.
+    max_expansion: float = 200.0
+    expansion_after_bytes: int = 1 << 20
 
 
 DEFAULT_LIMITS: Final = Limits()
@@ -165,6 +170,7 @@ class ReadOutcome:
     stop_reason: str | None = None
     n_messages: int = 0
     decompressed_bytes: int = 0
+    file_bytes: int = 0
 
 
 _PARSERS: Final[dict[int, Callable[[ReadDataStream, int], McapRecord]]] = {
@@ -202,6 +208,7 @@ def iter_records(path: Path, outcome: ReadOutcome, limits: Limits = DEFAULT_LIMI
         size = os.fstat(stream.fileno()).st_size
         if size > limits.max_file_bytes:
             raise RunFileTooLarge(path, "file bytes", limits.max_file_bytes, size)
+        outcome.file_bytes = size
         try:
             if stream.read(len(_MAGIC)) != _MAGIC:
                 raise ValueError("expected the MCAP magic at the start of the file")
@@ -278,6 +285,9 @@ def _open_chunk(path: Path, chunk: Chunk, outcome: ReadOutcome, limits: Limits) 
     declared = chunk.uncompressed_size
     if declared > limits.max_record_bytes:
         raise RunFileTooLarge(path, "decompressed chunk bytes", limits.max_record_bytes, declared)
+    if declared > limits.expansion_after_bytes and declared > limits.max_expansion * max(len(chunk.data), 1):
+        raise RunFileTooLarge(path, "a chunk's decompressed bytes per compressed byte (a bomb?)",
+                              int(limits.max_expansion), round(declared / max(len(chunk.data), 1)))
     if outcome.decompressed_bytes + declared > limits.max_decompressed_bytes:
         raise RunFileTooLarge(path, "decompressed bytes", limits.max_decompressed_bytes,
                               outcome.decompressed_bytes + declared)

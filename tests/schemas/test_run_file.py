@@ -108,11 +108,13 @@ def test_a_decompression_bomb_is_refused_by_name_before_memory_grows(tmp_path: P
     bomb = tmp_path / "bomb.mcap"
     _bomb(bomb, n_chunks=40, batches_per_chunk=30)    # 2.4 M samples in well under 1 MB
     assert bomb.stat().st_size < 1_000_000
-    limits = run_file.Limits(max_samples=1_000_000)
+    with pytest.raises(run_file.RunFileTooLarge, match="decompressed bytes per compressed byte"):
+        run_file.read_run(bomb, run_file.Limits(expansion_after_bytes=1 << 16))   # each chunk expands >200x
+    limits = run_file.Limits(max_samples=1_000_000, max_expansion=1e9)
     with pytest.raises(run_file.RunFileTooLarge, match="samples ≤ 1000000"):
         run_file.read_run(bomb, limits)
     with pytest.raises(run_file.RunFileTooLarge, match="decompressed bytes"):
-        run_file.read_run(bomb, run_file.Limits(max_decompressed_bytes=10_000_000))
+        run_file.read_run(bomb, run_file.Limits(max_decompressed_bytes=10_000_000, max_expansion=1e9))
 
 
 def test_a_chunk_that_declares_a_huge_size_is_refused_and_one_that_lies_is_damage(tmp_path: Path) -> None:
@@ -159,7 +161,7 @@ _READ_IN_CHILD = textwrap.dedent("""
     import resource, sys
     from pathlib import Path
     from schemas import run_file
-    read = run_file.read_run(Path(sys.argv[1]))
+    read = run_file.read_run(Path(sys.argv[1]), run_file.Limits(max_expansion=1e9))   # repeats: not a bomb here
     base = int(sys.argv[2])
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
     print(read.t_ns.size, peak - base)
