@@ -18,12 +18,23 @@ from schemas.fit import FitReport
 
 
 def diagnosis_summary(diagnosis: DiagnosisReport | None) -> dict[str, Any] | None:
-    """The diagnosed cause, its gain in fit-% points and the baseline and extended fit %."""
+    """The diagnosis' headline cause and its gain in fit-% points, every accepted effect with
+    its gain and whether it is material, and the baseline and extended fit %.
+
+    The headline is the report's `cause` (its largest material effect); `none` (nothing
+    material: e.g. a clean run whose only effect is a real but immaterial quantization) is
+    shown as no cause (None), never as the immaterial effect. The gain is the headline
+    effect's own gain when the report lists its effects, else the report's total gain.
+    """
     if diagnosis is None:
         return None
+    cause = None if diagnosis.cause == "none" else diagnosis.cause
+    own = [e.gain_points for e in diagnosis.effects if e.effect == cause]
     return {
-        "cause": diagnosis.cause,
-        "gain_points": diagnosis.gain_points,
+        "cause": cause,
+        "gain_points": None if cause is None else (own[0] if own else diagnosis.gain_points),
+        "effects": [{"effect": e.effect, "gain_points": e.gain_points, "material": e.material}
+                    for e in diagnosis.effects],
         "baseline_fit_percent": diagnosis.baseline.fit_percent,
         "extended_fit_percent": diagnosis.extended.fit_percent,
         "explanation": diagnosis.explanation,
@@ -69,10 +80,13 @@ def run_row(bench: str, run_id: str, finished: RunFinished | None,
     release = None if finished is None else finished.release_time_s
     if release is None and fit is not None:
         release = fit["release_time_s"]
+    status = None if finished is None else finished.status
     return {
         "bench": bench,
         "run_id": run_id,
-        "status": None if finished is None else finished.status,
+        "status": status,
+        # an aborted run (daq stopped mid-run, lost port) is shown as such, never as a fit
+        "fit_shown": status != "aborted",
         "reason": None if finished is None else finished.reason,
         "release_time_s": release,
         "duration_s": None if finished is None else finished.duration_s,

@@ -8,6 +8,7 @@ key: this tests the page, not the fitter.
 
 from __future__ import annotations
 
+import functools
 import itertools
 import json
 import tempfile
@@ -25,6 +26,7 @@ from daq.web.service import WebSettings
 from schemas import keys
 from schemas.bus import BusConfig
 from schemas.daq import DaqStatus, RunFinished, RunList
+from schemas.diagnosis import EffectFit
 from schemas.fit import FitReport, ModeRec, PemFitRec, SimpleFitRec, TransferFunctionRec
 from testkit import ports
 from testkit.waiting import wait_until
@@ -254,7 +256,7 @@ def test_pause_freezes_the_plot_and_the_cursor_reads_the_samples(browser: Any, p
     # the cursor, moved across the frozen plot, reads out the samples themselves
     canvas = browser.find_element("id", "plot")
     width = canvas.size["width"]
-    server = page.service.hub.benches[BENCH].history.as_event(BENCH)
+    server: dict[str, Any] = page.service.hub.benches[BENCH].history.as_event(BENCH)
     server_p1 = dict(zip(server["t_s"], server["pos1_m"], strict=True))
     server_p2 = dict(zip(server["t_s"], server["pos2_m"], strict=True))
     for frac in (0.2, 0.5, 0.9):
@@ -290,6 +292,10 @@ def test_pause_freezes_the_plot_and_the_cursor_reads_the_samples(browser: Any, p
     assert canvas_png(browser) != png
 
 
+def fits_in(browser: Any, width: int) -> bool:
+    return bool(js(browser, "window.innerWidth") <= width)
+
+
 def overflow_px(browser: Any) -> int:
     return int(js(browser, "document.documentElement.scrollWidth - document.documentElement.clientWidth"))
 
@@ -300,7 +306,7 @@ def test_no_horizontal_overflow_at_laptop_and_phone_width(browser: Any) -> None:
     try:
         for width, height in ((1280, 800), (390, 844)):
             browser.set_window_size(width, height)
-            wait_until(lambda w=width: js(browser, "window.innerWidth") <= w, 5, f"the window at {width} px")
+            wait_until(functools.partial(fits_in, browser, width), 5, f"the window at {width} px")
             assert overflow_px(browser) <= 0, f"{overflow_px(browser)} px of horizontal overflow at {width} px"
             table = js(browser, "document.querySelector('.runs table').getBoundingClientRect().right")
             assert table <= js(browser, "document.documentElement.clientWidth") + 0.5
@@ -340,6 +346,27 @@ def test_bench_selector_failed_fit_and_daq_gone(browser: Any, page: PageServer, 
             row_cells(browser, "rB1")), 10, "the failed fit")
         assert cells[4] == "fit failed: run too short: expected at least 2 s, got 0.3 s"
         assert run_ids(browser) == ["rB1"]                                  # benchA's runs not shown
+        # an aborted run is shown as such, even if a fit of it arrives; a clean run's only
+        # effect, immaterial, is never shown as its cause
+        other.publish_finished(RunFinished(bench="benchB", run_id="rB2", status="aborted", file="rB2.mcap",
+                                           n_samples=900, release_time_s=0.5, duration_s=0.9,
+                                           reason="stopped by signal"))
+        tf = TransferFunctionRec(output=1, num=[30.25], den=[1.0, 0.44, 30.25])
+        simple = [SimpleFitRec(method="rk4", output=1, tf=tf, wn_rad_s=5.5, zeta=0.04, gain=1.0, fit_percent=99.0)]
+        quantization = EffectFit(effect="quantization", rank=1, step=1, parameters={}, gain_points=0.01,
+                                 cv_ratio=9.0, cv_threshold=6.6, bic_drop=3.0, material=False)
+        clean = diagnosis_record("none", 0.01, 99.0).model_copy(update={"effects": [quantization]})
+        for run_id in ("rB2", "rB3"):
+            if run_id == "rB3":
+                other.publish_finished(RunFinished(bench="benchB", run_id="rB3", status="complete",
+                                                   file="rB3.mcap", n_samples=6000, release_time_s=0.5,
+                                                   duration_s=6.0))
+            other.publish_fit(FitReport(bench="benchB", run_id=run_id, worker="w", status="ok", case="cart1",
+                                        simple=simple, diagnosis=clean))
+        cells = wait_until(lambda: (lambda c: c if len(c) > 8 else None)(row_cells(browser, "rB3")), 10, "rB3 fitted")
+        assert cells is not None and cells[7] == "none material" and cells[8] == "—"
+        cells = wait_until(lambda: row_cells(browser, "rB2"), 10, "the aborted run")
+        assert cells[1].startswith("aborted") and cells[4] == "aborted run: not fitted (stopped by signal)"
         other.leave()
         problem = wait_until(lambda: browser.find_element("id", "problems").text, 10, "the daq-gone problem")
         assert "daq for bench benchB is not running" in problem
@@ -414,7 +441,7 @@ def test_a_page_opened_late_shows_the_recent_past_within_a_second(
         t, p1 = js(driver, "[window.cartlab.trace.t.slice(), window.cartlab.trace.p1.slice()]")
         assert t[-1] - t[0] >= 5.0 and js(driver, "window.cartlab.historyPoints") > 1000
         # the history is the server's own samples (nothing made up in between) ...
-        server = hub.benches[BENCH].history.as_event(BENCH)
+        server: dict[str, Any] = hub.benches[BENCH].history.as_event(BENCH)
         common = sorted(set(t) & set(server["t_s"]))
         assert len(common) > 1000
         page_p1 = dict(zip(t, p1, strict=True))

@@ -245,3 +245,27 @@ def test_a_bench_turns_stale_with_the_time_it_did_and_back() -> None:
     assert (view["stale"], view["stale_since"]) == ("daq gone", 105.0)
     events = [e for e in hub.flush() if e.name == "status"]
     assert events[-1].data["stale"] == "daq gone" and events[-1].data["stale_since"] == 105.0
+
+
+def test_the_cause_is_the_headline_never_an_immaterial_effect_and_aborted_runs_are_not_fitted() -> None:
+    from daq.web.runs_view import diagnosis_summary, run_row
+    from schemas.diagnosis import EffectFit
+    from testkit.web_support import diagnosis_record
+
+    def effect(name: str, gain: float, material: bool, rank: int) -> EffectFit:
+        return EffectFit(effect=name, rank=rank, step=rank, parameters={}, gain_points=gain,  # type: ignore[arg-type]
+                         cv_ratio=10.0, cv_threshold=6.6, bic_drop=5.0, material=material)
+
+    clean = diagnosis_record("none", 0.01, 99.0).model_copy(
+        update={"effects": [effect("quantization", 0.01, False, 1)]})
+    summary = diagnosis_summary(clean)
+    assert summary is not None and summary["cause"] is None and summary["gain_points"] is None
+    assert summary["effects"] == [{"effect": "quantization", "gain_points": 0.01, "material": False}]
+    rubbing = diagnosis_record("coulomb_friction", 2.5, 90.0).model_copy(
+        update={"effects": [effect("coulomb_friction", 2.1, True, 1), effect("quantization", 0.4, False, 2)]})
+    summary = diagnosis_summary(rubbing)
+    assert summary is not None and (summary["cause"], summary["gain_points"]) == ("coulomb_friction", 2.1)
+    aborted = RunFinished(bench="b1", run_id="r9", status="aborted", file="r9.mcap", n_samples=10,
+                          release_time_s=None, duration_s=0.1, reason="stopped by signal")
+    assert run_row("b1", "r9", aborted, None)["fit_shown"] is False
+    assert run_row("b1", "r1", finished("b1", "r1"), None)["fit_shown"] is True

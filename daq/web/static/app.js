@@ -359,6 +359,7 @@ function link(href, text) { const a = el("a", text); a.href = href; return a; }
 
 function fitCells(row) {
   const f = row.fit;
+  if (row.fit_shown === false) return [el("td", "aborted run: not fitted" + (row.reason ? ` (${row.reason})` : ""), "fit-failed")];
   if (!f || f.status === "withdrawn") return [el("td", row.status === "complete" || row.status === "recovered" ? "waiting for a fit…" : "", "fit-wait")];
   if (f.status === "fitting") return [el("td", `fitting (worker ${f.worker})…`, "fit-wait")];
   if (f.status === "failed") return [el("td", "fit failed: " + f.reason, "fit-failed")];
@@ -371,10 +372,12 @@ function fitCells(row) {
   const simple = f.simple.map((s) => `${s.method} cart ${s.output}: ωn ${fmt(s.wn_rad_s, 3)}, ζ ${fmt(s.zeta, 4)}, fit ${fmt(s.fit_percent, 1)} %`);
   wn.title = simple.join("\n");
   const d = f.diagnosis;
-  const cause = el("td", d ? d.cause : "—");
-  if (d) cause.title = d.explanation;
-  const gain = el("td", d ? (d.gain_points >= 0 ? "+" : "") + fmt(d.gain_points, 2) + " pts" : "—", "num");
-  if (d) gain.title = `fit ${fmt(d.baseline_fit_percent, 2)} % → ${fmt(d.extended_fit_percent, 2)} % with ${d.cause}`;
+  const headline = d && d.cause;        // null: nothing material (never an immaterial effect)
+  const cause = el("td", d ? (headline || "none material") : "—", d && !headline ? "fit-wait" : undefined);
+  if (d) cause.title = [d.explanation, ...(d.effects || []).map((e) =>
+    `${e.effect}: +${fmt(e.gain_points, 2)} pts${e.material ? "" : " (immaterial)"}`)].join("\n");
+  const gain = el("td", headline ? (d.gain_points >= 0 ? "+" : "") + fmt(d.gain_points, 2) + " pts" : "—", "num");
+  if (headline) gain.title = `fit ${fmt(d.baseline_fit_percent, 2)} % → ${fmt(d.extended_fit_percent, 2)} % with ${d.cause}`;
   return [wn, el("td", modes.map((m) => fmt(m[1], 4)).join(" / "), "num"),
     el("td", fits.map((v) => fmt(v, 1)).join(" / "), "num"), cause, gain];
 }
