@@ -50,16 +50,22 @@ def safe_file_name(name: str) -> str | None:
         return None
 
 
+def tf_view(tf: Any) -> dict[str, Any]:
+    """A transfer function `G(s) = num(s) / den(s)` (highest power first) for the run view."""
+    return {"output": tf.output, "num": list(tf.num), "den": list(tf.den)}
+
+
 def fit_summary(report: FitReport) -> dict[str, Any]:
-    """What the run list shows of a fit report (JSON-ready)."""
+    """What the run list and the run view show of a fit report (JSON-ready)."""
     simple = [{"method": s.method, "output": s.output, "wn_rad_s": s.wn_rad_s, "zeta": s.zeta,
-               "fit_percent": s.fit_percent} for s in report.simple]
+               "fit_percent": s.fit_percent, "tf": tf_view(s.tf)} for s in report.simple]
     pem = None
     if report.pem is not None:
         pem = {"order": report.pem.order, "outputs": report.pem.outputs,
                "wn_rad_s": [m.wn_rad_s for m in report.pem.modes],
                "zeta": [m.zeta for m in report.pem.modes],
-               "fit_percent": report.pem.fit_percent}
+               "fit_percent": report.pem.fit_percent,
+               "tfs": [tf_view(tf) for tf in report.pem.tfs]}
     figures = [n for n in (safe_file_name(f) for f in report.figures) if n is not None]
     return {
         "status": report.status,

@@ -214,6 +214,34 @@ def test_live_trace_moves_release_settles_and_the_run_appears_with_its_fit(
         assert json.loads(resp.read())["pem"]["modes"][0]["wn_rad_s"] == 5.5
 
 
+def test_the_run_view_shows_the_numbers_of_report_json(browser: Any, runs_dir: Path) -> None:
+    run_id = wait_until(lambda: next((r for r in run_ids(browser) if (runs_dir / f"{r}.fit" / "report.json").is_file()),
+                                     None), 10, "a fitted run")
+    report = json.loads((runs_dir / f"{run_id}.fit" / "report.json").read_text())
+    browser.find_element("css selector", f'#runs-body tr[data-run="{run_id}"] td').click()
+    wait_until(lambda: browser.find_element("id", "run-view").is_displayed(), 5, "the run view")
+    rows = browser.execute_script("return [...document.querySelectorAll('#rv-models tr')]"
+                                  ".map(r => [...r.cells].map(c => c.textContent));")
+    expected = [[f"physical, {'RK4' if s['method'] == 'rk4' else s['method']}", str(s["output"]),
+                 f"{s['fit_percent']:.2f}", f"{s['wn_rad_s']:.3f}", f"{s['zeta']:.4f}"] for s in report["simple"]]
+    pem = report["pem"]
+    expected += [[f"PEM order {pem['order']}", str(o), f"{pem['fit_percent'][i]:.2f}",
+                  f"{pem['modes'][i]['wn_rad_s']:.3f}", f"{pem['modes'][i]['zeta']:.4f}"]
+                 for i, o in enumerate(pem["outputs"])]
+    diag = report["diagnosis"]
+    assert rows[:len(expected)] == expected
+    extended = rows[len(expected)]
+    assert extended[0].startswith("extended") and extended[2] == f"{diag['extended']['fit_percent']:.2f}"
+    effects = browser.find_element("id", "rv-effects").text
+    assert f"{diag['cause']}: +{diag['gain_points']:.2f} fit-% points" in effects
+    tfs = browser.find_element("id", "rv-tfs").text
+    tf = pem["tfs"][0]
+    assert f"{tf['den'][-1]:.5g}" in tfs and "G(s) = (" in tfs
+    links = {a.text: a.get_attribute("href") for a in browser.find_elements("css selector", "#rv-files a")}
+    assert {"MCAP", "report (JSON)"} <= set(links)
+    assert browser.find_elements("css selector", "#rv-figures img")
+
+
 def test_zero_button_zeroes(browser: Any, session: zenoh.Session) -> None:
     wait_until(lambda: js(browser, "window.cartlab.status !== null && window.cartlab.status.connected"),
              20, "the daq status")
@@ -259,20 +287,22 @@ def test_pause_freezes_the_plot_and_the_cursor_reads_the_samples(browser: Any, p
     server: dict[str, Any] = page.service.hub.benches[BENCH].history.as_event(BENCH)
     server_p1 = dict(zip(server["t_s"], server["pos1_m"], strict=True))
     server_p2 = dict(zip(server["t_s"], server["pos2_m"], strict=True))
+    rect_left = js(browser, "document.getElementById('plot').getBoundingClientRect().left")
     for frac in (0.2, 0.5, 0.9):
+        browser.execute_script("window.cartlab.cursor = null;")
         ActionChains(browser).move_to_element_with_offset(canvas, int(width * (frac - 0.5)), 0).perform()
-        cur = wait_until(lambda: js(browser, "window.cartlab.cursor"), 5, "the cursor")
+        target_x = rect_left + width / 2 + int(width * (frac - 0.5))
+        cur = wait_until(lambda: (lambda c: c if c and abs(c["clientX"] - target_x) <= 1.0 else None)(  # noqa: B023
+            js(browser, "window.cartlab.cursor")), 5, "the cursor at the pointer")
         t, p1, p2 = js(browser, f"[window.cartlab.trace.t[{cur['i']}], window.cartlab.trace.p1[{cur['i']}],"
                                 f" window.cartlab.trace.p2[{cur['i']}]]")
         assert (cur["t"], cur["p1"], cur["p2"]) == (t, p1, p2)
         assert server_p1[t] == p1 and server_p2[t] == p2                   # what the daq sent
         text = browser.find_element("id", "cursor").text
         assert f"t {t:.3f} s" in text and f"cart 1 {p1:.5f} m" in text and f"cart 2 {p2:.5f} m" in text
-        # the nearest sample to the time under the pointer
+        # the nearest sample to the time under the pointer (from the plot's own axis)
         g = js(browser, "window.cartlab.view.geom")
-        rect_left = js(browser, "document.getElementById('plot').getBoundingClientRect().left")
-        pointer_x = rect_left + width / 2 + int(width * (frac - 0.5))
-        t_pointer = g["tStart"] + (pointer_x - rect_left - g["left"]) / g["pw"] * g["spanS"]
+        t_pointer = g["tStart"] + (cur["clientX"] - rect_left - g["left"]) / g["pw"] * g["spanS"]
         times = js(browser, "window.cartlab.trace.t")
         assert abs(t - t_pointer) <= min(abs(x - t_pointer) for x in times) + 1e-12
 

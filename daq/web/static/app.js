@@ -6,7 +6,7 @@
 const cartlab = window.cartlab = {
   bench: null, connected: false, state: null, status: null,
   eventsReceived: 0, sampleEvents: 0, samplesRaw: 0, pointsReceived: 0,
-  framesDrawn: 0, pointsDrawn: 0, historyPoints: 0, historyLoadedMs: null, drawMs: 0, handlerMs: 0, lastT: null, lastAction: null, stale: null, stateMsg: null, runs: {}, stateHistory: [],
+  framesDrawn: 0, pointsDrawn: 0, historyPoints: 0, historyLoadedMs: null, drawMs: 0, handlerMs: 0, lastT: null, lastAction: null, stale: null, stateMsg: null, openRun: null, runs: {}, stateHistory: [],
   startedMs: performance.now(),
 };
 
@@ -235,7 +235,7 @@ function readCursor(clientX) {
   const [t0, t1] = visibleRange();
   if (t < t0 || t > t1) { clearCursor(); return; }
   const i = nearestSample(t);
-  const c = cartlab.cursor = { i, t: trace.t[i], p1: trace.p1[i], p2: trace.p2[i] };
+  const c = cartlab.cursor = { i, t: trace.t[i], p1: trace.p1[i], p2: trace.p2[i], clientX, tPointer: t };
   const shown = view.absolute ? `t ${c.t.toFixed(3)} s` : `t ${c.t.toFixed(3)} s (${(c.t - t1).toFixed(3)} s)`;
   $("cursor").textContent = `${shown} · cart 1 ${fmt(c.p1, 5)} m · cart 2 ${fmt(c.p2, 5)} m`;
   $("cursor").classList.add("on");
@@ -390,7 +390,7 @@ function renderRuns() {
     body.firstChild.firstChild.colSpan = 10; return;
   }
   body.replaceChildren(...rows.map((row) => {
-    const tr = el("tr"); tr.dataset.run = row.run_id;
+    const tr = el("tr", null, row.run_id === cartlab.openRun ? "selected" : undefined); tr.dataset.run = row.run_id;
     const status = el("td", row.status || "—"); if (row.reason) status.title = row.reason;
     if (row.reason && row.status && row.status !== "complete") status.append(el("div", row.reason, "sub"));
     tr.append(el("td", row.run_id), status, el("td", fmt(row.release_time_s, 3), "num"),
@@ -418,6 +418,52 @@ function renderRuns() {
   }));
 }
 
+// ---- the run view: one run's models, effects, transfer functions and files ------------
+function poly(c) {                     // coefficients, highest power of s first
+  const n = c.length - 1;
+  return c.map((a, i) => { const p = n - i; return `${Number(a).toPrecision(5)}${p > 1 ? " s^" + p : p === 1 ? " s" : ""}`; }).join(" + ");
+}
+
+function showRun(runId) {
+  cartlab.openRun = runId;
+  const row = cartlab.runs[runId], box = $("run-view");
+  if (!row) { box.hidden = true; return; }
+  for (const tr of document.querySelectorAll("#runs-body tr[data-run]")) tr.classList.toggle("selected", tr.dataset.run === runId);
+  box.hidden = false;
+  const f = row.fit && row.fit.status === "ok" && row.fit_shown !== false ? row.fit : null;
+  $("rv-title").textContent = `Run ${row.run_id} · ${row.status || "—"}` + (row.reason ? ` (${row.reason})` : "")
+    + (row.fit && !f ? ` · ${row.fit_shown === false ? "not fitted" : row.fit.status + (row.fit.reason ? ": " + row.fit.reason : "")}` : "");
+  const models = [];
+  if (f) {
+    for (const s of f.simple) models.push([s.method === "rk4" ? "physical, RK4" : "physical, " + s.method, s.output, s.fit_percent, s.wn_rad_s, s.zeta]);
+    if (f.pem) f.pem.outputs.forEach((o, i) => models.push([`PEM order ${f.pem.order}`, o, f.pem.fit_percent[i],
+      f.pem.wn_rad_s[Math.min(i, f.pem.wn_rad_s.length - 1)], f.pem.zeta[Math.min(i, f.pem.zeta.length - 1)]]));
+    const d = f.diagnosis;
+    if (d) models.push(["extended (linear + " + ((d.effects || []).map((e) => e.effect).join(" + ") || d.cause || "nothing") + ")", "all", d.extended_fit_percent, null, null]);
+  }
+  $("rv-models").replaceChildren(...models.map((m) => {
+    const tr = el("tr"); tr.append(el("td", m[0]), el("td", String(m[1])), el("td", fmt(m[2], 2), "num"),
+      el("td", fmt(m[3], 3), "num"), el("td", fmt(m[4], 4), "num")); return tr;
+  }));
+  const d = f && f.diagnosis;
+  const effects = d ? (d.effects && d.effects.length ? d.effects : d.cause ? [{ effect: d.cause, gain_points: d.gain_points, material: true }] : []) : [];
+  $("rv-effects").replaceChildren(...(effects.length ? effects.map((e) => el("li", `${e.effect}: +${fmt(e.gain_points, 2)} fit-% points${e.material ? "" : " (immaterial)"}`))
+    : [el("li", f ? (d ? "none: the linear model explains the run" : "no diagnosis") : "—")]));
+  const tfs = f ? [...f.simple.map((s) => [`${s.method} cart ${s.output}`, s.tf]), ...(f.pem ? f.pem.tfs.map((t) => [`PEM cart ${t.output}`, t]) : [])] : [];
+  $("rv-tfs").replaceChildren(...tfs.map(([name, tf]) => el("li", `${name}: G(s) = (${poly(tf.num)}) / (${poly(tf.den)})`)));
+  const files = $("rv-files"); files.replaceChildren();
+  const enc = encodeURIComponent(row.run_id);
+  if (row.file) files.append(link(`/files/${enc}/mcap?bench=${encodeURIComponent(row.bench)}`, "MCAP"));
+  const names = new Set(row.fit_files || []);
+  if (row.fit && row.fit.figures) for (const n of row.fit.figures) names.add(n);
+  const label = (n) => n === "report.json" ? "report (JSON)" : n.endsWith(".ipynb") ? "notebook" : n.endsWith(".csv") ? "CSV"
+    : n.endsWith(".mat") ? "MAT" : n.endsWith(".html") ? "report (HTML)" : n;
+  for (const n of [...names].sort()) if (!n.endsWith(".png")) files.append(link(`/files/${enc}/fit/${encodeURIComponent(n)}`, label(n)));
+  $("rv-figures").replaceChildren(...[...names].filter((n) => n.endsWith(".png")).sort().map((n) => {
+    const img = el("img"); img.src = `/files/${enc}/fit/${encodeURIComponent(n)}`; img.alt = n; img.loading = "lazy"; return img;
+  }));
+}
+
 // ---- buttons -------------------------------------------------------------------------
 async function act(action) {
   const out = $("action-result");
@@ -438,7 +484,7 @@ let source = null;
 
 function connect(bench) {
   if (source) source.close();
-  clearTrace(); cartlab.runs = {}; renderRuns();
+  clearTrace(); cartlab.runs = {}; cartlab.openRun = null; $("run-view").hidden = true; renderRuns();
   const url = "/api/events" + (bench ? "?bench=" + encodeURIComponent(bench) : "");
   source = new EventSource(url);
   const on = (name, fn) => source.addEventListener(name, (ev) => {
@@ -459,7 +505,7 @@ function connect(bench) {
   on("state", showState);
   on("status", showStatus);
   on("benches", (d) => { showBenches(d.benches); if (!cartlab.bench && d.benches.some((b) => b.alive)) connect(null); });
-  on("run", (r) => { cartlab.runs[r.run_id] = r; renderRuns(); });
+  on("run", (r) => { cartlab.runs[r.run_id] = r; renderRuns(); if (cartlab.openRun === r.run_id) showRun(r.run_id); });
 }
 
 function rateMeter() {
@@ -475,6 +521,11 @@ function rateMeter() {
 }
 
 $("zero-btn").addEventListener("click", () => act("zero"));
+$("runs-body").addEventListener("click", (e) => {
+  const tr = e.target.closest("tr[data-run]");
+  if (tr && !e.target.closest("a, summary")) showRun(tr.dataset.run);
+});
+$("rv-close").addEventListener("click", () => { cartlab.openRun = null; $("run-view").hidden = true; renderRuns(); });
 $("arm-btn").addEventListener("click", () => act("arm"));
 $("bench-select").addEventListener("change", (e) => connect(e.target.value));
 $("window-select").addEventListener("change", () => { redraw(); });
