@@ -117,7 +117,8 @@ class History:
         if not kept.t_s:
             return
         if self.t_s and kept.t_s[0] < self.t_s[-1] - 1.0:
-            self.t_s.clear(); self.pos1_m.clear(); self.pos2_m.clear()  # noqa: E702
+            for column in (self.t_s, self.pos1_m, self.pos2_m):    # a restarted daq
+                column.clear()
         pos2 = kept.pos2_m if kept.pos2_m is not None else [None] * len(kept.t_s)
         self.has_pos2 = self.has_pos2 or kept.pos2_m is not None
         self.t_s.extend(kept.t_s)
@@ -125,7 +126,9 @@ class History:
         self.pos2_m.extend(pos2)
         oldest = self.t_s[-1] - self.seconds
         while self.t_s and self.t_s[0] < oldest:
-            self.t_s.popleft(); self.pos1_m.popleft(); self.pos2_m.popleft()  # noqa: E702
+            self.t_s.popleft()
+            self.pos1_m.popleft()
+            self.pos2_m.popleft()
 
     def as_event(self, bench: str) -> dict[str, object]:
         """The same shape as a `samples` event (`n_raw` 0: these samples were counted)."""

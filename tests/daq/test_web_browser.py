@@ -292,7 +292,7 @@ def test_pause_freezes_the_plot_and_the_cursor_reads_the_samples(browser: Any, p
         browser.execute_script("window.cartlab.cursor = null;")
         ActionChains(browser).move_to_element_with_offset(canvas, int(width * (frac - 0.5)), 0).perform()
         target_x = rect_left + width / 2 + int(width * (frac - 0.5))
-        cur = wait_until(lambda: (lambda c: c if c and abs(c["clientX"] - target_x) <= 1.0 else None)(  # noqa: B023
+        cur = wait_until(lambda: (lambda c: c if c and abs(c["clientX"] - target_x) <= 1.0 else None)(  # noqa: B023 - called in this iteration only
             js(browser, "window.cartlab.cursor")), 5, "the cursor at the pointer")
         t, p1, p2 = js(browser, f"[window.cartlab.trace.t[{cur['i']}], window.cartlab.trace.p1[{cur['i']}],"
                                 f" window.cartlab.trace.p2[{cur['i']}]]")
