@@ -11,6 +11,7 @@ Chromium and saves:
     5-paused-cursor.png  paused, the cursor on the ringing (read-out under the plot)
     6-phone.png        the same page at phone width (390 x 844)
     7-stale.png        after the daq was killed (SIGKILL): the state box and badge stale
+    8-run-view.png     the run view of the fitted run (full page height)
 
     .venv/bin/python tools/web_screenshots.py OUT_DIR [--case both] [--rate-hz 1000]
 
@@ -81,6 +82,11 @@ def run(out: Path, case: str, rate_hz: float, timeout_s: float, worker: bool) ->
                                           "(r.fit.status === 'ok' || r.fit.status === 'failed'))"),
                                timeout_s, "the fit report")
                     shoot(driver, out, "4-after-fit.png")
+                    driver.find_element("css selector", "#runs-body tr[data-run] td").click()
+                    wait_until(lambda: driver.find_element("id", "run-view").is_displayed(), 10, "the run view")
+                    driver.set_window_size(1280, 2000)
+                    shoot(driver, out, "8-run-view.png")
+                    driver.set_window_size(1280, 1040)
                 driver.find_element("id", "pause-btn").click()
                 canvas = driver.find_element("id", "plot")
                 ActionChains(driver).move_to_element_with_offset(canvas, canvas.size["width"] // 4, 0).perform()
