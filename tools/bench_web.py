@@ -105,8 +105,8 @@ def tree_cpu_seconds(root: int) -> float:
     children: dict[int, list[int]] = {}
     for stat in Path("/proc").glob("[0-9]*/stat"):
         try:
-            pid, rest = stat.read_text().split(" ", 1)
-            children.setdefault(int(rest.rsplit(")", 1)[1].split()[1]), []).append(int(pid))
+            own, rest = stat.read_text().split(" ", 1)
+            children.setdefault(int(rest.rsplit(")", 1)[1].split()[1]), []).append(int(own))
         except (OSError, ValueError, IndexError):
             continue                                   # a process that ended meanwhile
     total, todo = 0.0, [root]
