@@ -23,7 +23,7 @@ from typing import Any, Literal
 import numpy as np
 
 from ident import progress
-from ident.data import FloatArray, IdData
+from ident.data import FloatArray, IdData, make_uniform
 from ident.diagnose import Diagnosis, diagnose
 from ident.errors import IdentError, IdentValueError
 from ident.fitrun.envelope import Envelope, fit_envelope
@@ -178,6 +178,7 @@ def choose_case(data: IdData, carts: int | None) -> tuple[LabCase, tuple[int, ..
 
 def analyse_fits(data: IdData, settings: FitSettings = FitSettings()) -> RunAnalysis:
     """The case, the simple identifications and PEM (fast: well under a second)."""
+    data = on_one_grid(data)
     case, moving = choose_case(data, settings.carts)
     columns = [c - 1 for c in moving]
     cart_data = data.select_outputs(columns) if data.n_outputs != len(columns) else data
@@ -202,6 +203,20 @@ def analyse_fits(data: IdData, settings: FitSettings = FitSettings()) -> RunAnal
     analysis = RunAnalysis(case, cart_data, moving, tuple(simple), model, y_hat,
                            timings_s=timings, errors=errors)
     return dataclasses.replace(analysis, envelope=envelope_of(analysis))
+
+
+def on_one_grid(data: IdData) -> IdData:
+    """`data` on a uniform grid when it carries a recorded input (more than one jump in `u`,
+    e.g. a motor's 'Control Effort') on an irregular clock, else `data` unchanged.
+
+    PEM resamples such a record for itself; the analysis must then hold the same grid (`u`
+    resampled by zero-order hold with `y`, `ident.data.make_uniform`), or the model's free
+    run, the envelope and the diagnosis would pair the fitted grid with the file's stamps.
+    A step input on an irregular clock is kept as recorded: the step fitters take any stamps.
+    """
+    if data.is_uniform() or np.count_nonzero(np.diff(data.u)) <= 1:
+        return data
+    return make_uniform(data, "linear")
 
 
 def _named(data: IdData, case: LabCase, columns: list[int]) -> tuple[LabCase, tuple[int, ...]]:
@@ -261,4 +276,4 @@ def fit_simple_result(data: IdData, method: SimpleMethod, output: int) -> Simple
 
 __all__ = ["MOVING_MIN_M", "MOVING_SIGMAS", "FitSettings", "Method", "NoiseModel", "RunAnalysis",
            "SimpleResult", "analyse", "analyse_fits", "choose_case", "detect_case", "envelope_of",
-           "fit_simple_result", "with_diagnosis"]
+           "fit_simple_result", "on_one_grid", "with_diagnosis"]
