@@ -34,7 +34,7 @@ from ident.diagnose import explain
 from ident.diagnose.candidates import Problem, fit_baseline
 from ident.diagnose.evidence import EvidenceResult, collect
 from ident.diagnose.fitting import FitResult
-from ident.diagnose.lattice import find_lattice
+from ident.diagnose.lattice import find_lattice, find_noisy_lattice
 from ident.diagnose.models import EFFECTS, effect_names
 from ident.diagnose.select import Judgement, Step, forward, is_material, threshold
 from ident.diagnose.window import MAX_WORK_SAMPLES, Window, find_window, hold_level
@@ -111,6 +111,9 @@ def diagnose(t: FloatArray, y: FloatArray, carts: int | None = None, step_m: flo
     progress.stage("diagnosis: the linear baseline")
     base = fit_baseline(prob, fixed)
     lattice, coherence = find_lattice(y_arr[win.start:])
+    if lattice is None:   # noise after the encoder: a lattice proposed, kept only if it fits
+        lattice = find_noisy_lattice(y_arr[win.start:])
+        coherence = lattice.coherence if lattice is not None else coherence
     n_lin = len(LINEAR_NAMES[carts])
     wn_modes = np.array([w for w, _ in modes(base.theta[None, :n_lin], carts)])
     rest = base.theta[n_lin + 2 * carts:n_lin + 3 * carts]

@@ -128,6 +128,11 @@ def forward(baseline: FitResult, effects: Callable[[FitResult], list[str]],
 def is_material(step: Step, gain_points: float, final: FitResult) -> bool:
     """Whether an accepted effect matters: the misfit it removed is at least
     `MATERIAL_FRACTION` of what the final model still misses, or it adds `MATERIAL_POINTS`.
-    (An encoder lattice of 0.3 counts under a friction model's 20-count misfit does not.)"""
+    (An encoder lattice of 0.3 counts under a friction model's 20-count misfit does not.)
+    An encoder lattice is a property of the measurement, not of the carts: it matters only by
+    the points it adds (a 50 µm lattice worth 0.02 points on an otherwise linear run is listed,
+    never the headline, even though it removes most of the little misfit left)."""
+    if step.judgement.effect == "quantization":
+        return gain_points >= MATERIAL_POINTS
     removed = step.before.sse_train - step.judgement.result.sse_train
     return removed >= MATERIAL_FRACTION * final.sse_train or gain_points >= MATERIAL_POINTS

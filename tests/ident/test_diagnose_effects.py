@@ -23,10 +23,7 @@ PER_FAMILY = 3
 #: targets main did not meet when this test landed (strict: a pass fails the run, so the mark
 #: is removed as soon as the diagnosis meets them); tools/bench_diagnose.py gives the rates
 NOT_YET = {
-    "quantization": "a 0.66 mm lattice worth 0.24 fit-% points comes out 'none' (seed 1314433798)",
     "coulomb+held_cart": "friction or held-cart gain 10-13 % off on flicks (seeds 744918568, 1568247562)",
-    "coulomb+quantization": "a 1.1 mm lattice worth 1.3 fit-% points beside friction is not found (seed "
-                            "2118887614; found before 046ea64 moved the fit start)",
 }
 
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ident.diagnose.lattice import find_lattice
+from ident.diagnose.lattice import find_lattice, find_noisy_lattice
 from ident.diagnose.select import threshold
 from ident.errors import IdentValueError
 from ident.physics.chain import linear_free_response
@@ -84,3 +84,34 @@ def test_the_record_round_trips_and_has_a_schema() -> None:
         "coulomb_friction", "quadratic_drag", "cubic_stiffness", "quantization", "coupled_mode", "presliding",
         "held_cart_motion", "none"}
     assert "effects" in schema["properties"] and DiagnosisReport.SCHEMA_VERSION == 2
+
+
+def _decaying_swing(rng: np.random.Generator, n: int = 2000) -> np.ndarray:
+    """A cart ringing down (amplitude 2-20 cm, 0.5-2 Hz at 200 Hz) then resting for a fifth."""
+    t = np.arange(n) / 200.0
+    amp, f, rest = rng.uniform(0.02, 0.2), rng.uniform(0.5, 2.0), rng.uniform(-0.05, 0.05)
+    x = rest + amp * np.exp(-0.3 * t) * np.cos(2 * np.pi * f * t)
+    x[int(0.8 * n):] = x[int(0.8 * n)]
+    return x
+
+
+def test_a_lattice_read_under_noise_is_found_with_its_quantum() -> None:
+    rng = np.random.default_rng(17)
+    for _ in range(12):
+        x = _decaying_swing(rng)
+        q = float(np.exp(rng.uniform(np.log(1e-5), np.log(2e-3))))
+        if np.ptp(x) < 10 * q:
+            continue
+        y = q * np.round(x / q) + rng.normal(0.0, rng.uniform(0.02, 0.3) * q, x.size)
+        assert find_lattice(y)[0] is None   # no exact lattice
+        lattice = find_noisy_lattice(y)
+        assert lattice is not None, f"q = {q:.3g} m not found"
+        assert lattice.quantum_m == pytest.approx(q, rel=0.01)
+
+
+def test_no_lattice_is_read_into_continuous_data_or_a_resting_cart() -> None:
+    rng = np.random.default_rng(18)
+    for _ in range(12):
+        x = _decaying_swing(rng)
+        assert find_noisy_lattice(x + rng.normal(0.0, float(np.exp(rng.uniform(np.log(5e-6), np.log(2e-4)))),
+                                                 x.size)) is None
