@@ -26,8 +26,6 @@ from testkit.mcap_runs import write_mcap_run
 
 REL_TOL = 0.15
 #: main missed these when the generator was ported (strict: remove the mark once they pass)
-MISSES_LATTICES = ("material lattices of 0.1-1.1 mm (0.1-0.9 fit-% points) with noise of 0.2-0.3 quantum after "
-                   "them come out 'none' (seeds 942239283, 1412303648, 120967996); see tools/bench_diagnose.py")
 SET_SEED = 20261122
 API_CASES = 24
 CLI_CASES = 6
@@ -60,7 +58,6 @@ def _csv_report(case: Case, path: Path) -> DiagnosisReport:
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=True, reason=MISSES_LATTICES)
 def test_hidden_effects_are_found_through_a_csv_file(tmp_path: Path) -> None:
     results = [(case, _csv_report(case, tmp_path / f"run_{seed}.csv"))
                for seed, family in _plan(API_CASES, 0) for case in [make_case(seed, family)]]
@@ -72,7 +69,6 @@ def test_hidden_effects_are_found_through_a_csv_file(tmp_path: Path) -> None:
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=True, reason=MISSES_LATTICES)
 def test_hidden_effects_are_found_through_the_cli_json(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     wrong = []
     for seed, family in _plan(CLI_CASES, 1):
