@@ -18,7 +18,8 @@ from ident import progress
 from ident.commands.fit import run_id_of
 from ident.data import IdData
 from ident.errors import DataFileError, IdentError
-from ident.fitrun import RunIdentity, fit_file, load_run
+from ident.fitrun import RunFileOptions, RunIdentity, fit_file, load_run
+from ident.fitrun.analysis import case_samples, on_one_grid
 from ident.report.content import CaseResult
 from ident.report.figures import write_figures
 from ident.report.writer import FittedRun, write_report_dir
@@ -32,6 +33,9 @@ from ident.worker.runs_dir import (
 from schemas import topics
 from schemas.fit import FitReport
 
+#: MCAP runs need no reading options; text exports may (columns, scale).
+_READ_AS_IS = RunFileOptions()
+
 
 def add_parser(sub: Any) -> None:
     parser: argparse.ArgumentParser = sub.add_parser(
@@ -43,6 +47,14 @@ def add_parser(sub: Any) -> None:
     parser.add_argument("runs", nargs="+", type=Path, metavar="RUN")
     parser.add_argument("-o", "--out", type=Path, required=True, metavar="DIR",
                         help="output directory")
+    parser.add_argument("--time", dest="time_col", default=None,
+                        help="time column name (text exports)")
+    parser.add_argument("--pos", dest="pos_cols", nargs="+", default=None,
+                        help="position column name(s), cart 1 first (text exports)")
+    parser.add_argument("--scale", type=float, default=None,
+                        help="metres per unit of the position columns (text exports)")
+    parser.add_argument("--release-s", dest="release_s", type=float, default=None,
+                        help="release time (s) of a text export, if known")
     parser.set_defaults(func=run)
 
 
@@ -51,7 +63,10 @@ def run(args: argparse.Namespace) -> int:
     from ident.report.content import summary_rows
 
     try:
-        results = write_lab_report(list(args.runs), args.out)
+        options = RunFileOptions(time_col=args.time_col, scale=args.scale,
+                                 release_time_s=args.release_s,
+                                 pos_cols=None if args.pos_cols is None else tuple(args.pos_cols))
+        results = write_lab_report(list(args.runs), args.out, options=options)
     except IdentError as exc:
         print(f"ident report: {exc}", file=sys.stderr)
         return 2
@@ -62,34 +77,37 @@ def run(args: argparse.Namespace) -> int:
     return 0 if results else 1
 
 
-def fit_here(path: Path, fit_dir: Path) -> FitReport:
+def fit_here(path: Path, fit_dir: Path, options: RunFileOptions = _READ_AS_IS) -> FitReport:
     """Fit a run file with the use case, its figures into `fit_dir`; write report.json."""
     finished = read_finished(path) if path.suffix == topics.RUN_SUFFIX else None
     who = RunIdentity(bench=finished.bench if finished else "local",
                       run_id=finished.run_id if finished else run_id_of(path),
                       worker="ident-report")
     fit_dir.mkdir(parents=True, exist_ok=True)
-    report = fit_file(path, who, draw=partial(write_figures, directory=fit_dir)).report
+    report = fit_file(path, who, options=options,
+                      draw=partial(write_figures, directory=fit_dir)).report
     write_report(fit_dir, report)
     return report
 
 
-def fitted_samples(run_file: Path, report: FitReport) -> IdData | None:
+def fitted_samples(run_file: Path, report: FitReport,
+                   options: RunFileOptions = _READ_AS_IS) -> IdData | None:
     """The samples the report's fits used (its carts' columns), or None without the file."""
     if report.status != "ok" or not run_file.is_file():
         return None
     outputs = report.pem.outputs if report.pem else [s.output for s in report.simple[:1]]
     try:
-        data = load_run(run_file)
+        data = load_run(run_file, options)
     except (IdentError, OSError):
         return None
-    columns = [c - 1 for c in outputs]
-    if not columns or max(columns) >= data.n_outputs:
+    numbers = data.cart_numbers()          # the report names carts; the data has columns
+    if not outputs or not set(outputs) <= set(numbers):
         return None
-    return data if data.n_outputs == len(columns) else data.select_outputs(columns)
+    return case_samples(on_one_grid(data), tuple(numbers.index(c) + 1 for c in outputs))
 
 
-def gather(paths: list[Path], work_dir: Path) -> list[FittedRun]:
+def gather(paths: list[Path], work_dir: Path,
+           options: RunFileOptions = _READ_AS_IS) -> list[FittedRun]:
     """The final report of each RUN, fitting those that have none (into `work_dir`), with
     the samples each fit used when the run file is at hand."""
     runs = []
@@ -97,9 +115,9 @@ def gather(paths: list[Path], work_dir: Path) -> list[FittedRun]:
     for k, path in enumerate(paths):
         if k:
             progress.advance()
-        runs.append(_gather_one(path, work_dir))
-    return [FittedRun(r.report, r.fit_dir, r.source, fitted_samples(_run_file(r), r.report))
-            for r in runs]
+        runs.append(_gather_one(path, work_dir, options))
+    return [FittedRun(r.report, r.fit_dir, r.source,
+                      fitted_samples(_run_file(r), r.report, options)) for r in runs]
 
 
 def _run_file(run: FittedRun) -> Path:
@@ -109,7 +127,7 @@ def _run_file(run: FittedRun) -> Path:
     return run.fit_dir.with_name(run.fit_dir.name.removesuffix(FIT_SUFFIX) + topics.RUN_SUFFIX)
 
 
-def _gather_one(path: Path, work_dir: Path) -> FittedRun:
+def _gather_one(path: Path, work_dir: Path, options: RunFileOptions) -> FittedRun:
     if path.is_dir() or path.name == REPORT_NAME:
         fit_dir = path if path.is_dir() else path.parent
         report = read_report(fit_dir)
@@ -123,10 +141,11 @@ def _gather_one(path: Path, work_dir: Path) -> FittedRun:
     if report is not None:
         return FittedRun(report, beside, path)
     fit_dir = work_dir / f"{run_id_of(path)}{FIT_SUFFIX}"
-    return FittedRun(fit_here(path, fit_dir), fit_dir, path)
+    return FittedRun(fit_here(path, fit_dir, options), fit_dir, path)
 
 
-def write_lab_report(paths: list[Path], out_dir: Path,
-                     run_notebook: bool = True) -> list[CaseResult]:
-    """Gather (fitting where needed, into `out_dir/fits/`) and write the report."""
-    return write_report_dir(gather(paths, out_dir / "fits"), out_dir, run_notebook)
+def write_lab_report(paths: list[Path], out_dir: Path, run_notebook: bool = True,
+                     options: RunFileOptions = _READ_AS_IS) -> list[CaseResult]:
+    """Gather (fitting where needed, into `out_dir/fits/`, text exports read with
+    `options`) and write the report."""
+    return write_report_dir(gather(paths, out_dir / "fits", options), out_dir, run_notebook)

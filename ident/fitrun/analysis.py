@@ -176,12 +176,24 @@ def choose_case(data: IdData, carts: int | None) -> tuple[LabCase, tuple[int, ..
     return ("cart1" if column == 0 else "cart2"), (column + 1,)
 
 
+def case_samples(data: IdData, carts: tuple[int, ...]) -> IdData:
+    """The samples the fits use: the columns of `carts` (1-based), on a uniform grid.
+
+    A record with irregular stamps (the ECP Teensy's 1 and 2 ms steps) is resampled by
+    `ident.make_uniform` (the note says how): every fit then runs on one grid, and the
+    simulators take their fast uniform path.
+    """
+    columns = [c - 1 for c in carts]
+    selected = data.select_outputs(columns) if data.n_outputs != len(columns) else data
+    return selected if selected.is_uniform() else make_uniform(selected)
+
+
 def analyse_fits(data: IdData, settings: FitSettings = FitSettings()) -> RunAnalysis:
     """The case, the simple identifications and PEM (fast: well under a second)."""
     data = on_one_grid(data)
     case, moving = choose_case(data, settings.carts)
     columns = [c - 1 for c in moving]
-    cart_data = data.select_outputs(columns) if data.n_outputs != len(columns) else data
+    cart_data = case_samples(data, moving)
     case, moving = _named(data, case, columns)
     timings: dict[str, float] = {}
     errors: dict[str, str] = {}
@@ -230,22 +242,19 @@ def _named(data: IdData, case: LabCase, columns: list[int]) -> tuple[LabCase, tu
 
 
 def envelope_of(analysis: RunAnalysis) -> Envelope | None:
-    """The peak envelope of a one-cart run about the linear model's rest, with both laws.
+    """The peak envelope of a one-cart run, with both laws; None for two carts (they beat).
 
-    The rest is the fitted model's steady state (its gain times the final input), so a pull
-    other than the nominal one still centres the ring; None for two carts (they beat).
+    The half-cycles are split about the median position after the release (a ring spends as
+    long above its rest as below it); the rest itself is then estimated from the extremes.
     """
     data, release = analysis.data, analysis.release_time_s
     if analysis.case == "both" or release is None:
         return None
-    if analysis.simple:
-        gain = analysis.simple[0].gain
-    elif analysis.pem is not None:
-        gain = float(np.atleast_1d(analysis.pem.dc_gain)[0])
-    else:
+    after = data.y[data.t >= release, 0]
+    if after.size < 3:
         return None
-    rest = gain * float(data.u[-1])
-    return fit_envelope(data.t, data.y[:, 0], rest, release, float(noise_std(data.y)[0]))
+    return fit_envelope(data.t, data.y[:, 0], float(np.median(after)), release,
+                        float(noise_std(data.y)[0]))
 
 
 def with_diagnosis(analysis: RunAnalysis) -> RunAnalysis:
@@ -275,5 +284,5 @@ def fit_simple_result(data: IdData, method: SimpleMethod, output: int) -> Simple
 
 
 __all__ = ["MOVING_MIN_M", "MOVING_SIGMAS", "FitSettings", "Method", "NoiseModel", "RunAnalysis",
-           "SimpleResult", "analyse", "analyse_fits", "choose_case", "detect_case", "envelope_of",
-           "fit_simple_result", "on_one_grid", "with_diagnosis"]
+           "SimpleResult", "analyse", "analyse_fits", "case_samples", "choose_case", "detect_case",
+           "envelope_of", "fit_simple_result", "on_one_grid", "with_diagnosis"]

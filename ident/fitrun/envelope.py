@@ -1,7 +1,9 @@
 """The peak envelope of one cart's free response and the two reference laws fitted to it.
 
 After the release the cart rings about its rest `x_rest`. Take the half-cycles of
-`e(t) = x(t) - x_guess` (between sign changes) and the extreme of each, `x_k` at `t_k`. The
+`e(t) = x(t) - x_guess` (between sign changes) and the extreme of each, `x_k` at `t_k`; the
+free ring runs from the largest extreme (where the hand let go) until the peaks fall into
+the noise or grow again (the hand). The
 rest is then estimated without taking sides between the laws: for both, three successive
 extremes give `x_rest ≈ (x_k + 2 x_{k+1} + x_{k+2}) / 4` (the alternating part cancels; the
 median over k is kept). A rest off by δ would make the peaks zig-zag by ±δ. The peaks are
@@ -36,6 +38,8 @@ from ident.data import FloatArray
 PEAK_SIGMAS = 6.0
 #: Fewest peaks for a law to be fitted (two parameters each, and one to judge them).
 MIN_PEAKS = 4
+#: A peak this many times the one a cycle before is a new push, not the free ring.
+REGROW = 1.2
 
 
 @dataclass(frozen=True)
@@ -83,9 +87,10 @@ class Envelope:
         return self.viscous_a0_m * np.exp(-self.viscous_rate_1_s * (t - self.t_s[0]))
 
 
-def half_cycle_peaks(t: FloatArray, e: FloatArray, floor_m: float) -> tuple[FloatArray, FloatArray]:
-    """The extreme `e` (signed) of each half-cycle (between sign changes), while `|e|` is
-    above `floor_m`. `t` (N,) s, `e` (N,) m measured from a rest."""
+def half_cycle_peaks(t: FloatArray, e: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """The extreme `e` (signed) of each half-cycle (between sign changes of `e`).
+
+    `t` (N,) s, `e` (N,) m measured from a rest."""
     sign = np.sign(e)
     flips = np.flatnonzero(sign[1:] * sign[:-1] < 0) + 1
     bounds = np.concatenate([[0], flips, [e.size]])
@@ -94,11 +99,23 @@ def half_cycle_peaks(t: FloatArray, e: FloatArray, floor_m: float) -> tuple[Floa
         if stop - start < 2:
             continue
         k = start + int(np.argmax(np.abs(e[start:stop])))
-        if abs(e[k]) < floor_m:
-            break
         times.append(t[k])
         peaks.append(e[k])
     return np.asarray(times), np.asarray(peaks)
+
+
+def ring_of(times: FloatArray, peaks: FloatArray, floor_m: float) -> slice:
+    """The free ring among the half-cycle peaks: from the largest (where the hand let go)
+    while the peaks stay above `floor_m` and do not grow (a peak more than `REGROW` times the
+    one a cycle before, same side, is the hand again)."""
+    size = np.abs(peaks)
+    first = int(np.argmax(size)) if size.size else 0
+    last = first
+    for k in range(first + 1, size.size):
+        if size[k] < floor_m or (k >= first + 2 and size[k] > REGROW * size[k - 2]):
+            break
+        last = k
+    return slice(first, last + 1)
 
 
 def rest_from_extremes(extremes: FloatArray) -> float:
@@ -117,10 +134,9 @@ def fit_envelope(t: FloatArray, x: FloatArray, rest_guess_m: float, release_time
     None when fewer than `MIN_PEAKS` peaks stand above `PEAK_SIGMAS·noise_m`.
     """
     after = t >= release_time_s
-    times, signed = half_cycle_peaks(t[after], x[after] - rest_guess_m,
-                                     PEAK_SIGMAS * max(noise_m, 1e-9))
-    # the release's own half-cycle (the cart pulled to the hold) is the first: keep the ring
-    times, extremes = times[1:], signed[1:] + rest_guess_m
+    times, signed = half_cycle_peaks(t[after], x[after] - rest_guess_m)
+    ring = ring_of(times, signed, PEAK_SIGMAS * max(noise_m, 1e-9))
+    times, extremes = times[ring], signed[ring] + rest_guess_m
     if extremes.size < MIN_PEAKS:
         return None
     rest_m = rest_from_extremes(extremes)
@@ -139,5 +155,5 @@ def fit_envelope(t: FloatArray, x: FloatArray, rest_guess_m: float, release_time
                     v_a0, rate, viscous_rms, float(ratio), float(-minus_loss))
 
 
-__all__ = ["MIN_PEAKS", "PEAK_SIGMAS", "Envelope", "fit_envelope", "half_cycle_peaks",
-           "rest_from_extremes"]
+__all__ = ["MIN_PEAKS", "PEAK_SIGMAS", "REGROW", "Envelope", "fit_envelope", "half_cycle_peaks",
+           "rest_from_extremes", "ring_of"]
