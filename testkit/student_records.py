@@ -131,6 +131,16 @@ def _rig(rng: np.random.Generator, pulled: int, both_free: bool,
 def student_record(seed: int, rate_hz: float, releases: int | None = None, *,
                    both_free: bool | None = None, start_in_motion: bool | None = None) -> StudentRecord:
     """One seeded record (see the module docstring); counts drawn unless given."""
+    return student_records(seed, (rate_hz,), releases, both_free=both_free,
+                           start_in_motion=start_in_motion)[rate_hz]
+
+
+def student_records(seed: int, rates_hz: tuple[float, ...], releases: int | None = None, *,
+                    both_free: bool | None = None, start_in_motion: bool | None = None
+                    ) -> dict[float, StudentRecord]:
+    """The record of `seed` sampled at each rate: `student_records(s, rates)[r]` equals
+    `student_record(s, r)` sample for sample, at the cost of one simulation (the carts'
+    motion does not depend on the rate: it is integrated once and read on every grid)."""
     rng = np.random.default_rng(seed)
     n_rel = int(releases if releases is not None else rng.integers(1, 5))
     both = bool(rng.random() < 0.2) if both_free is None else both_free
@@ -175,15 +185,26 @@ def student_record(seed: int, rate_hz: float, releases: int | None = None, *,
             events.append("back_to_back")
             touches[:] = [tt for tt in touches if tt[0] + tt[1] < cursor - 0.3]
     rig, wn = _rig(rng, pulled, both, touches)
-    return _simulate(rng, rig, wn, pulled, plan, rate_hz, moving, both, tuple(events),
+    return _simulate(rng, rig, wn, pulled, plan, rates_hz, moving, both, tuple(events),
                      tuple(tt[0] for tt in touches))
 
 
+def _grids(end: float, rates_hz: tuple[float, ...]) -> tuple[FloatArray, dict[float, FloatArray]]:
+    """Each rate's sample times `k / rate` on [0, end] and their union (sorted, exact floats)."""
+    grids = {r: np.arange(int(np.floor(end * r)) + 1) / r for r in rates_hz}
+    return np.unique(np.concatenate(list(grids.values()))), grids
+
+
+def _on_grid(t_all: FloatArray, x_all: FloatArray, t: FloatArray) -> FloatArray:
+    """The rows of `x_all` (sampled at `t_all`) at the times `t` (a subset of `t_all`)."""
+    return x_all[np.searchsorted(t_all, t)]
+
+
 def _simulate(rng: np.random.Generator, rig: Rig, wn: float, pulled: int,
-              plan: list[tuple[str, float, dict[str, float]]], rate_hz: float, moving: bool,
-              both: bool, events: tuple[str, ...], touches: tuple[float, ...]) -> StudentRecord:
+              plan: list[tuple[str, float, dict[str, float]]], rates_hz: tuple[float, ...], moving: bool,
+              both: bool, events: tuple[str, ...], touches: tuple[float, ...]) -> dict[float, StudentRecord]:
     end = plan[-1][1]
-    t = np.arange(int(np.floor(end * rate_hz)) + 1) / rate_hz
+    t, grids = _grids(end, rates_hz)
     x = np.full((t.size, 2), np.nan)
     z = np.zeros(4)
     if moving:
@@ -212,18 +233,39 @@ def _simulate(rng: np.random.Generator, rig: Rig, wn: float, pulled: int,
         advance(Phase(start, start + spec["duration"], {pulled: traj}))
         if kind != "nudge":
             truth.append(TrueRelease(start + spec["duration"], pulled + 1, kind))
+    # the encoder's draws start from the same generator state for every rate (as in a record
+    # generated at that rate alone)
+    state = rng.bit_generator.state
+    records = {}
+    for rate_hz, t_r in grids.items():
+        rng.bit_generator.state = state
+        records[rate_hz] = _sampled(rng, t_r, _on_grid(t, x, t_r), truth, end, pulled, touches,
+                                    both, rate_hz, events)
+    return records
+
+
+def _sampled(rng: np.random.Generator, t: FloatArray, x: FloatArray, truth: list[TrueRelease],
+             end: float, pulled: int, touches: tuple[float, ...], both: bool, rate_hz: float,
+             events: tuple[str, ...]) -> StudentRecord:
+    """The record at one rate: the truth's last release marked cut or not, encoder counts."""
     # cut: the pulled cart still swings by more than 1 mm in the record's last second, and
     # no touch ended its free response before
     cut = bool(np.ptp(x[t >= end - 1.0, pulled]) > 1e-3) and not any(s > truth[-1].time_s for s in touches)
-    truth[-1] = TrueRelease(truth[-1].time_s, truth[-1].pulled_cart, truth[-1].kind, cut)
+    last = TrueRelease(truth[-1].time_s, truth[-1].pulled_cart, truth[-1].kind, cut)
     quantum = 1.0 / 56000.0 if rng.random() < 0.5 else 1e-5
     noise = float(rng.uniform(0.0, 1e-5))
     y = quantum * np.round((x - x[0] + rng.normal(0.0, noise, x.shape)) / quantum)
-    return StudentRecord(t, y, tuple(truth), both, rate_hz, events, touches)
+    return StudentRecord(t, y, (*truth[:-1], last), both, rate_hz, events, touches)
 
 
 def handling_record(seed: int, rate_hz: float, duration_s: float = 60.0) -> StudentRecord:
     """Nudges of the pulled cart and touches of the held one, for `duration_s`: no release."""
+    return handling_records(seed, (rate_hz,), duration_s)[rate_hz]
+
+
+def handling_records(seed: int, rates_hz: tuple[float, ...], duration_s: float = 60.0
+                     ) -> dict[float, StudentRecord]:
+    """`handling_record(seed, r, duration_s)` for each rate r, from one simulation."""
     rng = np.random.default_rng(seed)
     pulled = int(rng.integers(0, 2))
     touches: list[tuple[float, float, float, bool]] = []
@@ -241,7 +283,7 @@ def handling_record(seed: int, rate_hz: float, duration_s: float = 60.0) -> Stud
     plan.append(("end", duration_s, {}))
     rig, _wn = _rig(rng, pulled, False, touches)
     end = duration_s
-    t = np.arange(int(np.floor(end * rate_hz)) + 1) / rate_hz
+    t, grids = _grids(end, rates_hz)
     x = np.full((t.size, 2), np.nan)
     z = np.zeros(4)
     clock = 0.0
@@ -255,5 +297,6 @@ def handling_record(seed: int, rate_hz: float, duration_s: float = 60.0) -> Stud
         inside = (t >= start) & (t < start + spec["duration"])
         seg, ends = simulate(rig, [Phase(start, start + spec["duration"], {pulled: traj})], t[inside], z)
         x[inside], z, clock = seg, ends[-1], start + spec["duration"]
-    y = (1.0 / 56000.0) * np.round((x - x[0]) * 56000.0)
-    return StudentRecord(t, y, (), False, rate_hz, ("handling",))
+    return {rate_hz: StudentRecord(t_r, (1.0 / 56000.0) * np.round((x_r - x_r[0]) * 56000.0), (), False,
+                                   rate_hz, ("handling",))
+            for rate_hz, t_r in grids.items() for x_r in (_on_grid(t, x, t_r),)}

@@ -12,6 +12,7 @@ a tenth of a period); nothing may be found in records of handling only.
 from __future__ import annotations
 
 import json
+from functools import cache
 from pathlib import Path
 
 import numpy as np
@@ -20,9 +21,26 @@ import pytest
 from ident.cli import main
 from ident.releases import find_releases
 from testkit.effects import make_case
-from testkit.student_records import RATES_HZ, handling_record, student_record
+from testkit.student_records import RATES_HZ, StudentRecord, handling_records, student_record, student_records
 
 SEEDS = range(20, 30)
+
+
+@cache
+def _records(seed: int) -> dict[float, StudentRecord]:
+    """The seed's record at every rate of `RATES_HZ`, simulated once (the motion does not
+    depend on the rate; each is sample for sample `student_record(seed, rate)`)."""
+    return student_records(seed, RATES_HZ)
+
+
+@cache
+def _three_releases() -> dict[float, StudentRecord]:
+    return student_records(7, RATES_HZ, 3, both_free=False)
+
+
+@cache
+def _handling(seed: int) -> dict[float, StudentRecord]:
+    return handling_records(seed, RATES_HZ, 60.0)
 
 
 def _tolerance(rate_hz: float) -> float:
@@ -34,7 +52,7 @@ def _tolerance(rate_hz: float) -> float:
 def test_every_release_is_found_once_with_its_instant_and_cart(rate_hz: float) -> None:
     missed, extra, late, total = [], [], [], 0
     for seed in SEEDS:
-        rec = student_record(seed, rate_hz)
+        rec = _records(seed)[rate_hz]
         found = find_releases(rec.t, rec.y)
         total += len(rec.releases)
         for true in rec.releases:
@@ -61,7 +79,7 @@ def test_every_release_is_found_once_with_its_instant_and_cart(rate_hz: float) -
 
 @pytest.mark.parametrize("rate_hz", RATES_HZ)
 def test_free_responses_end_before_the_next_release(rate_hz: float) -> None:
-    rec = student_record(7, rate_hz, 3, both_free=False)
+    rec = _three_releases()[rate_hz]
     found = find_releases(rec.t, rec.y)
     assert len(found) == 3
     for before, true_next in zip(found, rec.releases[1:], strict=False):
@@ -73,7 +91,7 @@ def test_free_responses_end_before_the_next_release(rate_hz: float) -> None:
 @pytest.mark.parametrize("rate_hz", RATES_HZ)
 def test_handling_alone_is_no_release(rate_hz: float) -> None:
     for seed in (1,):
-        rec = handling_record(seed, rate_hz, 60.0)
+        rec = _handling(seed)[rate_hz]
         assert find_releases(rec.t, rec.y) == []
 
 
