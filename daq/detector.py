@@ -248,6 +248,7 @@ class ReleaseDetector:
     def reset(self) -> list[Event]:
         """Forget the hold and the turns (e.g. after a gap in the data); a run in progress is left alone."""
         if self.state == "released":
+            self.forget_turns()
             return []
         self._trigger_t = None
         self._dating = None
@@ -259,6 +260,16 @@ class ReleaseDetector:
             return [Disarmed(self._history[-1][0] if self._history else 0.0)]
         self._anchor = None
         return []
+
+    def forget_turns(self) -> None:
+        """Turning points either side of a hole are not one swing: judge the ringing afresh after it.
+
+        The first turn after the hole is where the samples resumed, not an extreme, so it is not
+        counted: three true turns are needed again before a swing can be judged.
+        """
+        for zigzag in self._zigzags:
+            zigzag.clear()
+        self._run_turns = -1
 
     # --- states -----------------------------------------------------------------------------
     def _still(self, t_s: float, sample: tuple[float, ...], band: float, duration_s: float,

@@ -283,7 +283,8 @@ class Acquisition:
         if self.run is not None:
             self.run.gaps.append(gap)
         self._disconnected_at = None
-        if self.run is not None:
+        if self.run is not None:   # the run goes on; only its ringing is judged afresh after the hole
+            self.detector.forget_turns()
             return
         if reason == "seq_gap":   # lost lines: the detector judges whether the hole can hide a move
             self._events(self.detector.hole((t_ns - start) * 1e-9), t_ns)
