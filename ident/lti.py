@@ -110,7 +110,7 @@ def _simulate_one(system: Any, u: FloatArray, ts: float) -> FloatArray:
     phi, gamma, C, D = _discrete_matrices(system, ts)
     n = phi.shape[0]
     if n == 0:
-        return np.outer(u, D[:, 0])
+        return np.outer(u, D[:, 0]).astype(np.float64, copy=False)
     eye = np.eye(n)
     try:
         x = np.linalg.solve(eye - phi, gamma[:, 0] * u[0])

@@ -57,7 +57,7 @@ def cart1_run(fs: float, seed: int = 1, duration: float = 8.0, noise: float = NO
     m, k, c = CART1["m"], CART1["k"], CART1["c"]
     a = np.array([[0.0, 1.0], [-k / m, -c / m]])
     b = np.array([0.0, k / m])
-    t = np.arange(0.0, duration, 1.0 / fs)
+    t = np.arange(0.0, duration, 1.0 / fs, dtype=np.float64)
     return _integrate(a, b, np.array([[1.0, 0.0]]), t, CART1["t_r"], seed, noise)
 
 
@@ -72,7 +72,7 @@ def cart2_run(fs: float, seed: int = 2, structure: str = "release", duration: fl
     m_inv = np.linalg.inv(mass)
     a = np.block([[np.zeros((2, 2)), np.eye(2)], [-m_inv @ stiff, -m_inv @ damp]])
     b = np.concatenate([np.zeros(2), m_inv @ f])
-    t = np.arange(0.0, duration, 1.0 / fs)
+    t = np.arange(0.0, duration, 1.0 / fs, dtype=np.float64)
     return _integrate(a, b, np.hstack([np.eye(2), np.zeros((2, 2))]), t, p["t_r"], seed, noise)
 
 

@@ -59,7 +59,7 @@ def lab_run(case: str, rate_hz: float, seed: int, counts_per_m: float = 20000.0,
     rng = np.random.default_rng(seed)
     rest_s, pull_s, hold_s = rng.uniform(1.0, 2.0), rng.uniform(1.2, 2.5), rng.uniform(1.0, 2.0)
     release = rest_s + pull_s + hold_s + rng.uniform(0, 1 / rate_hz) + 0.3
-    t = np.arange(0.0, release + after_s, 1 / rate_hz) + rng.uniform(0, 1 / rate_hz)
+    t = np.arange(0.0, release + after_s, 1 / rate_hz, dtype=np.float64) + rng.uniform(0, 1 / rate_hz)
     pulled = 1 if case == LAB_CASES[1] else 0
     held = np.zeros(2)
     held[pulled] = -pull_m
@@ -76,7 +76,7 @@ def idle_handling(rate_hz: float, seed: int, duration_s: float = 600.0, counts_p
                   noise_m: float = 2e-5) -> Trace:
     """Carts at rest, moved slowly by hand (1-3 s min-jerk moves up to 0.15 m), held, put back."""
     rng = np.random.default_rng(seed)
-    t = np.arange(0.0, duration_s, 1 / rate_hz) + rng.uniform(0, 1 / rate_hz)
+    t = np.arange(0.0, duration_s, 1 / rate_hz, dtype=np.float64) + rng.uniform(0, 1 / rate_hz)
     x = np.zeros((len(t), 2))
     start, level = 0.0, np.zeros(2)
     while start < duration_s:
