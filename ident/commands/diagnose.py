@@ -29,9 +29,6 @@ def add_parser(subparsers: Any) -> None:
                         help="a measured force input column (e.g. 'Control Effort' for a motor pulse): "
                              "modelled with a gain per cart, so its response is never taken for a mode; "
                              "default: a hand release, no input")
-    parser.add_argument("--rate-hz", dest="rate_hz", type=float, default=None,
-                        help="sample rate (Hz) of an export without a time column")
-    add_deprecated_alias(parser, "--rate", "--rate-hz", "rate_hz", float)
     add_release_options(parser)
     parser.add_argument("--json", action="store_true", help="print one JSON object (an array with --all)")
     parser.add_argument("--figures", type=Path, default=None, help="write figures (PNG, SVG) here")

@@ -13,7 +13,6 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from ident.commands.aliases import add_deprecated_alias
 from ident.commands.run_file_options import add_release_options, add_run_file_options
 
 METHODS = ("pem", "rk4", "euler", "all")
@@ -26,9 +25,6 @@ def add_parser(subparsers: Any) -> None:
     parser.add_argument("--method", choices=METHODS, default="all")
     parser.add_argument("--input", dest="input_col", default=None,
                         help="input column (e.g. 'Control Effort' for a motor input); default: the release step")
-    parser.add_argument("--rate-hz", dest="rate_hz", type=float, default=None,
-                        help="sample rate (Hz) of an export without a time column")
-    add_deprecated_alias(parser, "--rate", "--rate-hz", "rate_hz", float)
     parser.add_argument("--release-s", dest="release", type=float, default=None,
                         help="release time (s) if known (fits the whole record from there)")
     add_release_options(parser)

@@ -14,7 +14,6 @@ import json
 import sys
 from typing import Any
 
-from ident.commands.aliases import add_deprecated_alias
 from ident.commands.run_file_options import add_run_file_options
 
 
@@ -22,9 +21,6 @@ def add_parser(subparsers: Any) -> None:
     parser = subparsers.add_parser("releases", help="list every release in a raw record",
                                    description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     add_run_file_options(parser, None)
-    parser.add_argument("--rate-hz", dest="rate_hz", type=float, default=None,
-                        help="sample rate (Hz) of an export without a time column")
-    add_deprecated_alias(parser, "--rate", "--rate-hz", "rate_hz", float)
     parser.add_argument("--json", action="store_true", help="print a JSON array")
     parser.set_defaults(func=run)
 

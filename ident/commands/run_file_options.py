@@ -4,10 +4,12 @@ from __future__ import annotations
 
 import argparse
 
+from ident.commands.aliases import add_deprecated_alias
+
 
 def add_run_file_options(parser: argparse.ArgumentParser, carts_help: str | None) -> None:
-    """`PATH`, `--carts` (unless `carts_help` is None), `--time`, `--pos`, `--scale` (dests
-    `path`, `carts`, `time_col`, `pos_cols`, `scale`)."""
+    """`PATH`, `--carts` (unless `carts_help` is None), `--time`, `--pos`, `--scale`, `--rate-hz`
+    (dests `path`, `carts`, `time_col`, `pos_cols`, `scale`, `rate_hz`)."""
     parser.add_argument("path", help="a run file: .mcap from daq, or a CSV/TSV export")
     if carts_help is not None:
         parser.add_argument("--carts", type=int, choices=(1, 2), default=None, help=carts_help)
@@ -15,6 +17,9 @@ def add_run_file_options(parser: argparse.ArgumentParser, carts_help: str | None
     parser.add_argument("--pos", dest="pos_cols", nargs="+", default=None,
                         help="position column name(s), cart 1 first (text exports)")
     parser.add_argument("--scale", type=float, default=None, help="metres per unit of the position columns")
+    parser.add_argument("--rate-hz", dest="rate_hz", type=float, default=None,
+                        help="sample rate (Hz) of an export without a time column")
+    add_deprecated_alias(parser, "--rate", "--rate-hz", "rate_hz", float)
 
 
 def add_release_options(parser: argparse.ArgumentParser) -> None:
