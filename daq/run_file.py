@@ -19,7 +19,7 @@ from __future__ import annotations
 import csv
 import io
 import json
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from pathlib import Path
 from typing import Any
 
@@ -28,20 +28,12 @@ import numpy.typing as npt
 
 from daq.errors import DaqIOError, DaqValueError
 from schemas import SchemaError, run_file
-from schemas.daq import DetectorStateMsg, RunFinished, RunMetadata
 
 
 @dataclass(frozen=True)
-class RunData:
-    """A run as arrays: `t_ns` (N,) int64 device time; `pos_m`, `raw` (N, n_channels)."""
-
-    t_ns: npt.NDArray[np.int64]
-    pos_m: npt.NDArray[np.float64]
-    raw: npt.NDArray[np.float64]
-    metadata: RunMetadata | None
-    finished: RunFinished | None
-    states: list[DetectorStateMsg]
-    complete: bool
+class RunData(run_file.RunContents):
+    """A run file as read by `schemas.run_file` (its fields), on daq's time base: seconds from
+    the run's first sample."""
 
     @property
     def time_s(self) -> npt.NDArray[np.float64]:
@@ -74,8 +66,7 @@ def load_run(path: Path) -> RunData:
         raise DaqIOError(f"cannot read run file {path}: {exc}") from exc
     if read.n_records == 0:
         raise DaqValueError(f"run file {path}", "an MCAP file written by daq", "no readable records")
-    return RunData(read.t_ns, read.pos_m, read.raw, read.metadata, read.finished, read.states,
-                   read.complete)
+    return RunData(**{f.name: getattr(read, f.name) for f in fields(read)})
 
 
 def run_info(run: RunData, path: Path) -> dict[str, Any]:
