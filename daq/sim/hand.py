@@ -49,11 +49,7 @@ class HandPath:
             x = self.x1
         else:
             x = self.x0 + (self.x1 - self.x0) * u * u * u * (10.0 - 15.0 * u + 6.0 * u * u)
-        if self.tremor:
-            t0 = self.t0 if self.tremor_t0 is None else self.tremor_t0
-            fade = min(1.0, max(0.0, (t - t0) / 0.3))
-            x += fade * sum(a * math.sin(w * (t - t0) + ph) for a, w, ph in self.tremor)
-        return x
+        return x + tremor_at(self.tremor, self.t0 if self.tremor_t0 is None else self.tremor_t0, t)
 
 
 @dataclass(frozen=True, slots=True)
@@ -69,10 +65,15 @@ class FlickPath:
     def __call__(self, t: float) -> float:
         tau = max(0.0, t - self.t0)
         x = self.x0 + 0.5 * self.accel * tau * tau
-        if self.tremor:
-            fade = min(1.0, max(0.0, (t - self.tremor_t0) / 0.3))
-            x += fade * sum(a * math.sin(w * (t - self.tremor_t0) + ph) for a, w, ph in self.tremor)
-        return x
+        return x + tremor_at(self.tremor, self.tremor_t0, t)
+
+
+def tremor_at(tremor: tuple[tuple[float, float, float], ...], t0: float, t: float) -> float:
+    """The hand's tremor (m) at `t`: its sines, faded in over 0.3 s from `t0`."""
+    if not tremor:
+        return 0.0
+    fade = min(1.0, max(0.0, (t - t0) / 0.3))
+    return fade * sum(a * math.sin(w * (t - t0) + ph) for a, w, ph in tremor)
 
 
 def tremor_terms(rng: np.random.Generator, rms_m: float) -> tuple[tuple[float, float, float], ...]:
