@@ -19,8 +19,8 @@ from numpy.typing import NDArray
 from ident.diagnose import starts
 from ident.diagnose.evidence import EvidenceResult
 from ident.diagnose.fitting import FitResult, evaluate, fit
-from ident.diagnose.modal import fit_modes, project
 from ident.diagnose.models import ModelSpec, effect_names, smoothed_staircase
+from ident.modal import fit_modes, project
 from ident.physics.measures import spectral_peaks
 
 FloatArray = NDArray[np.float64]

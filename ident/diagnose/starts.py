@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from ident.diagnose.modal import ModalFit
+from ident.modal import ModalFit
 from ident.physics.chain import physical_from_modes
 
 FloatArray = NDArray[np.float64]

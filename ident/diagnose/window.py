@@ -28,8 +28,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from ident.diagnose.modal import ModalFit, fit_modes, modal_prediction
 from ident.errors import IdentValueError
+from ident.modal import ModalFit, fit_modes, modal_prediction
 from ident.physics.measures import spectral_peaks
 
 FloatArray = NDArray[np.float64]
