@@ -3,9 +3,11 @@
 Pipeline (MATLAB `pem` → `d2c` → `tf`, made robust for lightly damped poles at high rates):
 1. start values: release time from the onset of the motion (`ident.release`), modes from a
    subspace (Hankel/shift-invariance) estimate on the free response after the release,
-   decimated so the poles do not crowd z = 1 (`ident.subspace`); for any other recorded
-   input, PO-MOESP on the whole record and `d2c_zoh`; FFT peaks as fallback; the starts are
-   tried in the order of their projected cost;
+   decimated so the poles do not crowd z = 1 (`ident.subspace`); the modes of the physical
+   cart or chain that explains the free response (`ident.physical_start`, built by
+   `ident.physics`); for any other recorded input, PO-MOESP on the whole record and
+   `d2c_zoh`; one cart per spectral peak as fallback; the starts are tried in the order of
+   their projected cost;
 2. refinement: minimise the output prediction error of the continuous-time modal model
    (noise model H = 1: white measurement noise, for which the one-step predictor equals the
    simulation, so PEM = output error) by variable projection (`ident.varpro`), with the
@@ -39,6 +41,8 @@ from ident.data import FloatArray, IdData, make_uniform
 from ident.errors import FitFailed, IdentValueError
 from ident.innovation import refine
 from ident.model import ModeEstimate, Model
+from ident.physical_start import carts_at_peaks, physical_start
+from ident.physics import spectral_peaks
 from ident.release import check_motion, estimate_release_time, moving_outputs, noise_std
 from ident.zoh import d2c_zoh
 
@@ -161,12 +165,13 @@ def _moesp_modes(data: IdData, n_modes: int) -> list[tuple[FloatArray, FloatArra
 def _start_modes(data: IdData, release0: float, n_modes: int,
                  step: bool = True) -> list[tuple[FloatArray, FloatArray]]:
     """Start values (σ, ω): subspace estimate first (free response after a step, MOESP for
-    other inputs), then FFT peaks with ζ = 0.02 and 0.1."""
+    other inputs), then the physical model of the free response after a step
+    (`ident.physical_start`), then one cart per spectral peak with ζ = 0.02 and 0.1."""
     starts = [] if step else _moesp_modes(data, n_modes)
     after = data.t > release0 + 0.02
     uniform = make_uniform(IdData(data.t[after], data.u[after], data.y[after]), "auto")
     ts = uniform.sample_time()
-    peaks = subspace.spectral_peaks(uniform.y, ts, n_modes)
+    peaks = spectral_peaks(uniform.y, ts, n_modes, fill=False)
     if peaks.size and step:
         q = subspace.decimation_for(float(np.max(peaks)), ts)
         try:  # + 1: the constant level; + 3: room for noise poles
@@ -177,8 +182,11 @@ def _start_modes(data: IdData, release0: float, n_modes: int,
             found = subspace.oscillatory_modes(poles, n_modes, 0.8 * np.pi / (q * ts))
             if found is not None:
                 starts.append((np.abs(found[0]), found[1]))
+        physical = physical_start(uniform.y, ts, n_modes)
+        if physical is not None:
+            starts.append(physical)
     if peaks.size == n_modes:
-        starts += [(zeta * peaks, peaks) for zeta in (0.02, 0.1)]
+        starts += [carts_at_peaks(peaks, zeta) for zeta in (0.02, 0.1)]
     if not starts:
         raise FitFailed(f"expected {n_modes} oscillatory modes in the response, found "
                         f"{peaks.size} spectral peaks")

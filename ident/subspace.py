@@ -24,25 +24,6 @@ FloatArray = NDArray[np.float64]
 TARGET_ANGLE_RAD = 0.5
 
 
-def spectral_peaks(y: FloatArray, ts: float, n_peaks: int) -> FloatArray:
-    """Angular frequencies (rad/s) of the `n_peaks` largest peaks of |FFT(y - mean)| summed
-    over outputs, zero-padded 8×, refined by a parabola through the top three bins; ascending."""
-    y2 = y.reshape(len(y), -1)
-    centred = y2 - y2.mean(axis=0)
-    n_fft = 8 * int(2 ** np.ceil(np.log2(len(y2))))
-    window = np.hanning(len(y2))[:, None]
-    spectrum = np.sum(np.abs(np.fft.rfft(centred * window, n=n_fft, axis=0)), axis=1)
-    spectrum[:4] = 0.0  # the trend and DC
-    interior = np.flatnonzero((spectrum[1:-1] > spectrum[:-2]) & (spectrum[1:-1] >= spectrum[2:])) + 1
-    best = interior[np.argsort(spectrum[interior])[::-1][:n_peaks]]
-    freqs = []
-    for k in best:
-        a, b, c = np.log(spectrum[k - 1:k + 2] + 1e-300)
-        shift = 0.5 * (a - c) / (a - 2 * b + c) if a - 2 * b + c != 0 else 0.0
-        freqs.append(2.0 * np.pi * (k + shift) / (n_fft * ts))
-    return np.sort(np.array(freqs, dtype=np.float64))
-
-
 def decimation_for(omega_max: float, ts: float) -> int:
     """Row step q so that omega_max·q·Ts ≈ TARGET_ANGLE_RAD (q ≥ 1)."""
     return max(1, int(TARGET_ANGLE_RAD / max(omega_max * ts, 1e-12)))

@@ -84,7 +84,8 @@ def physical_from_modes(freqs: FloatArray, decays: FloatArray, shapes: FloatArra
     Each mode's eigenvector (1, r_j) of `Kt` with eigenvalue wn_j² gives two linear equations
     per row: (a1 + b1) - b1 r_j = wn_j² and -b2 + (b2 + a2) r_j = wn_j² r_j. Damping:
     first-order modal perturbation 2σ_j = (u_j^T Ct φ_j)/(u_j^T φ_j) with u_j the left
-    eigenvector, solved for (g1, g2). Values are clipped to be positive (a start value only).
+    eigenvector, solved for (g1, g2) (equal when the split is unobservable). Values are
+    clipped to be positive (a start value only).
     """
     lam2 = freqs ** 2
     r = shapes
@@ -101,7 +102,9 @@ def physical_from_modes(freqs: FloatArray, decays: FloatArray, shapes: FloatArra
         u = np.real(left[:, int(np.argmin(np.abs(w - lam2[j])))])
         denom = float(u @ phi) or 1.0
         rows.append([u[0] * phi[0] / denom, u[1] * phi[1] / denom])
-    g1, g2 = np.linalg.lstsq(np.array(rows), 2.0 * decays, rcond=None)[0]
+    # In a symmetric chain both rows are (½, ½): only g1 + g2 is observable. A relative cutoff
+    # keeps the minimum-norm split (equal damping) instead of amplifying round-off into it.
+    g1, g2 = np.linalg.lstsq(np.array(rows), 2.0 * decays, rcond=1e-8)[0]
     floor = 1e-3 * float(lam2.min())
     lin = np.array([max(a1, floor), max(b1, floor), max(b2, floor), max(a2, floor),
                     max(g1, 1e-4), max(g2, 1e-4)])

@@ -57,10 +57,15 @@ def spectrum(y: FloatArray, dt: float, pad: int = 8) -> tuple[FloatArray, FloatA
 
 
 def spectral_peaks(y: FloatArray, dt: float, count: int, min_rad_s: float = 0.5,
-                   exclude: FloatArray | None = None, exclude_rel: float = 0.15) -> FloatArray:
+                   exclude: FloatArray | None = None, exclude_rel: float = 0.15,
+                   fill: bool = True) -> FloatArray:
     """The `count` largest local maxima of the spectrum (rad/s, parabolic interpolation in
     log power), sorted; peaks within `exclude_rel`·ω of a frequency in `exclude` are skipped,
-    and peaks closer than 15 % to a stronger one are merged into it."""
+    and peaks closer than 15 % to a stronger one are merged into it.
+
+    When fewer than `count` peaks exist, `fill` pads with guesses (twice the highest, or
+    2π rad/s) so that callers needing exactly `count` values get them; `fill=False` returns
+    only the peaks found (PEM then knows it has too few)."""
     w, p = spectrum(y, dt)
     local = np.flatnonzero((p[1:-1] > p[:-2]) & (p[1:-1] >= p[2:])) + 1
     local = local[w[local] >= min_rad_s]
@@ -76,6 +81,6 @@ def spectral_peaks(y: FloatArray, dt: float, count: int, min_rad_s: float = 0.5,
             peaks.append(float(w[i] + np.clip(shift, -0.5, 0.5) * (w[1] - w[0])))
         if len(peaks) == count:
             break
-    while len(peaks) < count:
+    while fill and len(peaks) < count:
         peaks.append(peaks[-1] * 2.0 if peaks else 2 * np.pi)
     return np.sort(np.asarray(peaks))
