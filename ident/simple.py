@@ -44,6 +44,10 @@ FloatArray = NDArray[np.float64]
 PARAMETER_NAMES = ("wn", "zeta", "gain", "release_time_s", "offset", "friction")
 #: h·wn of the fine grid the dry-friction model is simulated on (converged: see the docstring).
 FINE_H_WN = 0.01
+#: A swing about the final level counts as motion above this many noise std ...
+SWING_NOISE = 10.0
+#: ... and this many encoder quanta (a stuck cart dithers by one count).
+SWING_QUANTA = 3.0
 
 
 @dataclass(frozen=True)
@@ -148,7 +152,12 @@ def coulomb_response(wn: float, zeta: float, friction: float, r: float, t: Float
 
 
 def start_values(t: FloatArray, y: FloatArray, amplitude: float, release0: float) -> FloatArray:
-    """(wn, ζ, g, t_r, o) from the data: period from zero crossings, σ from the log decrement."""
+    """(wn, ζ, g, t_r, o) from the data: period from zero crossings, σ from the log decrement.
+
+    A crossing counts only while the swings are larger than the noise and than the encoder's
+    quantum (`swing_floor`): a cart stuck between two counts dithers across the final level
+    every sample, and those crossings would set the period to two samples.
+    """
     offset = float(np.median(y[rest_window(len(y))]))
     after = t > release0
     tail = y[after][-max(5, int(after.sum()) // 10):]
@@ -156,7 +165,7 @@ def start_values(t: FloatArray, y: FloatArray, amplitude: float, release0: float
     gain = (final - offset) / amplitude
     e = y[after] - final
     ta = t[after]
-    crossings = _significant_crossings(e, float(noise_std(y)[0]))
+    crossings = _significant_crossings(e, swing_floor(y))
     if crossings.size < 3:
         raise FitFailed(f"expected an oscillation (≥ 3 crossings of the final level), got {crossings.size}")
     t_cross = ta[crossings] - e[crossings] * (ta[crossings + 1] - ta[crossings]) / (e[crossings + 1] - e[crossings])
@@ -172,14 +181,28 @@ def start_values(t: FloatArray, y: FloatArray, amplitude: float, release0: float
     return np.array([wn, sigma / wn, gain, release0, offset])
 
 
-def _significant_crossings(e: FloatArray, noise: float) -> NDArray[np.int64]:
+def swing_floor(y: FloatArray) -> float:
+    """Smallest swing (m) about the final level that is motion, not noise: the larger of
+    `SWING_NOISE` noise std and `SWING_QUANTA` encoder quanta.
+
+    The quantum is the smallest non-zero step between samples. On a quantized record the rest
+    reads one count, so its noise std is ~0 and the quantum is what bounds the dither.
+    """
+    steps = np.abs(np.diff(y))
+    steps = steps[steps > 1e-12 * max(float(np.max(np.abs(y))), 1e-300)]
+    quantum = float(np.min(steps)) if steps.size else 0.0
+    return max(SWING_NOISE * float(noise_std(y)[0]), SWING_QUANTA * quantum)
+
+
+def _significant_crossings(e: FloatArray, floor: float) -> NDArray[np.int64]:
     """Indices k where e changes sign between k and k+1, kept while the swing between
-    crossings exceeds 10 noise std (noise around a stuck cart makes spurious crossings)."""
+    crossings exceeds `floor` (noise or a count's dither around a stuck cart makes spurious
+    crossings)."""
     signs = np.signbit(e)
     crossings = np.flatnonzero(signs[1:] != signs[:-1])
     kept = [int(crossings[0])] if crossings.size else []
     for a, b in itertools.pairwise(crossings):
-        if np.max(np.abs(e[a:b + 1])) < 10.0 * noise:
+        if np.max(np.abs(e[a:b + 1])) < floor:
             break
         kept.append(int(b))
     return np.array(kept, dtype=np.int64)
@@ -212,7 +235,11 @@ def fit_simple(data: IdData, method: Method = "rk4", *, friction: bool = False, 
     fixed = None if fit_release else release0
     start = start_values(data.t, y, amplitude, release0)
     # with friction the linear start is RK4's: Euler's inflated ζ would be a worse start
-    outcome = _least_squares(data.t, y, amplitude, "rk4" if friction else method, substeps, False, start, fixed)
+    linear_method: Method = "rk4" if friction else method
+    if linear_method == "euler":
+        start[1] = euler_zeta(start[0], start[1], _sample_step(data.t) / substeps)
+    _check_start(data.t, y, amplitude, linear_method, substeps, start)
+    outcome = _least_squares(data.t, y, amplitude, linear_method, substeps, False, start, fixed)
     if friction:
         # the dry-friction fit starts from the linear fit, with f = 0⁺ and with f from the
         # envelope regression |e_{j+1}| = ρ |e_j| - 2 f / wn²; the lower cost wins
@@ -222,6 +249,42 @@ def fit_simple(data: IdData, method: Method = "rk4", *, friction: bool = False, 
         outcomes = [_least_squares(data.t, y, amplitude, method, substeps, True, p0, fixed) for p0 in tries]
         outcome = min(outcomes, key=lambda o: o.cost)
     return _result(outcome, data, y, method, substeps, friction, float(data.t[jumps[0] + 1]))
+
+
+def euler_zeta(wn: float, zeta: float, h: float) -> float:
+    """The ζ with which explicit Euler at step h (s) decays like the true ring: the start of
+    an Euler fit, whose answer is biased that way (the module docstring).
+
+    Euler's pole 1 + hλ has |1 + hλ|² = 1 - 2ζ_E wn h + (wn h)²; the ring decays by
+    e^{-2ζ wn h} per step in energy, so ζ_E = (1 + (wn h)² - e^{-2ζ wn h}) / (2 wn h)
+    (≈ ζ + wn h/2 for small wn h). Starting from the physical ζ instead, Euler's amplitude
+    grows by √(1 + (wn h)²) per step, past any float on a long record at a coarse rate.
+    """
+    x = wn * h
+    if not x > 0.0:
+        return zeta
+    return float((1.0 + x * x - np.exp(-2.0 * zeta * x)) / (2.0 * x))
+
+
+def _sample_step(t: FloatArray) -> float:
+    """The median sample step (s) of the time base."""
+    return float(np.median(np.diff(t))) if t.size > 1 else 0.0
+
+
+def _check_start(t: FloatArray, y: FloatArray, amplitude: float, method: Method, substeps: int,
+                 start: FloatArray) -> None:
+    """Refuse, with what to do, a start whose simulation is not finite (the optimiser would
+    only say "Residuals are not finite in the initial point")."""
+    with np.errstate(over="ignore", invalid="ignore"):   # an overflow is what is checked here
+        finite = bool(np.all(np.isfinite(start))) and bool(np.all(np.isfinite(
+            _response(start, t, amplitude, method, substeps, False))))
+    if finite:
+        return
+    wn_h = float(start[0]) * _sample_step(t) / substeps
+    raise FitFailed(f"the start values (wn {start[0]:.4g} rad/s, zeta {start[1]:.3g}) give a non-finite "
+                    f"{method} simulation at wn·h = {wn_h:.3g} per step: expected a start from a ring "
+                    "sampled well above its frequency; check the record's rate and motion, or fit with "
+                    "method='rk4' or more substeps")
 
 
 @dataclass(frozen=True)
@@ -270,7 +333,7 @@ def envelope_friction(t: FloatArray, y: FloatArray, release0: float, wn: float) 
     with Coulomb friction |e_{j+1}| = ρ |e_j| - 2 f / wn², a straight line in |e_j|."""
     after = t > release0
     e = y[after] - float(np.mean(y[after][-max(5, int(after.sum()) // 10):]))
-    crossings = _significant_crossings(e, float(noise_std(y)[0]))
+    crossings = _significant_crossings(e, swing_floor(y))
     peaks = np.array([np.max(np.abs(e[a:b + 1])) for a, b in itertools.pairwise(crossings)])
     if peaks.size < 3:
         return 0.0
