@@ -11,6 +11,7 @@ sensible bounds. No I/O here.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -18,7 +19,8 @@ from numpy.typing import NDArray
 
 from ident.diagnose import starts
 from ident.diagnose.evidence import EvidenceResult
-from ident.diagnose.fitting import FitResult, evaluate, fit
+from ident.diagnose.fitting import FitResult, evaluate, fit, held_out_cost, held_out_samples
+from ident.diagnose.lattice import lattice_likelihood_gain, reading_noise
 from ident.diagnose.models import ModelSpec, effect_names, smoothed_staircase
 from ident.modal import fit_modes, project
 from ident.physics.measures import spectral_peaks
@@ -179,6 +181,10 @@ class Trial:
     lower: FloatArray
     upper: FloatArray
     typical: FloatArray
+    #: the current model's cross-validated prediction (N, c), for an effect of the sensor alone
+    cv_base: FloatArray | None = None
+    #: the lattice's reading noise (m), for the mixture likelihood of an encoder lattice
+    reading_noise_m: float = 0.0
 
 
 #: Function evaluations of the quick (screening) fit and of the refinement.
@@ -211,13 +217,37 @@ def screen(prob: Problem, current: FitResult, effect: str, ev: EvidenceResult, w
         result = _fit_friction(spec, prob, theta0, lower, upper, typical, ev, SCREEN_NFEV)
     else:
         result = fit(spec, theta0, lower, upper, typical, prob.dt, prob.y, prob.train, max_nfev=SCREEN_NFEV)
-    return Trial(effect, result, lower, upper, typical)
+    if effect != "quantization" or ev.lattice is None:
+        return Trial(effect, result, lower, upper, typical)
+    noise = reading_noise(ev.lattice)
+    q, offset = ev.lattice.quantum_m, ev.lattice.offset_m
+    gain = lattice_likelihood_gain(prob.y, current.prediction, q, offset, noise)
+    return Trial(effect, dataclasses.replace(result, likelihood_gain=(gain, gain)), lower, upper, typical,
+                 current.cv_prediction, noise)
 
 
 def refine(prob: Problem, trial: Trial) -> FitResult:
-    """The screened extension fitted on to convergence, with its blocked cross-validation."""
-    return fit(trial.result.spec, trial.result.theta, trial.lower, trial.upper, trial.typical, prob.dt, prob.y,
-               prob.train, max_nfev=REFINE_NFEV, cross_validate=True)
+    """The screened extension fitted on to convergence, with its blocked cross-validation.
+
+    An encoder lattice acts on the readings, not on the carts, and its readings are levels, not
+    Gaussian scatter: it is judged by the likelihood of the readings as levels of the lattice
+    (`lattice.lattice_likelihood_gain`) about the current model's prediction, on the whole
+    window and on the current model's own held-out predictions (the carts' refits are the
+    same with and without it). Refitting through a nearly hard staircase would instead compare
+    two differently converged dynamics, and an SSE ratio misses a lattice finer than the
+    prediction's error.
+    """
+    if trial.cv_base is None or trial.result.likelihood_gain is None:
+        return fit(trial.result.spec, trial.result.theta, trial.lower, trial.upper, trial.typical, prob.dt, prob.y,
+                   prob.train, max_nfev=REFINE_NFEV, cross_validate=True)
+    result = fit(trial.result.spec, trial.result.theta, trial.lower, trial.upper, trial.typical, prob.dt, prob.y,
+                 prob.train, max_nfev=REFINE_NFEV)
+    q, offset, blur = result.theta[result.spec.block("quantization")]
+    read = smoothed_staircase(trial.cv_base[None], np.array([q]), np.array([offset]), np.array([blur]))[0]
+    held = held_out_samples(prob.y.shape[0]) & prob.train
+    gain_cv = lattice_likelihood_gain(prob.y[held], trial.cv_base[held], q, offset, trial.reading_noise_m)
+    return dataclasses.replace(result, sse_val=held_out_cost(read, prob.y, prob.train), cv_prediction=read,
+                               likelihood_gain=(trial.result.likelihood_gain[0], gain_cv))
 
 
 #: Encoder quanta searched when the samples lie on no exact lattice (m), and offsets per quantum.

@@ -46,6 +46,13 @@ class FitResult:
     sse_val: float
     n_train: int
     n_free: int = 0
+    #: (N, carts) what the blocked cross-validation predicted: inside each held-out block its
+    #: refit's prediction, in the first (anchoring) stretch the whole-window one; None when not run
+    cv_prediction: FloatArray | None = None
+    #: (whole window, held out): twice the log-likelihood gain over the model this one extends,
+    #: for an effect whose readings are no Gaussian scatter (an encoder lattice: a mixture of
+    #: levels); None: the gain is the SSE ratio
+    likelihood_gain: tuple[float, float] | None = None
 
     def parameters(self) -> dict[str, float]:
         return {n: float(v) for n, v in zip(self.spec.names, self.theta)}
@@ -111,11 +118,32 @@ def fit(spec: ModelSpec, theta0: FloatArray, lower: FloatArray, upper: FloatArra
         jac_at = jacobian(result.theta[free]).copy() if cross_validate else None
     else:
         jac_at = sol.jac if cross_validate else None
-    cv = result.sse_train
+    cv, cv_pred = result.sse_train, None
     if jac_at is not None:
-        cv = _blocked_cv(spec, result, full, free, jac_at, lower[free], upper[free], dt, y, train)
+        cv_pred = _blocked_cv(spec, result, full, free, jac_at, lower[free], upper[free], dt, y, train)
+        cv = held_out_cost(cv_pred, y, train)
     return FitResult(spec, result.theta, result.std, result.prediction, result.sse_train, cv,
-                     result.n_train, int(free.size))
+                     result.n_train, int(free.size), cv_pred)
+
+
+def block_edges(n: int) -> NDArray[np.int_]:
+    """Sample edges of the `BLOCKS` held-out blocks (BLOCKS + 1 values; before the first edge
+    is the anchoring stretch, never held out)."""
+    return np.linspace(0, n, BLOCKS + 2).astype(int)[1:]
+
+
+def held_out_samples(n: int) -> NDArray[np.bool_]:
+    """(n,) the samples of the held-out blocks (all after the anchoring stretch)."""
+    inside = np.zeros(n, dtype=bool)
+    inside[int(block_edges(n)[0]):] = True
+    return inside
+
+
+def held_out_cost(cv_prediction: FloatArray, y: FloatArray, train: NDArray[np.bool_]) -> float:
+    """Σ over the held-out blocks of the squared residual of a cross-validated prediction (N, c)."""
+    inside = held_out_samples(y.shape[0]) & train
+    total = float(np.sum((cv_prediction[inside] - y[inside]) ** 2))
+    return total if np.isfinite(total) else float("inf")
 
 
 #: Damping factors λ of the refit steps tried per block: (JᵀJ + λ diag JᵀJ) Δ = -Jᵀr.
@@ -126,8 +154,9 @@ CV_ITERATIONS = 2
 
 def _blocked_cv(spec: ModelSpec, res: FitResult, full: Callable[[FloatArray], FloatArray], free: NDArray[np.int_],
                 jac: FloatArray, lower: FloatArray, upper: FloatArray, dt: float, y: FloatArray,
-                train: NDArray[np.bool_]) -> float:
-    """Σ_b of the held-out block b's squared residual after a refit without b (docstring).
+                train: NDArray[np.bool_]) -> FloatArray:
+    """The prediction (N, c) of each held-out block b after a refit without b (docstring);
+    the whole-window prediction before the first block.
 
     The refit of every block starts at the whole-window fit and takes `CV_ITERATIONS`
     Levenberg-Marquardt steps, all blocks in one batched simulation per step; each step's
@@ -138,7 +167,7 @@ def _blocked_cv(spec: ModelSpec, res: FitResult, full: Callable[[FloatArray], Fl
     # the first of BLOCKS + 1 stretches is never held out: it fixes the release state
     # (x0, v0), which the rest of a record determines only through a chaotic extrapolation
     # backwards across every stick of a dry-friction cart
-    edges = np.linspace(0, n, BLOCKS + 2).astype(int)[1:]
+    edges = block_edges(n)
     outside = np.ones((BLOCKS, n), dtype=bool)
     for b in range(BLOCKS):
         outside[b, edges[b]:edges[b + 1]] = False
@@ -170,11 +199,10 @@ def _blocked_cv(spec: ModelSpec, res: FitResult, full: Callable[[FloatArray], Fl
             best = int(np.argmin(cost))
             x[b] = trials[b * k + best]
             pred[b] = tp[b * k + best]
-    total = 0.0
+    out = res.prediction.copy()
     for b in range(BLOCKS):
-        inside = train[edges[b]:edges[b + 1]]
-        total += float(np.sum((pred[b, edges[b]:edges[b + 1]][inside] - y[edges[b]:edges[b + 1]][inside]) ** 2))
-    return total if np.isfinite(total) else float("inf")
+        out[edges[b]:edges[b + 1]] = pred[b, edges[b]:edges[b + 1]]
+    return out
 
 
 def _jacobians(spec: ModelSpec, full: Callable[[FloatArray], FloatArray], xs: FloatArray, steps: FloatArray,

@@ -22,6 +22,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.special
 from numpy.typing import NDArray
 
 FloatArray = NDArray[np.float64]
@@ -36,6 +37,8 @@ NOISY_MIN_LEVELS = 8
 NOISY_MIN_QUANTUM_M = 5e-6
 #: |C| must also exceed this (a lattice under noise of more than ~0.45 q is indistinguishable)
 NOISY_MIN_COHERENCE = 0.02
+#: width (ratio of quanta) of the bands the noisy-lattice search weighs alike
+BAND = 4.0
 
 
 @dataclass(frozen=True)
@@ -79,8 +82,10 @@ def find_lattice(y: FloatArray) -> tuple[Lattice | None, float]:
 
 
 def _weighted(y: FloatArray) -> tuple[FloatArray, FloatArray]:  # values, |motion per sample|
-    """Samples of every column of `y` (N, c) and their weights |ẏ| (central differences of a
-    5-sample moving mean, so that the weight is not correlated with a sample's own noise)."""
+    """Samples of every column of `y` (N, c) and their motion |ẏ| (central differences of a
+    5-sample moving mean, so that it is not correlated with a sample's own noise), less three
+    times its noise level (so that a resting cart weighs nothing: its readings cluster about
+    one position whatever the lattice)."""
     ys, ws = [], []
     for col in np.atleast_2d(np.asarray(y, dtype=np.float64).T):
         if col.size < 9:
@@ -88,8 +93,10 @@ def _weighted(y: FloatArray) -> tuple[FloatArray, FloatArray]:  # values, |motio
         smooth = np.convolve(col, np.ones(5) / 5, mode="same")
         w = np.zeros(col.size)
         w[3:-3] = np.abs(smooth[4:-2] - smooth[2:-4])
+        # white noise σ: 1.4826 median|Δ²y| / √6; the motion estimate's own noise is √(2/25) σ
+        sigma = 1.4826 * float(np.median(np.abs(np.diff(col, 2)))) / np.sqrt(6.0)
         ys.append(col)
-        ws.append(w)
+        ws.append(np.maximum(w - 3.0 * np.sqrt(2.0 / 25.0) * sigma, 0.0))
     if not ys:
         return np.zeros(0), np.zeros(0)
     return np.concatenate(ys), np.concatenate(ws)
@@ -117,28 +124,39 @@ def _spectrum(values: FloatArray, weights: FloatArray, q_min: float) -> tuple[Fl
 def find_noisy_lattice(y: FloatArray) -> Lattice | None:
     """A lattice offset + q·k under additive noise in `y` (N,) or (N, c), or None.
 
-    The speed-weighted |C(f)| is searched for f ≥ NOISY_MIN_LEVELS / swing; a peak counts when
+    The weighted |C(f)| is searched for f ≥ NOISY_MIN_LEVELS / swing, in bands of quanta a
+    factor `BAND` wide: in the band of quanta above q_b each sample weighs min(|ẏ|, q_b), so
+    that every sample moving a quantum or more between readings counts fully (its phase on the
+    lattice is as good as any other's) while the slow samples near the turning points, whose
+    positions crowd at the swing's ends, count by the distance they move. A peak counts when
     |C|² exceeds its noise mean Σw²/(Σw)² by ln(n_f/α) (an exponential under no lattice, n_f
-    independent frequencies searched). The highest significant peak may be a harmonic k/q: the
-    lowest significant sub-multiple of it is the quantum, then refined on |C| directly.
+    independent frequencies searched over every band). The most significant peak may be a
+    harmonic k/q: the lowest significant sub-multiple of it is the quantum, then refined on |C|.
     """
-    values, weights = _weighted(y)
-    if values.size == 0 or np.sum(weights) <= 0:
+    values, motion = _weighted(y)
+    if values.size == 0 or np.sum(motion) <= 0:
         return None
     span = float(np.ptp(values))
     q_max, q_min = span / NOISY_MIN_LEVELS, max(NOISY_MIN_QUANTUM_M, 1e-7 * span)
     if q_max <= 2 * q_min:
         return None
-    f, spec = _spectrum(values, weights, q_min)
-    band = (f >= 1 / q_max) & (f <= 1 / q_min)
-    if not np.any(band):
-        return None
-    null = float(np.sum(weights ** 2) / np.sum(weights) ** 2)
     n_f = max(1.0, (1 / q_min - 1 / q_max) * span)
-    bar = max(float(np.sqrt(null * np.log(n_f / NOISY_ALPHA))), NOISY_MIN_COHERENCE)
-    k_top = int(np.flatnonzero(band)[np.argmax(spec[band])])
-    if spec[k_top] < bar:
+    best: tuple[float, FloatArray, FloatArray, FloatArray, float, int] | None = None
+    q_b = q_min
+    while q_b < q_max:
+        weights = np.minimum(motion, q_b)
+        f, spec = _spectrum(values, weights, q_min)
+        band = (f >= 1 / min(BAND * q_b, q_max)) & (f <= 1 / q_b)
+        null = float(np.sum(weights ** 2) / np.sum(weights) ** 2)
+        bar = max(float(np.sqrt(null * np.log(n_f / NOISY_ALPHA))), NOISY_MIN_COHERENCE)
+        if np.any(band):
+            k_top = int(np.flatnonzero(band)[np.argmax(spec[band])])
+            if spec[k_top] >= bar and (best is None or spec[k_top] / bar > best[0]):
+                best = (float(spec[k_top] / bar), weights, f, spec, bar, k_top)
+        q_b *= BAND
+    if best is None:
         return None
+    _, weights, f, spec, bar, k_top = best
     # the lowest significant sub-multiple of the top peak is the fundamental (read off the
     # spectrum: the largest of the grid points either side of f_top / k); a lattice's
     # |C(k/q)| = exp(-2π² k² s²/q²) falls with k, so the fundamental is as high as the top
@@ -163,3 +181,46 @@ def _refine(values: FloatArray, weights: FloatArray, f0: float, span: float) -> 
         f0 = float(grid[np.argmax(np.abs(weighted_coherence(values, weights, grid)))])
         half /= 20
     return f0
+
+
+#: The finest reading noise a lattice's likelihood resolves, in quanta (an exact encoder's
+#: readings are levels to float rounding: its likelihood is unbounded without a floor).
+MIN_READING_NOISE = 0.01
+
+
+def reading_noise(lattice: Lattice) -> float:
+    """Noise s (m) after the lattice from its coherence |C| = exp(-2π² s²/q²), ≥ 1 % of q."""
+    q = lattice.quantum_m
+    coh = float(np.clip(lattice.coherence, 1e-12, 1.0))
+    return max(q * float(np.sqrt(-np.log(coh) / (2 * np.pi ** 2))), MIN_READING_NOISE * q)
+
+
+def lattice_likelihood_gain(y: FloatArray, prediction: FloatArray, q: float, offset: float, noise: float) -> float:
+    """2 (log L_lattice - log L_gauss): how much better the readings `y` (N, c) are explained as levels
+    of the lattice `offset + q k` read with noise `noise` than as Gaussian scatter about
+    `prediction` (N, c) (variance σ² = mean residual², profiled).
+
+    Lattice model: the position is x ~ N(prediction, σ_x²), the encoder reports the level k
+    that holds x (probability Φ((L_k + q/2 - p)/σ_x) - Φ((L_k - q/2 - p)/σ_x)) plus N(0, s²):
+    a mixture over the reading's nearest level and its two neighbours; σ_x (what the
+    prediction misses beyond the reading) is profiled on a grid from q/20 to 3σ, as σ is for
+    the Gaussian. Unlike an SSE ratio this holds when the prediction is off by more than a
+    quantum: readings ON a lattice are still far likelier under it (each gains about
+    ln(q/(s√(2π)))), continuous readings are not.
+    """
+    p, yy = prediction.ravel(), y.ravel()
+    n = yy.size
+    sigma2 = max(float(np.mean((yy - p) ** 2)), 1e-30)
+    ell0 = -0.5 * n * (np.log(2 * np.pi * sigma2) + 1.0)
+    s = max(noise, 1e-12)
+    k = np.round((yy - offset) / q)
+    reading = [(offset + q * (k + j), np.exp(-0.5 * ((yy - offset - q * (k + j)) / s) ** 2) / (s * np.sqrt(2 * np.pi)))
+               for j in (-1, 0, 1)]
+    best = -np.inf
+    for sx in np.geomspace(0.05 * q, max(3.0 * np.sqrt(sigma2), 0.1 * q), 16):
+        mix = np.zeros(n)
+        for level, density in reading:
+            prob = scipy.special.ndtr((level + q / 2 - p) / sx) - scipy.special.ndtr((level - q / 2 - p) / sx)
+            mix += prob * density
+        best = max(best, float(np.sum(np.log(np.maximum(mix, 1e-300)))))
+    return 2.0 * (best - float(ell0))

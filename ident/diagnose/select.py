@@ -52,9 +52,23 @@ def threshold(extra: int, searched_frequency: bool, n: int) -> float:
     return value
 
 
-def bic(result: FitResult) -> float:
+def bic(result: FitResult, floor: float = 0.0) -> float:
     n = max(result.n_train, 1)
-    return float(n * np.log(max(result.sse_train, 1e-300) / n) + result.n_free * np.log(n))
+    return float(n * np.log(max(result.sse_train + floor, 1e-300) / n) + result.n_free * np.log(n))
+
+
+def reading_floor(model: FitResult) -> float:
+    """The SSE an encoder lattice in `model` puts under every later comparison: n q²/12.
+
+    Once the model reads its positions through a lattice of quantum q, a sample tells the
+    position only to within ±q/2 (Widrow's uniform quantization noise, variance q²/12), and
+    the residual of a nearly right model is a few whole quanta where the prediction sits on a
+    level's edge, not Gaussian noise: without the floor, moving a handful of those edges (a
+    spurious mode, a friction of 1e-7 m/s²) divides a near-zero SSE and passes any bound."""
+    if "quantization" not in model.spec.effects:
+        return 0.0
+    q = float(model.parameters()["quantum_m"])
+    return model.n_train * q * q / 12.0
 
 
 @dataclass(frozen=True)
@@ -67,6 +81,13 @@ class Judgement:
     lr_cv: float
     threshold: float
     bic_drop: float
+    #: n ln(SSE ratio) on the whole window when lr_fit is a likelihood ratio of another kind:
+    #: what the effect gains in fit, by which the passing effects are ranked
+    lr_sse: float | None = None
+
+    @property
+    def gain(self) -> float:
+        return self.lr_fit if self.lr_sse is None else self.lr_sse
 
     @property
     def passes(self) -> bool:
@@ -76,9 +97,14 @@ class Judgement:
 def judge(effect: str, before: FitResult, after: FitResult, carts: int) -> Judgement:
     n = before.n_train
     extra = len(effect_names(effect, after.spec.carts, after.spec.observed))
-    return Judgement(effect, after, likelihood_ratio(n, before.sse_train, after.sse_train),
-                     likelihood_ratio(n, before.sse_val, after.sse_val),
-                     threshold(extra, effect in SEARCHED, n), bic(before) - bic(after))
+    floor = reading_floor(before)
+    lr_sse = likelihood_ratio(n, before.sse_train + floor, after.sse_train + floor)
+    bar = threshold(extra, effect in SEARCHED, n)
+    if after.likelihood_gain is not None:   # readings on a lattice: the mixture likelihood
+        lr_fit, lr_cv = after.likelihood_gain
+        return Judgement(effect, after, lr_fit, lr_cv, bar, lr_fit - extra * float(np.log(n)), lr_sse)
+    return Judgement(effect, after, lr_sse, likelihood_ratio(n, before.sse_val + floor, after.sse_val + floor),
+                     bar, bic(before, floor) - bic(after, floor))
 
 
 @dataclass(frozen=True)
@@ -113,13 +139,13 @@ def forward(baseline: FitResult, effects: Callable[[FitResult], list[str]],
             if rank < REFINED and j.lr_fit > j.threshold:
                 judged.append(judge(trial.effect, current, refine(trial), carts))
             else:   # not cross-validated: the whole-window gain is within the noise (or too small)
-                judged.append(Judgement(j.effect, j.result, j.lr_fit, 0.0, j.threshold, j.bic_drop))
+                judged.append(Judgement(j.effect, j.result, j.lr_fit, 0.0, j.threshold, j.bic_drop, j.lr_sse))
         if not steps:
             first_round = judged
         passing = [j for j in judged if j.passes]
         if not passing:
             break
-        best = max(passing, key=lambda j: j.lr_fit)   # the one that gains most
+        best = max(passing, key=lambda j: j.gain)   # the one that gains most
         steps.append(Step(best, current))
         current = best.result
     return steps, first_round
