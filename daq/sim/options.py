@@ -181,8 +181,8 @@ _TABLE: dict[str, tuple[Parser, str, str]] = {
     "fc1": (_float(0, 1e3), "N", "Coulomb (dry) friction force on cart 1, static = kinetic"),
     "fc2": (_float(0, 1e3), "N", "Coulomb (dry) friction force on cart 2"),
     "cubic": (_float(-1e4, 1e4), "1/m^2", "hardening of every spring: F = k (e + cubic e^3)"),
-    "substep_hz": (_float(100, 1e6), "Hz", "RK4 rate (whole steps per sample, at least one); with dry "
-                   "friction a Moreau stepper runs 10 times faster"),
+    "substep_hz": (_float(100, 1e6), "Hz", "physics step rate (whole steps per sample, at least one); "
+                   "every step is ident.physics' simulator, held carts included"),
     "dialect": (_choice(DIALECT_NAMES), "", "what the device prints"),
     "rate_hz": (_float(0.1, 20000), "Hz", "sample rate (cartlab: `$R` changes it)"),
     "counts_per_m": (_float(1, 1e9), "1/m", "encoder resolution"),
