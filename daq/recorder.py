@@ -237,6 +237,7 @@ class Recovery:
     outcome: Literal["recovered", "quarantined", "skipped"]
     detail: str
     finished: RunFinished | None = None
+    last_t_ns: int | None = None   # the last sample recovered (device ns), None when none
 
 
 def recover_part(path: Path) -> RunFinished:
@@ -278,7 +279,7 @@ def _recover_readable(path: Path, runs_dir: Path) -> Recovery:
     run_id = run_file.recovered_run_id(runs_dir, run_file.run_id_of(path))
     temp = runs_dir / f"{run_id}{run_file.RECOVERING_SUFFIX}"
     with open(temp, "wb") as stream:
-        finished = _rewrite(path, meta, run_id, stream)
+        finished, last_t_ns = _rewrite(path, meta, run_id, stream)
         stream.flush()
         os.fsync(stream.fileno())
     target = run_file.final_path(runs_dir, run_id)
@@ -288,7 +289,7 @@ def _recover_readable(path: Path, runs_dir: Path) -> Recovery:
         temp.unlink(missing_ok=True)
     path.unlink()
     _fsync_dir(runs_dir)
-    return Recovery(path, "recovered", f"{finished.n_samples} samples into {target.name}", finished)
+    return Recovery(path, "recovered", f"{finished.n_samples} samples into {target.name}", finished, last_t_ns)
 
 
 def _quarantine(path: Path, runs_dir: Path, reason: str) -> Recovery:
@@ -302,8 +303,9 @@ def _quarantine(path: Path, runs_dir: Path, reason: str) -> Recovery:
     return Recovery(path, "quarantined", f"{reason}; moved to {dest.relative_to(runs_dir)}")
 
 
-def _rewrite(path: Path, meta: RunMetadata, run_id: str, stream: BinaryIO) -> RunFinished:
-    """Copy every readable record of `path` into a new file, record by record (bounded memory)."""
+def _rewrite(path: Path, meta: RunMetadata, run_id: str, stream: BinaryIO) -> tuple[RunFinished, int | None]:
+    """Copy every readable record of `path` into a new file, record by record (bounded memory);
+    returns its finished record and its last sample's time (ns)."""
     writer = Writer(stream, chunk_size=CHUNK_SIZE, compression=CompressionType.ZSTD)
     writer.start(profile=topics.MCAP_PROFILE, library=LIBRARY)
     schema_ids: dict[int, int] = {}
@@ -346,7 +348,7 @@ def _rewrite(path: Path, meta: RunMetadata, run_id: str, stream: BinaryIO) -> Ru
     writer.add_metadata(topics.METADATA_RUN, _metadata_map(final_meta))
     writer.add_metadata(topics.METADATA_FINISHED, _metadata_map(finished))
     writer.finish()
-    return finished
+    return finished, last_t
 
 
 def recover_dir(runs_dir: Path) -> list[Recovery]:

@@ -7,11 +7,14 @@ written). The failure is logged once, naming the path and the run. The batches n
 flushed, and every batch while suspended, are kept in memory (at most `backlog_samples`
 samples; beyond, the oldest go). A new file is tried every `retry_s`; when one can be opened
 (space came back) recording goes on in a continuation `<run_id>-p<k>.mcap.part`, which starts
-with the kept batches (so nothing is lost when the disk was full for less than the backlog),
-and whose metadata marks a gap (`disk_full`) only if batches had to be dropped; the suspended
-part is recovered at once into a finished file (`daq.recorder.recover_one`). When the run ends, the
-continuation is finished under its own name; a run that ends while the disk is still full
-leaves its part for recovery at the next start.
+with the kept batches (so nothing is lost when the disk was full for less than the backlog);
+the suspended part is recovered at once into a finished file (`daq.recorder.recover_one`),
+which says what it really holds: the MCAP writer may have pushed full chunks of the batches
+we counted as unflushed, so the kept samples up to the part's last one are not written again,
+and a gap (`disk_full`) is marked only if samples after it had to be dropped, from the part's
+last sample to the first one kept. When the run ends, the continuation is finished under its
+own name; a run that ends while the disk is still full leaves its part for recovery at the
+next start, and its reason names the span not recorded.
 
 Other write errors are not ours to hide: they propagate.
 """
@@ -139,8 +142,8 @@ class Recording:
         if writer is None:
             if suspended is None:
                 return finished
-            reason = (f"disk full: recording stopped at {suspended.part.name}; its part is recovered at the "
-                      "next start")
+            reason = (f"disk full: recording stopped at {suspended.part.name}; {_unrecorded(suspended)}; "
+                      "its part is recovered at the next start")
             log.error("run %s ended while the disk is still full (%s)", metadata.run_id, suspended.part)
             return finished.model_copy(update={"status": "aborted", "reason": reason})
         if self._pieces == 0:
@@ -196,10 +199,10 @@ class Recording:
         if now < suspended.next_try_s or not suspended.backlog:
             return
         piece_id = f"{run_file.run_id_of(suspended.part)}-p{self._pieces + 2}"
-        gaps = list(self._gaps)
-        if suspended.dropped_after_t_ns is not None:   # the backlog overflowed: those samples are gone
-            gaps.append(GapInterval(start_t_ns=suspended.last_written_t_ns or suspended.metadata.first_t_ns,
-                                    end_t_ns=suspended.backlog[0].t_ns[0], reason="disk_full"))
+        # the gap as far as the kept batches tell (the new file's start metadata; a crash of
+        # the continuation leaves at least that); made exact below once the part is recovered
+        provisional = self._overflow_gap(suspended, None)
+        gaps = [*self._gaps, *([provisional] if provisional is not None else [])]
         counters = suspended.metadata.counters.model_copy(
             update={"gap_intervals": [*suspended.metadata.counters.gap_intervals, *gaps]})
         metadata = suspended.metadata.model_copy(update={"run_id": piece_id, "counters": counters})
@@ -213,26 +216,45 @@ class Recording:
             suspended.next_try_s = now + self.retry_s
             return
         self._pieces += 1
-        self._gaps = gaps
         self.suspended = None
+        in_part = self._recover(suspended.part)
+        exact = self._overflow_gap(suspended, in_part)
+        self._gaps = [*self._gaps, *([exact] if exact is not None else [])]
         log.warning("space is back: run %s goes on in %s (the %d samples kept meanwhile first%s)",
                     suspended.metadata.run_id, self.writer.path.name, suspended.kept,
-                    "; the backlog overflowed: a gap is marked" if suspended.dropped_after_t_ns is not None else "")
-        self._recover(suspended.part)
-        for kept in suspended.backlog:
+                    f"; the backlog overflowed: samples {exact.start_t_ns / 1e9:.3f}-{exact.end_t_ns / 1e9:.3f} s "
+                    "(device clock) lost, the gap marked" if exact is not None else "")
+        for kept in _after(suspended.backlog, in_part):   # the part's samples are not written twice
             if self.writer is None:   # full again: the rest stays in the new suspension's backlog
                 assert self.suspended is not None
                 self.suspended.keep(kept, self.backlog_samples)
             else:
                 self._write(kept)
 
-    def _recover(self, part: Path) -> None:
+    @staticmethod
+    def _overflow_gap(suspended: _Suspended, in_part: int | None) -> GapInterval | None:
+        """The samples lost to an overflowing backlog: from the last sample the part holds
+        (`in_part`, from its recovery; else the last known written) to the first sample kept
+        after it. None when nothing was dropped beyond what the part holds."""
+        dropped = suspended.dropped_after_t_ns
+        if dropped is None or (in_part is not None and dropped <= in_part):
+            return None
+        first_kept = next((t for b in suspended.backlog for t in b.t_ns if in_part is None or t > in_part), None)
+        if first_kept is None:
+            return None
+        start = in_part if in_part is not None else (suspended.last_written_t_ns or suspended.metadata.first_t_ns)
+        return GapInterval(start_t_ns=start, end_t_ns=first_kept, reason="disk_full")
+
+    def _recover(self, part: Path) -> int | None:
+        """Recover the cut part into a finished file; returns its last sample's time (ns), None
+        when it holds none or could not be recovered."""
         if not part.exists():
-            return
+            return None
         done = recover_one(part)
         if done.finished is not None and self.on_recovered is not None:
             self.on_recovered(done.finished.model_copy(update={
                 "reason": f"recording stopped on a full disk; {done.finished.reason or ''}"[:500]}))
+        return done.last_t_ns if done.outcome == "recovered" else None
 
     def _finish_piece(self, writer: RunWriter, metadata: RunMetadata, finished: RunFinished) -> RunFinished:
         piece_id = writer.run_id
@@ -250,4 +272,37 @@ class Recording:
         return piece
 
 
-__all__ = ["FULL_ERRNOS", "Recording", "is_disk_full"]
+def _after(batches: deque[SampleBatch], t_ns: int | None) -> list[SampleBatch]:
+    """The batches' samples later than `t_ns` (all of them when None), as batches."""
+    if t_ns is None:
+        return list(batches)
+    out = []
+    for batch in batches:
+        if not batch.t_ns or batch.t_ns[-1] <= t_ns:
+            continue
+        k = next(i for i, t in enumerate(batch.t_ns) if t > t_ns)
+        out.append(batch if k == 0 else _tail(batch, k))
+    return out
+
+
+def _tail(batch: SampleBatch, k: int) -> SampleBatch:
+    """`batch` from its sample k on."""
+    update = {"t_ns": batch.t_ns[k:], "pos1_m": batch.pos1_m[k:]}
+    for name in ("pos2_m", "raw1", "raw2"):
+        values = getattr(batch, name, None)
+        if values is not None:
+            update[name] = values[k:]
+    return batch.model_copy(update=update)
+
+
+def _unrecorded(suspended: _Suspended) -> str:
+    """What the run loses when it ends while the disk is full: the samples kept in memory and
+    any dropped before them, from after the part's last flush."""
+    kept = [t for b in suspended.backlog for t in b.t_ns]
+    since = suspended.last_written_t_ns
+    span = (f"from {since / 1e9:.3f} s" if since is not None else "") + (f" to {kept[-1] / 1e9:.3f} s" if kept else "")
+    dropped = "" if suspended.dropped_after_t_ns is None else " (and earlier ones dropped from a full backlog)"
+    return f"samples {span.strip()} (device clock) not recorded: {len(kept)} kept in memory{dropped}"
+
+
+__all__ = ["BACKLOG_SAMPLES", "FULL_ERRNOS", "Recording", "is_disk_full"]

@@ -30,7 +30,7 @@ from daq.errors import DaqIOError
 from daq.frames import Dialect
 from daq.pipeline import Acquisition, AcquisitionConfig
 from daq.recorder import RunWriter, final_path, finished_of, open_exclusive, part_path, recover_all
-from daq.recording import Recording
+from daq.recording import BACKLOG_SAMPLES, Recording
 from daq.serial_link import LinkEvent, SerialLink
 from schemas import SchemaError, keys, topics
 from schemas.bus import BusConfig
@@ -55,6 +55,8 @@ class ServiceConfig:
     until_eof: bool = False
     baudrate: int = 115200
     flush_interval_s: float = 0.25
+    #: samples kept in memory while the disk is full (`daq.recording.BACKLOG_SAMPLES`)
+    disk_backlog_samples: int = BACKLOG_SAMPLES
 
 
 class _Outputs:
@@ -64,7 +66,8 @@ class _Outputs:
         self.service = service
         config = service.config
         self.recording = Recording(config.runs_dir, config.flush_interval_s, service.clock,
-                                   opener=opener or open_exclusive, on_recovered=service.announce)
+                                   opener=opener or open_exclusive, on_recovered=service.announce,
+                                   backlog_samples=config.disk_backlog_samples)
 
     @property
     def writer(self) -> RunWriter | None:
