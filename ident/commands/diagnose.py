@@ -123,6 +123,8 @@ def diagnose_file(args: argparse.Namespace) -> Any:
 
 def summary(report: Any) -> str:
     """A readable summary of a `DiagnosisReport`."""
+    from ident.diagnose import explain
+
     ev = report.evidence
     lines = [(f"{report.source}: {report.carts} cart(s), {report.sample_rate_hz:.1f} Hz, "
               f"release at {report.release_time_s:.3f} s, fitted from {report.window_start_s:.3f} s"),
@@ -130,8 +132,7 @@ def summary(report: Any) -> str:
              "evidence   residual " + ("white" if ev.residual_is_white else "NOT white")
              + f" ({ev.whiteness_fraction_outside:.0%} of lags outside), rms {1e3 * ev.residual_rms_m:.3f} mm"
              f" vs noise {1e3 * ev.noise_std_m:.3f} mm; envelope {ev.envelope_shape.replace('_', ' ')}"
-             f" over {ev.envelope_peaks} peaks; at rest for the last {ev.stuck_for_s:.2f} s,"
-             f" {1e3 * ev.rest_offset_m:.2f} mm from the fitted rest"
+             f" over {ev.envelope_peaks} peaks; {explain.rest_words(ev.stuck_for_s, ev.rest_offset_m)}"
              + (f"; encoder lattice {1e6 * ev.lattice_quantum_m:.2f} um" if ev.lattice_quantum_m else "")
              + (f"; second frequency {ev.second_frequency_hz:.2f} Hz" if ev.second_frequency_hz else ""),
              "first round (whole-window fit %, gain, likelihood ratio window/blocked-CV vs bound):"]

@@ -343,6 +343,8 @@ def _fit_friction(spec: ModelSpec, prob: Problem, theta0: FloatArray, lower: Flo
         f_max = theta0[0] ** 2 * prob.amplitude
         candidates.append(_best_rows(spec, prob, alt, slice(at, at + 1),
                                      [np.array([g * f_max]) for g in (0.003, 0.01, 0.03, 0.1)]))
+    else:
+        candidates += _two_cart_friction_starts(spec, prob, theta0)
     short = ModelSpec(spec.effects, spec.carts, spec.fixed,
                       None if spec.inputs is None else spec.inputs[:n_cut],
                       None if spec.held is None else spec.held[:n_cut], spec.outputs)
@@ -355,6 +357,36 @@ def _fit_friction(spec: ModelSpec, prob: Problem, theta0: FloatArray, lower: Flo
             best = result
     assert best is not None
     return best
+
+
+def _two_cart_friction_starts(spec: ModelSpec, prob: Problem, theta0: FloatArray) -> list[FloatArray]:
+    """Two carts: the linear fit put both frictions' loss into c1/m1 and c2/m2, and which cart
+    rubs shows only in how each mode's envelope decays. Restart from a quarter of that damping
+    with the friction on cart 1 only, cart 2 only or both, on a grid of levels (the best row).
+
+    Through one encoder the linear chain is not identifiable: x1 sees only the characteristic
+    polynomial, a + d, ad - bc and the dampings (a = (k1+k2)/m1, b = k2/m1, c = k2/m2,
+    d = (k2+k3)/m2), so the linear fit may land on the mirrored chain (a and d exchanged)
+    where friction on the wrong cart fits best. Also start from that mirror, b c kept."""
+    at = spec.block("coulomb_friction").start
+    chains = [theta0.copy()]
+    if spec.observed < spec.carts:
+        a, d, bc = theta0[0] + theta0[1], theta0[2] + theta0[3], theta0[1] * theta0[2]
+        for share in (0.5, 0.7):
+            b = share * d
+            c = bc / max(b, 1e-12)
+            if c < a:
+                mirror = theta0.copy()
+                mirror[:6] = [d - b, b, c, a - c, theta0[5], theta0[4]]
+                chains.append(mirror)
+    f_max = float(np.max(theta0[:4])) * prob.amplitude
+    patterns = (np.array([1.0, 0.0]), np.array([0.0, 1.0]), np.array([1.0, 1.0]))
+    out = []
+    for chain in chains:
+        chain[4:6] = 0.25 * chain[4:6]
+        out.append(_best_rows(spec, prob, chain, slice(at, at + 2),
+                              [g * f_max * p for p in patterns for g in (0.003, 0.01, 0.03, 0.1)]))
+    return out
 
 
 def _large_amplitude_samples(prob: Problem, ev: EvidenceResult) -> int:

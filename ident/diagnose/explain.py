@@ -33,16 +33,30 @@ ENVELOPE_WORDS = {
 }
 
 
+#: A cart still for less than this at the end of a record has not come to rest (s).
+MIN_REST_S = 0.1
+
+
+def rest_words(stuck_for_s: float, rest_offset_m: float) -> str:
+    """Where the run ends, in words: at rest for how long and how far off, or still moving."""
+    if stuck_for_s < MIN_REST_S:
+        return f"still moving at the end of the record, {1e3 * rest_offset_m:.2f} mm from the fitted rest"
+    return f"at rest for the last {stuck_for_s:.2f} s, {1e3 * rest_offset_m:.2f} mm from the fitted rest"
+
+
 def _signs(report: DiagnosisReport) -> str:
     """The evidence behind the named cause, in words, from the measured run."""
     ev = report.evidence
     shape = ENVELOPE_WORDS.get(ev.envelope_shape, ev.envelope_shape.replace("_", " "))
     if report.carts == 2:      # two carts beat: the peaks of one follow no envelope law
         shape = "not read for two carts, whose two modes beat"
-    if report.cause == "coulomb_friction":
+    if report.cause == "coulomb_friction" and ev.stuck_for_s >= MIN_REST_S:
         return (f"the cart stops dead {1e3 * abs(ev.rest_offset_m):.2f} mm from the linear model's rest "
                 f"and stays there for the last {ev.stuck_for_s:.2f} s while the linear model keeps "
                 f"ringing, which no viscous damping can do (peak envelope: {shape})")
+    if report.cause == "coulomb_friction":   # the record ends before the cart comes to rest
+        return (f"the swings die out in a way no viscous damping reproduces (peak envelope: {shape}); "
+                "the record ends while the cart still moves")
     if report.cause == "quadratic_drag":
         return f"large swings lose a larger fraction of their amplitude than small ones (peak envelope: {shape})"
     if report.cause == "cubic_stiffness":

@@ -14,9 +14,13 @@ acts from there on):
     (else the smallest ratio): the second bound keeps a poor linear fit (strong friction)
     from excusing the hand's push.
 
-The reported release time is the last zero of the fitted velocity before `t_w` (within half
-a period) when the fitted position there is the held level (a clean release from rest);
-otherwise the hand let go while the cart moved and the release is `t_w` itself. The fits start
+A pull-hold (the cart held still further than `HOLD_AWAY` of its swing from the middle
+of its swings) is dated by its acceleration jump at the first motion (`knot.hold_release`, within
+a fraction of a sample) and the window starts there: a friction-damped or two-mode record can
+make the scan above start periods late. Otherwise the reported release time is the last zero
+of the fitted velocity before `t_w` (within half a period) when the fitted position there is
+the held level (a clean release from rest); else the hand let go while the cart moved and
+the release is `t_w` itself. The fits start
 two samples (at least T/200) after `t_w`. Long runs
 are decimated for fitting (`MAX_WORK_SAMPLES`). No I/O here.
 """
@@ -28,6 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from ident.diagnose.knot import Knot, hold_release
 from ident.errors import IdentValueError
 from ident.modal import ModalFit, fit_modes, modal_prediction
 from ident.physics.measures import spectral_peaks
@@ -36,6 +41,8 @@ FloatArray = NDArray[np.float64]
 
 MAX_WORK_SAMPLES = 500
 SCAN_STEPS = 17
+#: a hold level this fraction of the swing away from the middle of the swings is a pull-hold
+HOLD_AWAY = 0.3
 
 
 @dataclass(frozen=True)
@@ -110,12 +117,30 @@ def find_window(t: FloatArray, y: FloatArray, carts: int) -> Window:
     main = int(np.argmax(np.ptp(y, axis=0)))
     tolerance = max(8.0 * noise, 0.05 * float(np.ptp(y[:, main])))
     release = _last_rest_before(t[start], fit, period, hold, tolerance)
+    knot = _hold_release(t, y[:, main], hold[main], onset, period)
+    if knot is not None:
+        # held still, then let go: the free response starts at the first motion
+        release = knot.time_s
+        start = int(np.searchsorted(t, release))
     # fit from a margin after it (two samples, at least T/200): the chosen start can still
     # hold the hand's last push, which a fast-decaying "mode" would otherwise absorb
     start = min(start + max(2, round(period / 200 / dt)), t.shape[0] - 40)
     n_win = t.shape[0] - start
     decimation = max(1, int(np.ceil(n_win / MAX_WORK_SAMPLES)))
     return Window(start, decimation, hold, noise, max(release, float(t[0])), period)
+
+
+def _hold_release(t: FloatArray, y: FloatArray, hold: float, onset: int, period: float) -> Knot | None:
+    """A pull-hold release: the cart held still away from its rest (the spring pulls it back:
+    the hold level is further than `HOLD_AWAY` of the swing from the middle of the swings),
+    let go where its acceleration jumps, next to the motion onset; None for a flick (it
+    starts from the rest it returns to) or when no jump stands out of the noise."""
+    after = y[onset:]
+    swing = float(np.max(np.abs(after - hold)))
+    # the middle of the swings is about where the spring's rest is: a flick starts there
+    if abs(0.5 * float(np.max(after) + np.min(after)) - hold) < HOLD_AWAY * swing:
+        return None
+    return hold_release(t, y, hold, onset, period)
 
 
 def _last_rest_before(t_start: float, fit: ModalFit, period: float, hold: FloatArray, tolerance: float) -> float:

@@ -58,8 +58,6 @@ def test_each_family_is_named_with_its_parameters_within_5_percent(family: str) 
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=True, reason="seed 1821478140 (hold, 931 Hz): release dated 0.34 s late, frictions 52 % and "
-                                       "85 % off, fit 1.5 points below the floor")
 def test_two_carts_with_friction_through_one_encoder_reach_the_noise_floor() -> None:
     problems = []
     for seed in _seeds("coulomb_friction", 2):
