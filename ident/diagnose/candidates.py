@@ -133,24 +133,46 @@ def _bounds_of(effect: str, prob: Problem, ev: EvidenceResult, wn_modes: FloatAr
     return _mode_bounds(prob, wn_modes, res)
 
 
-def _mode_bounds(prob: Problem, wn_modes: FloatArray, res: FloatArray) -> Bounds:
-    """A SECOND resonance from the residual's strongest peak away from the baseline modes.
+#: A searched mode is kept this far (relative) from the main (lowest) baseline mode, so that it
+#: cannot turn into a beat with it that mimics an amplitude-dependent envelope, and this far
+#: from the other baseline modes (a chain's second mode: a beat with it is a record's worth of
+#: periods long, and an extra mass on a chain often rings just beside it).
+MAIN_MODE_GAP = 0.25
+OTHER_MODE_GAP = 0.08
 
-    Kept on its side of the baseline modes, at least 25 % away, so it cannot turn into a beat
-    with the main mode that mimics an amplitude-dependent envelope; damping ratio ≤ 0.3.
+
+def _mode_bounds(prob: Problem, wn_modes: FloatArray, res: FloatArray) -> Bounds:
+    """A further resonance from the residual's strongest peak away from the baseline modes.
+
+    Its frequency is bounded to the gap between the baseline modes' exclusion zones
+    (`MAIN_MODE_GAP`, `OTHER_MODE_GAP`) in which that peak lies, within 0.33× the main mode
+    (slower drifts are no mode of the rig) and 0.98× Nyquist; damping ratio ≤ 0.3.
     """
     c, amp = prob.y.shape[1], prob.amplitude
-    w3 = float(spectral_peaks(res, prob.dt, 1, exclude=wn_modes, exclude_rel=0.3)[0])
+    nyq_hz = 0.5 / prob.dt
+    modes_hz = np.sort(np.asarray(wn_modes, dtype=np.float64)) / (2 * np.pi)
+    zones = [((1 - MAIN_MODE_GAP) * modes_hz[0], modes_hz[0] / (1 - MAIN_MODE_GAP))]
+    zones += [(f * (1 - OTHER_MODE_GAP), f / (1 - OTHER_MODE_GAP)) for f in modes_hz[1:]]
+    edges = [0.33 * modes_hz[0]] + [v for z in sorted(zones) for v in z] + [0.98 * nyq_hz]
+    gaps = [(lo, hi) for lo, hi in zip(edges[::2], edges[1::2]) if hi > lo * 1.02]
+    # starts: the residual's peaks in a gap, and just outside each other mode's zone (a mode
+    # beside a chain's second mode leaves a beat centred inside the zone, not a peak outside)
+    peaks = spectral_peaks(res, prob.dt, 4, exclude=wn_modes, exclude_rel=OTHER_MODE_GAP, fill=False)
+    tries = [float(w) / (2 * np.pi) for w in peaks]
+    tries += [v for lo, hi in zones[1:] for v in (lo / 1.03, hi * 1.03)]
+    tries = [f for f in tries if any(lo <= f <= hi for lo, hi in gaps)]
+    if not tries:
+        tries = [float(np.clip(spectral_peaks(res, prob.dt, 1, exclude=wn_modes, exclude_rel=0.3)[0] / (2 * np.pi),
+                               gaps[-1][0], gaps[-1][1]))]
+    cost = [float(np.sum(project(prob.tau, res, np.array([2 * np.pi * f]), np.array([0.02 * np.pi * f]))[1] ** 2))
+            for f in tries]
+    f3 = tries[int(np.argmin(cost))]
+    band = next(g for g in gaps if g[0] <= f3 <= g[1])
+    w3 = 2 * np.pi * f3
     s3 = 0.01 * w3
     coef, _ = project(prob.tau, res, np.array([w3]), np.array([s3]))
     a3, b3 = coef[1], coef[2]
-    nyq_hz = 0.5 / prob.dt
-    f_lo, f_hi = float(np.min(wn_modes)) / (2 * np.pi), float(np.max(wn_modes)) / (2 * np.pi)
-    above = w3 / (2 * np.pi) > f_hi
-    # a resonance within a factor ~3 of the main mode (slower drifts are no mode of the rig)
-    band = (1.25 * f_hi, 0.98 * nyq_hz) if above else (0.33 * f_lo, 0.8 * f_lo)
-    start = np.concatenate([[float(np.clip(w3 / (2 * np.pi), *band)),
-                             min(s3, 0.15 * 2 * np.pi * band[0])], a3, b3])
+    start = np.concatenate([[w3 / (2 * np.pi), min(s3, 0.15 * 2 * np.pi * band[0])], a3, b3])
     lower = np.concatenate([[band[0], 0.0], np.full(2 * c, -np.inf)])
     upper = np.concatenate([[band[1], 0.3 * 2 * np.pi * band[0]], np.full(2 * c, np.inf)])
     typical = np.concatenate([[w3 / (2 * np.pi), 0.1 * w3], np.full(2 * c, 0.01 * amp)])

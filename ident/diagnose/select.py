@@ -32,6 +32,8 @@ ALPHA = 1e-3
 #: Effects whose start is searched over a grid (a frequency, an encoder quantum): they pay a
 #: look-elsewhere term.
 SEARCHED = ("coupled_mode", "quantization")
+#: Effects of the carts a model may carry (an encoder lattice, a property of the sensor, is not
+#: counted: it must not take the place of a physical effect).
 MAX_EFFECTS = 4
 #: An accepted effect is material when the misfit it removes is this fraction of the final
 #: model's, or it adds this many fit-% points; otherwise it is listed as immaterial and is
@@ -126,17 +128,21 @@ def forward(baseline: FitResult, effects: Callable[[FitResult], list[str]],
 
     Each round screens every available effect with a quick fit; the `REFINED` with the
     largest whole-window ratio above the noise bound are fitted on to convergence and
-    cross-validated; the passing one that gains most is accepted.
+    cross-validated (an encoder lattice above the bound is, besides them); the passing one that
+    gains most is accepted.
     """
     current = baseline
     steps: list[Step] = []
     first_round: list[Judgement] = []
-    while len(steps) < MAX_EFFECTS:
+    while sum(s.judgement.effect != "quantization" for s in steps) < MAX_EFFECTS:
         trials = [screen(current, e) for e in effects(current)]
-        quick = sorted(((judge(t.effect, current, t.result, carts), t) for t in trials), key=lambda p: -p[0].lr_fit)
+        quick = sorted(((judge(t.effect, current, t.result, carts), t) for t in trials), key=lambda p: -p[0].gain)
         judged = []
-        for rank, (j, trial) in enumerate(quick):
-            if rank < REFINED and j.lr_fit > j.threshold:
+        rank = 0   # among the carts' effects: an encoder lattice is judged apart, never takes their slot
+        for j, trial in quick:
+            refined = j.effect == "quantization" or rank < REFINED
+            rank += j.effect != "quantization"
+            if refined and j.lr_fit > j.threshold:
                 judged.append(judge(trial.effect, current, refine(trial), carts))
             else:   # not cross-validated: the whole-window gain is within the noise (or too small)
                 judged.append(Judgement(j.effect, j.result, j.lr_fit, 0.0, j.threshold, j.bic_drop, j.lr_sse))
