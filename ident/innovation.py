@@ -20,10 +20,10 @@ at `max_nfev` (reported in `Model.success`/`message`) with a small K and unchang
 from __future__ import annotations
 
 from dataclasses import replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.optimize import OptimizeResult, least_squares
 
 from ident import modal
 from ident.comparison import fit_percent
@@ -31,6 +31,9 @@ from ident.data import IdData
 from ident.errors import IdentValueError
 from ident.model import ModeEstimate, Model
 from ident.predictor import predict
+
+if TYPE_CHECKING:
+    from scipy.optimize import OptimizeResult
 
 FloatArray = NDArray[np.float64]
 
@@ -77,6 +80,7 @@ def _theta(sigma: FloatArray, omega: FloatArray, model: Model, betas: list[Float
 
 def refine(model: Model, data: IdData, max_nfev: int = 100) -> Model:
     """Joint prediction-error fit with a noise model K, started from an output-error `model`."""
+    from scipy.optimize import least_squares  # deferred: keeps `import ident` fast
     if not data.is_uniform():
         raise IdentValueError("time base", "uniform sampling for the innovation-form predictor", "non-uniform")
     ts = data.sample_time()

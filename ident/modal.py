@@ -39,10 +39,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.optimize
 from numpy.typing import NDArray
-from scipy.linalg import expm
-from scipy.signal import lfilter
 
 FloatArray = NDArray[np.float64]
 
@@ -76,6 +73,7 @@ def section_matrices(sigma: float, omega: float) -> tuple[FloatArray, FloatArray
 
 def _phi_gamma(a_sec: FloatArray, b_sec: FloatArray, h: float) -> tuple[FloatArray, FloatArray]:
     """Φ(h) = e^{A h}, Γ(h) = ∫_0^h e^{Aσ} dσ B, from the expm of [[A, B], [0, 0]] h."""
+    from scipy.linalg import expm  # deferred: keeps `import ident` fast
     aug = np.zeros((3, 3))
     aug[:2, :2] = a_sec * h
     aug[:2, 2] = b_sec * h
@@ -91,6 +89,7 @@ def section_states(sigma: float, omega: float, ts: float, frac: float, v: FloatA
     x[k+1] = Φ x[k] + Γ1 v[k-1] + Γ2 v[k], Φ = Φ(Ts), Γ1 = Φ((1-f)Ts) Γ(f Ts), Γ2 = Γ((1-f)Ts).
     State r is row r of adj(zI - Φ) (Γ1 z⁻¹ + Γ2) / det(zI - Φ), run by `lfilter`.
     """
+    from scipy.signal import lfilter  # deferred: keeps `import ident` fast
     a_sec, b_sec = section_matrices(sigma, omega)
     phi, _ = _phi_gamma(a_sec, b_sec, ts)
     phi_rest, gamma2 = _phi_gamma(a_sec, b_sec, (1.0 - frac) * ts)
@@ -229,6 +228,7 @@ def project(tau: FloatArray, y: FloatArray, freqs: FloatArray, decays: FloatArra
 def fit_modes(tau: FloatArray, y: FloatArray, freq_starts: FloatArray,
               decay_starts: FloatArray | None = None) -> ModalFit:
     """Variable-projection fit of m = len(freq_starts) modes to `y` (N, n_out) on `tau` (N,)."""
+    import scipy.optimize  # deferred: keeps `import ident` fast
     m = len(freq_starts)
     nyq = np.pi / max(float(np.median(np.diff(tau))), 1e-9)
     best: ModalFit | None = None

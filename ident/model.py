@@ -15,7 +15,6 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.linalg import expm
 
 from ident import modal, predictor, summary
 from ident.errors import IdentDimensionError, IdentValueError
@@ -121,6 +120,7 @@ class Model:
         K is the estimated innovation gain (`pem(..., noise_model="innovation")`), zero for
         the output-error noise model (H = 1). K belongs to the fitted sample time only.
         """
+        from scipy.linalg import expm  # deferred: keeps `import ident` fast
         step = float(np.median(np.diff(self.t))) if ts is None else ts
         ss = self.state_space
         n = ss.A.shape[0]

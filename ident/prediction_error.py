@@ -42,7 +42,7 @@ from ident.errors import FitFailed, IdentValueError
 from ident.innovation import refine
 from ident.model import ModeEstimate, Model
 from ident.physical_start import carts_at_peaks, physical_start
-from ident.physics import spectral_peaks
+from ident.physics import fit_percent, spectral_peaks
 from ident.release import check_motion, estimate_release_time, moving_outputs, noise_std
 from ident.zoh import d2c_zoh
 
@@ -213,7 +213,7 @@ def _best_fit(problem: varpro.Problem, data: IdData, release0: float, n_modes: i
             continue
         if best is None or solution.cost < best.cost:
             best = solution
-        if _fit_percent(data.y, solution.residuals).min() > 95.0:
+        if min(fit_percent(data.y, data.y - solution.residuals)) > 95.0:
             break
     if best is None:
         raise FitFailed(f"no start value led to a converged fit of {2 * n_modes} states")
@@ -228,11 +228,6 @@ def _reweighted(problem: varpro.Problem, solution: varpro.Solution) -> varpro.So
         return solution
     reweighted = replace(problem, weights=1.0 / np.maximum(residual_std, 1e-15))
     return varpro.fit(reweighted, solution.release_time_s, solution.sigma, solution.omega)
-
-
-def _fit_percent(y: FloatArray, residuals: FloatArray) -> FloatArray:
-    spread = np.linalg.norm(y - y.mean(axis=0), axis=0)
-    return np.asarray(100.0 * (1.0 - np.linalg.norm(residuals, axis=0) / np.maximum(spread, 1e-300)))
 
 
 def mode_estimates(sigma: FloatArray, omega: FloatArray, covariance: FloatArray,
@@ -266,7 +261,7 @@ def _to_model(data: IdData, problem: varpro.Problem, solution: varpro.Solution) 
     perm = np.concatenate([np.arange(offset_index), offset_index + order, offset_index + m + order])
     covariance = solution.covariance[np.ix_(perm, perm)]
     modes = mode_estimates(sigma, omega, covariance, offset_index)
-    fit = tuple(float(v) for v in _fit_percent(problem.y, solution.residuals))
+    fit = tuple(fit_percent(problem.y, problem.y - solution.residuals))
     return Model(sigma=sigma, omega=omega, theta=theta, offset=solution.offset, t=problem.t,
                  input_delay_s=(release - step_time) if release is not None else 0.0,
                  release_time_s=release, relative_degree=problem.relative_degree, modes=modes,

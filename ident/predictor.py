@@ -16,8 +16,6 @@ from __future__ import annotations
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.linalg import expm
-from scipy.signal import lfilter
 
 from ident import modal
 from ident.errors import IdentValueError
@@ -38,6 +36,7 @@ def shift(x: FloatArray, samples: int) -> FloatArray:
 def discrete_inputs(a: FloatArray, b: FloatArray, ts: float, frac: float) -> tuple[FloatArray, FloatArray, FloatArray]:
     """(Φ, Γ1, Γ2) of x' = A x + B u held over a sample interval Ts whose input steps at the
     fraction `frac` of it: x[k+1] = Φ x[k] + Γ1 v[k-1] + Γ2 v[k] (A (n, n), B (n, 1))."""
+    from scipy.linalg import expm  # deferred: keeps `import ident` fast
     n = a.shape[0]
 
     def phi_gamma(h: float) -> tuple[FloatArray, FloatArray]:
@@ -57,6 +56,7 @@ def predict(sigma: FloatArray, omega: FloatArray, theta: FloatArray, offset: Flo
             u: FloatArray, y: FloatArray, ts: float, delay_s: float) -> FloatArray:
     """One-step predictions ŷ (N, n_out) of the innovation-form model (see the module docstring);
     `gain` is K (n, n_out), `delay_s` the input delay, `ts` the sample time (s)."""
+    from scipy.signal import lfilter  # deferred: keeps `import ident` fast
     a, b, c, d = modal.state_space(sigma, omega, theta)
     if np.any(d):
         raise IdentValueError("relative degree", "≥ 1 (no feedthrough) for the predictor", "feedthrough")

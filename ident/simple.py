@@ -30,7 +30,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.optimize import least_squares
 
 from ident import summary
 from ident.comparison import fit_percent
@@ -305,6 +304,7 @@ class _Outcome:
 def _least_squares(t: FloatArray, y: FloatArray, amplitude: float, method: Method, substeps: int,
                    friction: bool, start: FloatArray, fixed_release: float | None) -> _Outcome:
     """Unbounded trust-region least squares (bounds stalled the friction fit in local minima)."""
+    from scipy.optimize import least_squares  # deferred: keeps `import ident` fast
     free = np.ones(start.size, dtype=bool)
     if fixed_release is not None:
         free[3] = False

@@ -21,7 +21,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.optimize import least_squares
 
 from ident import modal
 
@@ -150,6 +149,7 @@ def central_jacobian(problem: Problem, p: FloatArray) -> FloatArray:
 def fit(problem: Problem, release_s: float, sigma: FloatArray, omega: FloatArray,
         max_nfev: int = 200) -> Solution:
     """Refine (t_r, σ, ω) from the given start; linear parameters by projection."""
+    from scipy.optimize import least_squares  # deferred: keeps `import ident` fast
     free_release = problem.step and problem.fixed_release_s is None
     start = np.concatenate([[release_s] if free_release else [], sigma, omega])
     m = len(sigma)

@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.linalg import expm, logm
 
 from ident.errors import IdentValueError
 
@@ -23,6 +22,7 @@ FloatArray = NDArray[np.float64]
 
 def d2c_zoh(phi: FloatArray, gamma: FloatArray, ts: float) -> tuple[FloatArray, FloatArray]:
     """Continuous (A, B) of the zoh-discretised (Φ (n, n), Γ (n, m)) at sample time `ts` (s)."""
+    from scipy.linalg import logm  # deferred: keeps `import ident` fast
     phi = np.atleast_2d(np.asarray(phi, dtype=np.float64))
     gamma = np.asarray(gamma, dtype=np.float64).reshape(phi.shape[0], -1)
     eig = np.linalg.eigvals(phi)
@@ -40,6 +40,7 @@ def d2c_zoh(phi: FloatArray, gamma: FloatArray, ts: float) -> tuple[FloatArray, 
 
 def c2d_zoh(a: FloatArray, b: FloatArray, ts: float) -> tuple[FloatArray, FloatArray]:
     """(Φ, Γ) of x' = A x + B u held constant over each sample of `ts` seconds."""
+    from scipy.linalg import expm  # deferred: keeps `import ident` fast
     a = np.atleast_2d(np.asarray(a, dtype=np.float64))
     b = np.asarray(b, dtype=np.float64).reshape(a.shape[0], -1)
     n, m = b.shape

@@ -20,7 +20,6 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.optimize
 from numpy.typing import NDArray
 
 from ident.diagnose.models import ModelSpec
@@ -75,6 +74,7 @@ def fit(spec: ModelSpec, theta0: FloatArray, lower: FloatArray, upper: FloatArra
         max_nfev: int = 60, cross_validate: bool = False) -> FitResult:
     """Fit the free parameters of `spec` (all but `spec.fixed`) to `y` (N, carts) on `train`;
     with `cross_validate`, `sse_val` is the blocked cross-validation cost."""
+    import scipy.optimize  # deferred: keeps `import ident` fast
     n = y.shape[0]
     names = spec.names
     free = np.array([i for i, name in enumerate(names) if name not in spec.fixed], dtype=int)

@@ -22,8 +22,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.special
 from numpy.typing import NDArray
+
+from ident.physics.measures import noise_std
 
 FloatArray = NDArray[np.float64]
 
@@ -93,8 +94,8 @@ def _weighted(y: FloatArray) -> tuple[FloatArray, FloatArray]:  # values, |motio
         smooth = np.convolve(col, np.ones(5) / 5, mode="same")
         w = np.zeros(col.size)
         w[3:-3] = np.abs(smooth[4:-2] - smooth[2:-4])
-        # white noise σ: 1.4826 median|Δ²y| / √6; the motion estimate's own noise is √(2/25) σ
-        sigma = 1.4826 * float(np.median(np.abs(np.diff(col, 2)))) / np.sqrt(6.0)
+        # white noise σ (`noise_std`); the motion estimate's own noise is √(2/25) σ
+        sigma = float(noise_std(col)[0])
         ys.append(col)
         ws.append(np.maximum(w - 3.0 * np.sqrt(2.0 / 25.0) * sigma, 0.0))
     if not ys:
@@ -208,6 +209,7 @@ def lattice_likelihood_gain(y: FloatArray, prediction: FloatArray, q: float, off
     quantum: readings ON a lattice are still far likelier under it (each gains about
     ln(q/(s√(2π)))), continuous readings are not.
     """
+    import scipy.special  # deferred: keeps `import ident` fast
     p, yy = prediction.ravel(), y.ravel()
     n = yy.size
     sigma2 = max(float(np.mean((yy - p) ** 2)), 1e-30)

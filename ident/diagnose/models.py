@@ -32,7 +32,6 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-import scipy.special
 from numpy.typing import NDArray
 
 from ident.physics.chain import LINEAR_NAMES
@@ -175,6 +174,7 @@ def smoothed_staircase(x: FloatArray, q: FloatArray, offset: FloatArray, blur: F
     With r = (x - offset)/q = n + φ (0 ≤ φ < 1): E = n + Σ_j Φ((φ - j + ½)/b) - Σ_j Φ((-φ - j - ½)/b),
     j = 1, 2 and j = 0, 1 (terms further out are below 1e-6 for b ≤ 0.5).
     """
+    import scipy.special  # deferred: keeps `import ident` fast
     qq = np.maximum(q, 1e-15)[:, None, None]
     off = offset[:, None, None]
     b = np.maximum(blur, 1e-6)[:, None, None]

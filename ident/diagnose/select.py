@@ -19,7 +19,6 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.stats
 from numpy.typing import NDArray
 
 from ident.diagnose.candidates import Trial
@@ -48,6 +47,7 @@ def likelihood_ratio(n: int, sse_base: float, sse_cand: float) -> float:
 
 def threshold(extra: int, searched_frequency: bool, n: int) -> float:
     """χ²_extra(1 - ALPHA), plus the look-elsewhere term for a searched frequency."""
+    import scipy.stats  # deferred: keeps `import ident` fast
     value = float(scipy.stats.chi2.ppf(1 - ALPHA, max(extra, 1)))
     if searched_frequency:
         value += 2.0 * float(np.log(max(n / 2.0, 1.0)))

@@ -35,7 +35,7 @@ from numpy.typing import NDArray
 from ident.diagnose.knot import Knot, hold_release
 from ident.errors import IdentValueError
 from ident.modal import ModalFit, fit_modes, modal_prediction
-from ident.physics.measures import spectral_peaks
+from ident.physics.measures import noise_std, spectral_peaks
 
 FloatArray = NDArray[np.float64]
 
@@ -72,10 +72,8 @@ def hold_level(y: FloatArray) -> tuple[FloatArray, float, int]:
     first = int(moved[0]) if moved.size else 1
     quiet = y[:max(first - 1, 3)]
     hold = np.median(quiet, axis=0)
-    # noise from sample-to-sample differences: a slow drift of the hand does not count
-    diffs = np.diff(quiet[:, main])
-    mad = float(np.median(np.abs(diffs - np.median(diffs)))) * 1.4826 / np.sqrt(2.0) if diffs.size else 0.0
-    noise = mad if quiet.shape[0] >= 8 else 0.0
+    # the one noise estimate (second differences): a slow drift of the hand does not count
+    noise = float(noise_std(quiet[:, main])[0]) if quiet.shape[0] >= 8 else 0.0
     dev = np.abs(y[:, main] - hold[main])
     threshold = max(8.0 * noise, 0.03 * float(np.max(dev)))
     onset = int(np.flatnonzero(dev > threshold)[0])

@@ -30,7 +30,6 @@ import itertools
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import least_squares
 
 from ident.data import FloatArray
 
@@ -133,6 +132,7 @@ def fit_envelope(t: FloatArray, x: FloatArray, rest_guess_m: float, release_time
 
     None when fewer than `MIN_PEAKS` peaks stand above `PEAK_SIGMAS·noise_m`.
     """
+    from scipy.optimize import least_squares  # deferred: keeps `import ident` fast
     after = t >= release_time_s
     times, signed = half_cycle_peaks(t[after], x[after] - rest_guess_m)
     ring = ring_of(times, signed, PEAK_SIGMAS * max(noise_m, 1e-9))

@@ -35,7 +35,6 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ident.physics.chain import state_matrix
-from ident.physics.kernel import simulate_rows
 
 FloatArray = NDArray[np.float64]
 
@@ -162,6 +161,8 @@ def run_maps(maps: StepMaps, z0: FloatArray, n_samples: int,
              u: FloatArray | None = None) -> tuple[FloatArray, FloatArray]:
     """Deviations (P, N, carts) on the grid from the state `z0` (P, 2c), and the state
     (deviations, velocities) at the last sample (P, 2c)."""
+    # the compiled kernel imports numba (~0.5-1.5 s): loaded when a simulation first runs
+    from ident.physics.kernel import simulate_rows
     p, c = maps.fk.shape
     u_arr = (np.zeros((n_samples, 0)) if u is None
              else _owned(np.asarray(u, dtype=np.float64).reshape(n_samples, -1), (n_samples, np.size(u) // n_samples)))

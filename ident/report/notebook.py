@@ -9,17 +9,19 @@ top to bottom in a fresh kernel beside `data/`, they recompute every number of t
 from __future__ import annotations
 
 from pathlib import Path
-
-import nbformat
-from nbformat.notebooknode import NotebookNode
+from typing import TYPE_CHECKING
 
 from ident.report.document import Block, Code, to_markdown
+
+if TYPE_CHECKING:
+    from nbformat.notebooknode import NotebookNode
 
 KERNEL = {"name": "python3", "display_name": "Python 3", "language": "python"}
 
 
 def to_notebook(blocks: list[Block]) -> NotebookNode:
     """Consecutive non-code blocks become one Markdown cell; each `Code` one code cell."""
+    import nbformat  # deferred: keeps `import ident` fast
     cells: list[NotebookNode] = []
     text: list[Block] = []
     for block in blocks:
@@ -54,6 +56,7 @@ def execute(notebook: NotebookNode, directory: Path, timeout_s: float = 600.0) -
 
 
 def write(notebook: NotebookNode, path: Path) -> None:
+    import nbformat  # deferred: keeps `import ident` fast
     nbformat.validate(notebook)
     path.write_text(nbformat.writes(notebook))
 
