@@ -31,6 +31,7 @@ power first. `wn_rad_s` is in rad/s, `zeta` dimensionless, fit % as MATLAB `comp
 
 from __future__ import annotations
 
+import math
 from typing import Any, Literal
 
 from pydantic import Field, ValidationInfo, field_validator, model_validator
@@ -105,11 +106,14 @@ class PemFitRec(Record):
 
 
 class EnvelopeRec(Record):
-    """The half-cycle peaks of one free cart and the two reference laws fitted to them.
+    """The half-cycle peaks of one free cart and the two reference laws fitted to them: the one
+    definition of an envelope (`ident.fitrun.envelope.fit_envelope` returns it).
 
+    Peaks `peak_m` (m) of `|x - rest_m|` at `t_s` (s); `period_s` the mean cycle.
     Coulomb (dry friction, a constant loss per cycle): `A(t) = coulomb_a0_m -
     coulomb_slope_m_s·(t - t_s[0])`; viscous (a constant ratio per cycle):
-    `A(t) = viscous_a0_m·exp(-viscous_rate_1_s·(t - t_s[0]))`; RMS misfits on the peaks.
+    `A(t) = viscous_a0_m·exp(-viscous_rate_1_s·(t - t_s[0]))`; `*_rms_m` the RMS misfits on
+    the peaks; both at once: `A_{k+1} = mixed_ratio_per_half·A_k - mixed_loss_m_per_half`.
     """
 
     output: int = Field(ge=1, le=2)
@@ -125,6 +129,21 @@ class EnvelopeRec(Record):
     viscous_rms_m: float
     mixed_ratio_per_half: float = Field(description="both at once: A_{k+1} = q A_k - b, q")
     mixed_loss_m_per_half: float = Field(description="both at once: A_{k+1} = q A_k - b, b (m)")
+
+    @property
+    def coulomb_loss_per_cycle_m(self) -> float:
+        """The constant amount dry friction takes off the amplitude each cycle (m)."""
+        return self.coulomb_slope_m_s * self.period_s
+
+    @property
+    def viscous_ratio_per_cycle(self) -> float:
+        """The constant ratio of successive peaks one cycle apart under viscous damping."""
+        return math.exp(-self.viscous_rate_1_s * self.period_s)
+
+    @property
+    def better_law(self) -> Literal["coulomb", "viscous"]:
+        """`coulomb` (straight line) or `viscous` (exponential): the smaller misfit."""
+        return "coulomb" if self.coulomb_rms_m < self.viscous_rms_m else "viscous"
 
 
 class FitTimings(Record):

@@ -26,13 +26,13 @@ from ident import progress
 from ident.data import FloatArray, IdData, make_uniform
 from ident.diagnose import Diagnosis, diagnose
 from ident.errors import IdentError, IdentValueError
-from ident.fitrun.envelope import Envelope, fit_envelope
+from ident.fitrun.envelope import fit_envelope
 from ident.model import Model
 from ident.prediction_error import pem
 from ident.release import motion_amplitude, noise_std
 from ident.simple import fit_simple
 from schemas.diagnosis import DiagnosisReport
-from schemas.fit import LabCase, SimpleMethod
+from schemas.fit import EnvelopeRec, LabCase, SimpleMethod
 
 #: A cart moves when its largest deviation exceeds this many noise std and this many metres.
 MOVING_SIGMAS = 30.0
@@ -102,7 +102,7 @@ class RunAnalysis:
     pem_y_hat: FloatArray | None = None
     diagnosis: DiagnosisReport | None = None
     diagnosis_traces: Diagnosis | None = None
-    envelope: Envelope | None = None
+    envelope: EnvelopeRec | None = None
     timings_s: dict[str, float] = field(default_factory=dict)
     errors: dict[str, str] = field(default_factory=dict)
 
@@ -241,7 +241,7 @@ def _named(data: IdData, case: LabCase, columns: list[int]) -> tuple[LabCase, tu
     return case, named if set(named) <= {1, 2} else tuple(c + 1 for c in columns)
 
 
-def envelope_of(analysis: RunAnalysis) -> Envelope | None:
+def envelope_of(analysis: RunAnalysis) -> EnvelopeRec | None:
     """The peak envelope of a one-cart run, with both laws; None for two carts (they beat).
 
     The half-cycles are split about the median position after the release (a ring spends as
@@ -254,7 +254,7 @@ def envelope_of(analysis: RunAnalysis) -> Envelope | None:
     if after.size < 3:
         return None
     return fit_envelope(data.t, data.y[:, 0], float(np.median(after)), release,
-                        float(noise_std(data.y)[0]))
+                        float(noise_std(data.y)[0]), output=analysis.outputs[0])
 
 
 def with_diagnosis(analysis: RunAnalysis) -> RunAnalysis:

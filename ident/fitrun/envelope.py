@@ -20,18 +20,20 @@ per half-cycle), a straight-line regression of each peak on the one before.
 
 The single laws are fitted by least squares on the peaks (the exponential on `A`, started from a fit of
 `ln A`); the law with the smaller RMS misfit describes the run better. Pure: arrays in,
-`Envelope` out. Only meaningful for one free cart: two coupled carts beat, and the peaks of
-one cart are not one decaying oscillation.
+`schemas.fit.EnvelopeRec` out (the one definition of an envelope, the report's record; its
+derived quantities are properties there, the laws as curves are `coulomb_line` and
+`viscous_curve` here). Only meaningful for one free cart: two coupled carts beat, and the
+peaks of one cart are not one decaying oscillation.
 """
 
 from __future__ import annotations
 
 import itertools
-from dataclasses import dataclass
 
 import numpy as np
 
 from ident.data import FloatArray
+from schemas.fit import EnvelopeRec
 
 #: Peaks below this many noise standard deviations are not peaks of the ring.
 PEAK_SIGMAS = 6.0
@@ -41,49 +43,14 @@ MIN_PEAKS = 4
 REGROW = 1.2
 
 
-@dataclass(frozen=True)
-class Envelope:
-    """Half-cycle peaks `t_s` (K,) s and `peak_m` (K,) m of `|x - rest_m|`, and both laws.
+def coulomb_line(env: EnvelopeRec, t: FloatArray) -> FloatArray:
+    """The dry-friction law at times `t` (s): `max(a0 - s·(t - t_0), 0)` (m)."""
+    return np.maximum(env.coulomb_a0_m - env.coulomb_slope_m_s * (t - env.t_s[0]), 0.0)
 
-    `coulomb_*`: `A(t) = coulomb_a0_m - coulomb_slope_m_s·(t - t_s[0])`;
-    `viscous_*`: `A(t) = viscous_a0_m·exp(-viscous_rate_1_s·(t - t_s[0]))`;
-    `*_rms_m` the RMS misfit of each law on the peaks; `period_s` the mean cycle;
-    `mixed_*`: both at once, `A_{k+1} = mixed_ratio_per_half·A_k - mixed_loss_m_per_half`.
-    """
 
-    t_s: FloatArray
-    peak_m: FloatArray
-    rest_m: float
-    period_s: float
-    coulomb_a0_m: float
-    coulomb_slope_m_s: float
-    coulomb_rms_m: float
-    viscous_a0_m: float
-    viscous_rate_1_s: float
-    viscous_rms_m: float
-    mixed_ratio_per_half: float
-    mixed_loss_m_per_half: float
-
-    @property
-    def coulomb_loss_per_cycle_m(self) -> float:
-        """The constant amount dry friction takes off the amplitude each cycle (m)."""
-        return self.coulomb_slope_m_s * self.period_s
-
-    @property
-    def viscous_ratio_per_cycle(self) -> float:
-        """The constant ratio of successive peaks one cycle apart under viscous damping."""
-        return float(np.exp(-self.viscous_rate_1_s * self.period_s))
-
-    @property
-    def better_law(self) -> str:
-        """`coulomb` (straight line) or `viscous` (exponential): the smaller misfit."""
-        return "coulomb" if self.coulomb_rms_m < self.viscous_rms_m else "viscous"
-
-    def coulomb_line(self, t: FloatArray) -> FloatArray:
-        return np.maximum(self.coulomb_a0_m - self.coulomb_slope_m_s * (t - self.t_s[0]), 0.0)
-
-    def viscous_curve(self, t: FloatArray) -> FloatArray:
-        return self.viscous_a0_m * np.exp(-self.viscous_rate_1_s * (t - self.t_s[0]))
+def viscous_curve(env: EnvelopeRec, t: FloatArray) -> FloatArray:
+    """The viscous law at times `t` (s): `a0·exp(-σ (t - t_0))` (m)."""
+    return env.viscous_a0_m * np.exp(-env.viscous_rate_1_s * (t - env.t_s[0]))
 
 
 def half_cycle_peaks(t: FloatArray, e: FloatArray) -> tuple[FloatArray, FloatArray]:
@@ -126,9 +93,10 @@ def rest_from_extremes(extremes: FloatArray) -> float:
 
 
 def fit_envelope(t: FloatArray, x: FloatArray, rest_guess_m: float, release_time_s: float,
-                 noise_m: float) -> Envelope | None:
+                 noise_m: float, output: int = 1) -> EnvelopeRec | None:
     """The peaks of `x` (N,) m after `release_time_s`, about the rest estimated from them
-    (`rest_guess_m` only splits the half-cycles), and both laws fitted.
+    (`rest_guess_m` only splits the half-cycles), and both laws fitted; `output` the cart's
+    number (1 or 2) the record names.
 
     None when fewer than `MIN_PEAKS` peaks stand above `PEAK_SIGMAS·noise_m`.
     """
@@ -151,9 +119,12 @@ def fit_envelope(t: FloatArray, x: FloatArray, rest_guess_m: float, release_time
     v_a0, rate = (float(v) for v in fit.x)
     viscous_rms = float(np.sqrt(np.mean(fit.fun ** 2)))
     ratio, minus_loss = np.polyfit(peaks[:-1], peaks[1:], 1)
-    return Envelope(times, peaks, float(rest_m), period, float(a0), float(-slope), coulomb_rms,
-                    v_a0, rate, viscous_rms, float(ratio), float(-minus_loss))
+    return EnvelopeRec(output=output, t_s=[float(v) for v in times], peak_m=[float(v) for v in peaks],
+                       rest_m=float(rest_m), period_s=period, coulomb_a0_m=float(a0),
+                       coulomb_slope_m_s=float(-slope), coulomb_rms_m=coulomb_rms, viscous_a0_m=v_a0,
+                       viscous_rate_1_s=rate, viscous_rms_m=viscous_rms, mixed_ratio_per_half=float(ratio),
+                       mixed_loss_m_per_half=float(-minus_loss))
 
 
-__all__ = ["MIN_PEAKS", "PEAK_SIGMAS", "REGROW", "Envelope", "fit_envelope", "half_cycle_peaks",
-           "rest_from_extremes", "ring_of"]
+__all__ = ["MIN_PEAKS", "PEAK_SIGMAS", "REGROW", "coulomb_line", "fit_envelope", "half_cycle_peaks",
+           "rest_from_extremes", "ring_of", "viscous_curve"]

@@ -8,7 +8,6 @@ import numpy as np
 
 from ident.fitrun.analysis import RunAnalysis
 from schemas.fit import (
-    EnvelopeRec,
     FitReport,
     FitTimings,
     ModeRec,
@@ -87,20 +86,6 @@ def pem_record(analysis: RunAnalysis) -> PemFitRec | None:
                      message="" if model.stable else model.message)
 
 
-def envelope_record(analysis: RunAnalysis) -> EnvelopeRec | None:
-    env = analysis.envelope
-    if env is None:
-        return None
-    return EnvelopeRec(output=analysis.outputs[0], t_s=[float(v) for v in env.t_s],
-                       peak_m=[float(v) for v in env.peak_m], rest_m=env.rest_m,
-                       period_s=env.period_s, coulomb_a0_m=env.coulomb_a0_m,
-                       coulomb_slope_m_s=env.coulomb_slope_m_s, coulomb_rms_m=env.coulomb_rms_m,
-                       viscous_a0_m=env.viscous_a0_m, viscous_rate_1_s=env.viscous_rate_1_s,
-                       viscous_rms_m=env.viscous_rms_m,
-                       mixed_ratio_per_half=env.mixed_ratio_per_half,
-                       mixed_loss_m_per_half=env.mixed_loss_m_per_half)
-
-
 def to_fit_report(analysis: RunAnalysis, *, bench: str, run_id: str, worker: str,
                   figures: list[str], timings: FitTimings, software_version: str) -> FitReport:
     reason = analysis.failed_reason
@@ -111,7 +96,7 @@ def to_fit_report(analysis: RunAnalysis, *, bench: str, run_id: str, worker: str
         sample_rate_hz=float(1.0 / analysis.data.sample_time()),
         duration_s=float(t[-1] - t[0]), simple=simple_records(analysis),
         pem=pem_record(analysis), diagnosis=analysis.diagnosis,
-        envelope=envelope_record(analysis), figures=figures,
+        envelope=analysis.envelope, figures=figures,
         timings=timings, fitted_utc=datetime.now(UTC).isoformat(timespec="seconds"),
         software_version=software_version, notes=list(analysis.data.notes),
         extra={"stage_errors": dict(analysis.errors)} if analysis.errors else {})

@@ -18,6 +18,7 @@ import numpy as np
 from ident import plotting
 from ident.data import FloatArray
 from ident.fitrun.analysis import RunAnalysis
+from ident.fitrun.envelope import coulomb_line, viscous_curve
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -114,12 +115,12 @@ def envelope_figure(analysis: RunAnalysis) -> Figure | None:
         return None
     fig, (ax,) = plotting.new_figure(1, height_per_axis_in=3.2)
     dense = np.linspace(env.t_s[0], env.t_s[-1], 200)
-    ax.plot(env.t_s, 1e3 * env.peak_m, marker="o", label="measured half-cycle peaks",
+    ax.plot(env.t_s, 1e3 * np.asarray(env.peak_m), marker="o", label="measured half-cycle peaks",
             **plotting.MEASURED_STYLE)
-    ax.plot(dense, 1e3 * env.coulomb_line(dense),
+    ax.plot(dense, 1e3 * coulomb_line(env, dense),
             label=f"Coulomb: straight line, RMS {1e3 * env.coulomb_rms_m:.2f} mm",
             **plotting.ESTIMATE_STYLES[0])
-    ax.plot(dense, 1e3 * env.viscous_curve(dense),
+    ax.plot(dense, 1e3 * viscous_curve(env, dense),
             label=f"viscous: exponential, RMS {1e3 * env.viscous_rms_m:.2f} mm",
             **plotting.ESTIMATE_STYLES[1])
     ax.set_ylim(bottom=0.0)

@@ -103,9 +103,9 @@ def diagnosis_zeta_words(report: FitReport) -> str:
 
 def envelope_words(env: EnvelopeRec) -> str:
     """What the peaks say: a constant loss per cycle (dry friction) or a constant ratio."""
-    loss_mm = 1e3 * env.coulomb_slope_m_s * env.period_s
-    ratio = math.exp(-env.viscous_rate_1_s * env.period_s)
-    better = "straight line" if env.coulomb_rms_m < env.viscous_rms_m else "exponential"
+    loss_mm = 1e3 * env.coulomb_loss_per_cycle_m
+    ratio = env.viscous_ratio_per_cycle
+    better = "straight line" if env.better_law == "coulomb" else "exponential"
     reading = ("over these peaks dry friction's constant amount describes the decay better "
                "than the viscous constant ratio" if better == "straight line" else
                "over these peaks the viscous law (a constant ratio) describes the decay better "

@@ -17,7 +17,8 @@ import math
 import numpy as np
 import pytest
 
-from ident.fitrun.envelope import fit_envelope, rest_from_extremes
+from ident.fitrun.envelope import coulomb_line, fit_envelope, rest_from_extremes, viscous_curve
+from schemas.fit import EnvelopeRec
 
 
 def _damped_half_cycles(wn: float, zeta: float, fc_over_k: float, a0: float, rest: float,
@@ -104,3 +105,17 @@ def test_too_few_peaks_give_no_envelope() -> None:
     t = np.arange(0.0, 3.0, 0.01)
     x = np.where(t < 0.5, -0.05, 0.0)          # one jump to rest: no ring
     assert fit_envelope(t, x, 0.0, 0.5, 1e-5) is None
+
+
+def test_the_envelope_is_the_reports_record_and_its_laws_pass_through_the_peaks() -> None:
+    # one definition: fit_envelope returns schemas.fit.EnvelopeRec; it survives JSON, and the
+    # fitted laws evaluated at the peaks' times stay within their own RMS misfit on average
+    p = _draw(2)
+    t, x = _ring(p, 0.0, p["fc_over_k"], 2)
+    env = fit_envelope(t, x, p["rest"], 0.5, p["noise"], output=2)
+    assert isinstance(env, EnvelopeRec) and env.output == 2
+    assert EnvelopeRec.model_validate_json(env.model_dump_json()) == env
+    times, peaks = np.asarray(env.t_s), np.asarray(env.peak_m)
+    assert np.sqrt(np.mean((coulomb_line(env, times) - peaks) ** 2)) == pytest.approx(env.coulomb_rms_m, rel=1e-6)
+    assert np.sqrt(np.mean((viscous_curve(env, times) - peaks) ** 2)) == pytest.approx(env.viscous_rms_m, rel=1e-6)
+    assert env.viscous_ratio_per_cycle == pytest.approx(math.exp(-env.viscous_rate_1_s * env.period_s))
