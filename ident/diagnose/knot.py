@@ -1,10 +1,12 @@
-"""Where the hand lets go of a cart it held still: the acceleration jump at the first motion.
+"""Where the hand's force ends: the release of a held or flicked cart, to a fraction of a sample.
 
-When a hand lets a held cart go, position and velocity are continuous (the cart is at rest)
-but the hand's force drops to zero at once: the acceleration jumps from 0 to the spring's
-pull per mass, wn² d. The record is the hold level until t_r and a smooth curve leaving it
-with zero slope after, so t_r is found by least squares on a sub-sample grid, well within one
-sample even when the motion onset (a threshold crossing) lags it by several. No I/O here.
+When a hand lets a cart go, position and velocity are continuous but the hand's force drops
+to zero at once, so the acceleration jumps. A cart held still (`hold_release`): the record is
+the hold level until t_r and a smooth curve leaving it with zero slope after (the jump is the
+spring's pull, wn² d). A cart let go while moving (`flick_release`): the hand's smooth path
+before t_r and the carts' free modes after, joined C¹ at t_r. Either way t_r is found by least
+squares on a sub-sample grid, well within one sample even where the motion onset (a threshold
+crossing) or a scan of window starts misses it by many. No I/O here.
 """
 
 from __future__ import annotations
@@ -58,3 +60,58 @@ def hold_release(t: FloatArray, y: FloatArray, hold: float, onset: int, period_s
     sse, t_r, jump = best
     sigma = np.sqrt(sse / max(yy.size - 5, 1))
     return Knot(t_r, jump, abs(jump) * (tt[-1] - t_r) ** 2 / 2 / max(sigma, 1e-15))
+
+
+def flick_release(t: FloatArray, y: FloatArray, first: int, last: int, stop: int, freqs: FloatArray,
+                  decays: FloatArray) -> Knot | None:
+    """The release of a cart the hand let go while it moved (a flick), in samples [first, last].
+
+    On the samples [first, stop] the record is fitted as the hand's smooth path before t_r (a
+    cubic) and the carts' free response after it (a constant and e^{-σ_j τ}(a_j cos ω_j τ +
+    b_j sin ω_j τ) for each mode of the window's modal fit, `freqs` ω_j rad/s and `decays` σ_j
+    1/s; between velocity reversals dry friction only shifts the constant), joined with the
+    same position and velocity at t_r (the hand's force ends, the motion does not jump):
+
+        y = p_r + v_r (t - t_r) + c_2 (t - t_r)² + c_3 (t - t_r)³      t < t_r
+        y = f(t)                                                     t ≥ t_r
+
+    with p_r, v_r the free part's position and velocity at t_r. Linear least squares for each
+    t_r on every sample, then on a twentieth of a sample about the best; the acceleration jump
+    is f''(t_r) - 2 c_2. None when the stretch is too short for the parameters."""
+    tt, yy = t[first:stop + 1], y[first:stop + 1]
+    n_modes = freqs.size
+    if last <= first or yy.size < 2 * (3 + 2 * n_modes):
+        return None
+    dt = float(t[1] - t[0])
+
+    def sse_at(t_r: float) -> tuple[float, float]:
+        tau = tt - t_r
+        post = tau >= 0
+        cols, vel, acc = [np.ones_like(tau)], [0.0], [0.0]
+        for w, s in zip(freqs, decays):
+            env = np.exp(-s * tau)
+            cols += [env * np.cos(w * tau), env * np.sin(w * tau)]
+            # position, velocity, acceleration at τ = 0 of the cos and sin terms
+            vel += [-s, w]
+            acc += [s * s - w * w, -2 * s * w]
+        free = np.column_stack(cols)
+        a = np.zeros((tau.size, free.shape[1] + 2))
+        a[post, :free.shape[1]] = free[post]
+        pre = ~post
+        # before t_r: the free part's position and velocity at t_r continued by the hand's cubic
+        a[pre, :free.shape[1]] = np.array([1.0] + [1.0, 0.0] * n_modes)[None, :] + np.outer(tau[pre], vel)
+        a[pre, -2] = tau[pre] ** 2
+        a[pre, -1] = tau[pre] ** 3
+        coef, *_ = np.linalg.lstsq(a, yy, rcond=None)
+        res = yy - a @ coef
+        jump = float(np.dot(acc, coef[:free.shape[1]]) - 2.0 * coef[-2])
+        return float(res @ res), jump
+
+    coarse = [sse_at(float(t[k]))[0] for k in range(first, last + 1)]
+    k = first + int(np.argmin(coarse))
+    fine = np.linspace(t[k] - dt, t[k] + dt, 41)
+    scores = [sse_at(float(x)) for x in fine]
+    i = int(np.argmin([s for s, _ in scores]))
+    sse, jump = scores[i]
+    sigma = np.sqrt(sse / max(yy.size - (5 + 2 * n_modes), 1))
+    return Knot(float(fine[i]), jump, abs(jump) * (0.1 * (tt[-1] - tt[0])) ** 2 / max(sigma, 1e-15))

@@ -14,13 +14,14 @@ acts from there on):
     (else the smallest ratio): the second bound keeps a poor linear fit (strong friction)
     from excusing the hand's push.
 
-A pull-hold (the cart held still further than `HOLD_AWAY` of its swing from the middle
-of its swings) is dated by its acceleration jump at the first motion (`knot.hold_release`, within
-a fraction of a sample) and the window starts there: a friction-damped or two-mode record can
-make the scan above start periods late. Otherwise the reported release time is the last zero
-of the fitted velocity before `t_w` (within half a period) when the fitted position there is
-the held level (a clean release from rest); else the hand let go while the cart moved and
-the release is `t_w` itself. The fits start
+The scan only brackets the release: a friction-damped or two-mode record can make it start
+periods late. The release is then dated where the hand's force ends (`knot`): a pull-hold
+(the cart held still further than `HOLD_AWAY` of its swing from the middle of its swings) by
+its acceleration jump at the first motion (`knot.hold_release`); a flick by the C¹ join of a
+cubic hand path and the free modes of the scan's fit, searched from the onset to T/4 after
+the scan's start (`knot.flick_release`); the window starts there. Only when neither can be
+fitted, the release is the last zero of the fitted velocity before `t_w` (within half a
+period) when the fitted position there is the held level, else `t_w` itself. The fits start
 two samples (at least T/200) after `t_w`. Long runs
 are decimated for fitting (`MAX_WORK_SAMPLES`). No I/O here.
 """
@@ -32,7 +33,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from ident.diagnose.knot import Knot, hold_release
+from ident.diagnose.knot import Knot, flick_release, hold_release
 from ident.errors import IdentValueError
 from ident.modal import ModalFit, fit_modes, modal_prediction
 from ident.physics.measures import noise_std, spectral_peaks
@@ -116,8 +117,11 @@ def find_window(t: FloatArray, y: FloatArray, carts: int) -> Window:
     tolerance = max(8.0 * noise, 0.05 * float(np.ptp(y[:, main])))
     release = _last_rest_before(t[start], fit, period, hold, tolerance)
     knot = _hold_release(t, y[:, main], hold[main], onset, period)
+    if knot is None:
+        # let go while moving: the hand's path before, the free modes after (knot.flick_release)
+        knot = _flick(t, y[:, main], onset, start, period, fit)
     if knot is not None:
-        # held still, then let go: the free response starts at the first motion
+        # the free response starts where the hand's force ended
         release = knot.time_s
         start = int(np.searchsorted(t, release))
     # fit from a margin after it (two samples, at least T/200): the chosen start can still
@@ -126,6 +130,15 @@ def find_window(t: FloatArray, y: FloatArray, carts: int) -> Window:
     n_win = t.shape[0] - start
     decimation = max(1, int(np.ceil(n_win / MAX_WORK_SAMPLES)))
     return Window(start, decimation, hold, noise, max(release, float(t[0])), period)
+
+
+def _flick(t: FloatArray, y: FloatArray, onset: int, start: int, period: float, fit: ModalFit) -> Knot | None:
+    """`knot.flick_release` from the onset to T/4 after the scan's start (it may start early or
+    late), fitted to T/12 beyond: a longer free stretch would cross velocity reversals, where
+    dry friction shifts the free response's centre and drags the join."""
+    dt, n = float(t[1] - t[0]), t.shape[0]
+    last = min(start + round(0.25 * period / dt), n - 1)
+    return flick_release(t, y, onset + 1, last, min(last + round(period / 12 / dt), n - 1), fit.freqs, fit.decays)
 
 
 def _hold_release(t: FloatArray, y: FloatArray, hold: float, onset: int, period: float) -> Knot | None:

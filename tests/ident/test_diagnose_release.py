@@ -47,19 +47,38 @@ def test_a_held_cart_is_dated_within_a_fifth_of_a_sample(seed: int) -> None:
     assert t[win.start] >= t_r
 
 
-def test_a_flick_from_rest_is_not_taken_for_a_hold() -> None:
-    # from rest to 4 cm in 0.15 s by a cubic path, let go moving: it rings about where it
-    # started, so the hold dating stays out (the release is the window start, as before)
-    rate, t0, t1, wn = 500.0, 0.5, 0.65, 12.0
+def _flick(rate: float, t0: float, t1: float, x1: float, v1: float, wn: float, sigma: float, noise: float,
+           rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    """From rest at 0, the hand's C¹ cubic to x1 with velocity v1 at t1, then the damped free
+    response e^{-στ}(x1 cos ωτ + (v1 + σ x1)/ω sin ωτ) from there."""
     t = np.arange(round(5.0 * rate)) / rate
     s = np.clip((t - t0) / (t1 - t0), 0.0, 1.0)
-    x1, v1 = 0.04, 0.1
-    y = (3 * s * s - 2 * s ** 3) * x1 + (s ** 3 - s * s) * v1 * (t1 - t0)
+    hand = (3 * s * s - 2 * s ** 3) * x1 + (s ** 3 - s * s) * v1 * (t1 - t0)
     tau = np.maximum(t - t1, 0.0)
-    free = x1 * np.cos(wn * tau) + v1 / wn * np.sin(wn * tau)
-    y = np.where(t > t1, free * np.exp(-0.2 * tau), y)
+    w = np.sqrt(wn * wn - sigma * sigma)
+    free = np.exp(-sigma * tau) * (x1 * np.cos(w * tau) + (v1 + sigma * x1) / w * np.sin(w * tau))
+    return t, np.where(t > t1, free, hand) + rng.normal(0.0, noise, t.size)
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_a_flick_is_dated_where_the_hand_lets_go(seed: int) -> None:
+    # the hand's acceleration at t1 is -6 x1/D² + 4 v1/D, the spring's -wn² x1 - 2σ v1: the jump
+    # between them dates the release; it is asked within one sample where that jump moves the
+    # cart by 20 noise std within a tenth of a period (else nothing in the record dates it)
+    rng = np.random.default_rng([20261125, seed])
+    rate = float(np.exp(rng.uniform(np.log(50.0), np.log(1000.0))))
+    wn, zeta = rng.uniform(5.0, 20.0), rng.uniform(0.005, 0.05)
+    t0, dur = rng.uniform(0.3, 1.0), rng.uniform(0.1, 0.2)
+    x1 = float(rng.choice([-1.0, 1.0]) * rng.uniform(0.02, 0.06))
+    v1 = float(rng.uniform(-0.5, 0.5) * wn * abs(x1))
+    noise = float(np.exp(rng.uniform(np.log(5e-6), np.log(2e-4))))
+    t, y = _flick(rate, t0, t0 + dur, x1, v1, wn, zeta * wn, noise, rng)
     win = find_window(t, y[:, None], 1)
-    assert win.release_time_s > t0 + 0.05   # not dated where the hand started to move it
+    jump = abs(-6 * x1 / dur ** 2 + 4 * v1 / dur + wn * wn * x1 + 2 * zeta * wn * v1)
+    if jump * (0.1 * 2 * np.pi / wn) ** 2 / 2 > 20 * noise:
+        assert abs(win.release_time_s - (t0 + dur)) * rate <= 1.0, (rate, jump, win.release_time_s, t0 + dur)
+    assert win.release_time_s > t0 + 0.05   # never where the hand started to move it
+    assert t[win.start] >= win.release_time_s
 
 
 def test_cart_two_seen_through_one_encoder_has_no_scale_of_its_own() -> None:
