@@ -12,14 +12,9 @@ missing samples: the still window and the onset fit use the samples' own times, 
 keeps the state. A longer hole (an unplugged port) may hide a release or a move of the
 hand, so it forgets the hold (`reset()`); a run in progress is always left alone.
 
-Release instant. The hand lets go at t0; from rest, the cart's position is then
-`x(t) = x0 + ½ a (t - t0)² + b (t - t0)³ + …` (spring force step; the cubic term carries
-damping and the first change of the force). The threshold crossing comes 10–40 ms late,
-so t0 is back-dated by least squares on the samples around the crossing with the piecewise
-model `y(t) = x0 + Σ_k c_k max(t - t0, 0)^k`, `k ∈ fit_powers`: linear in (x0, c_k) for a
-given t0, t0 found by a grid search (coarse at the sample period, then fine). The hold
-samples before t0 pin x0; the samples after pin the curvature. Only the channel that moved
-most is fitted.
+Release instant. The threshold crossing comes 10-40 ms late, so t0 is back-dated by the
+onset fit of `daq.onset` on the samples around the crossing (only the channel that moved most).
+Settings and events live in `daq.detector_events`.
 
 A release is told from slow hand motion by the fitted initial acceleration `a = 2 c_2`
 (a spring released from 0.15 m starts at several m/s², a hand pulling over ≳ 1 s below
@@ -55,13 +50,20 @@ from __future__ import annotations
 import math
 from collections import deque
 from collections.abc import Sequence
-from dataclasses import asdict, dataclass
 from typing import Literal
 
 import numpy as np
-import numpy.typing as npt
 
-from daq.errors import DaqValueError
+from daq.detector_events import (
+    Armed,
+    DetectorSettings,
+    Disarmed,
+    Event,
+    Rejected,
+    Released,
+    Settled,
+)
+from daq.onset import OnsetFit, fit_onset
 from daq.ringing import (
     RingingLimits,
     Turn,
@@ -73,103 +75,12 @@ from daq.ringing import (
     slide_back,
 )
 
+__all__ = ["METHOD", "SPAN_S", "Armed", "DetectorSettings", "Disarmed", "Event", "OnsetFit", "Rejected",
+           "ReleaseDetector", "Released", "Settled", "State", "fit_onset"]
+
 State = Literal["idle", "armed", "released", "settled"]
 METHOD = "piecewise-polynomial-onset-fit"
 SPAN_S = 1.5    # held or free is judged on the carts' spans in the first 1.5 s after the release
-
-
-@dataclass(frozen=True, slots=True)
-class DetectorSettings:
-    """Thresholds of the release detector (recorded in every run's metadata)."""
-
-    still_band_m: float = 0.0015
-    still_s: float = 0.3
-    fire_m: float = 0.003
-    fit_post_s: float = 0.04
-    fit_min_post_samples: int = 4
-    fit_lookback_s: float = 0.12
-    fit_min_lookback_samples: int = 5
-    fit_powers: tuple[int, ...] = (2, 3)
-    min_accel_m_s2: float = 2.5
-    rest_margin_m: float = 0.02
-    settle_band_m: float = 0.002
-    settle_s: float = 1.0
-    max_run_s: float = 60.0
-    pre_trigger_s: float = 0.5
-    max_hole_s: float = 0.05
-    first_release_confirm_s: float = 2.5
-    ring_min_swing_m: float = 0.02
-    ring_max_half_s: float = 0.8
-    ring_half_ratio: float = 1.5
-    ring_grow: float = 1.15
-    ring_fit_max_rel: float = 0.05
-    held_ratio: float = 0.2
-
-    def __post_init__(self) -> None:
-        for name in ("still_band_m", "still_s", "fire_m", "fit_post_s", "fit_lookback_s", "rest_margin_m",
-                     "min_accel_m_s2", "settle_band_m", "settle_s", "max_run_s", "max_hole_s",
-                     "first_release_confirm_s", "ring_min_swing_m", "ring_max_half_s", "ring_half_ratio",
-                     "ring_grow", "ring_fit_max_rel", "held_ratio"):
-            if not getattr(self, name) > 0:
-                raise DaqValueError(f"detector {name}", "> 0", getattr(self, name))
-        if self.pre_trigger_s < 0.5:
-            raise DaqValueError("detector pre_trigger_s", ">= 0.5 s", self.pre_trigger_s)
-        if self.fire_m <= self.still_band_m:
-            raise DaqValueError("detector fire_m", f"> still_band_m ({self.still_band_m})", self.fire_m)
-        if 2 not in self.fit_powers or any(p < 1 for p in self.fit_powers):
-            raise DaqValueError("detector fit_powers", "powers >= 1 including 2", self.fit_powers)
-
-    def as_metadata(self) -> dict[str, float | int | str]:
-        out: dict[str, float | int | str] = {}
-        for key, value in asdict(self).items():
-            out[key] = ",".join(str(v) for v in value) if isinstance(value, tuple) else value
-        return out
-
-
-@dataclass(frozen=True, slots=True)
-class Armed:
-    t_s: float
-    hold_pos: tuple[float, ...]
-
-
-@dataclass(frozen=True, slots=True)
-class Released:
-    """A release: `t_release_s` back-dated, `t_trigger_s` the threshold crossing."""
-
-    t_release_s: float
-    t_trigger_s: float
-    t_confirmed_s: float
-    channel: int
-    accel_m_s2: float
-    hold_pos: tuple[float, ...]
-
-
-@dataclass(frozen=True, slots=True)
-class Rejected:
-    t_s: float
-    accel_m_s2: float
-    reason: str
-
-
-@dataclass(frozen=True, slots=True)
-class Settled:
-    t_s: float
-    reason: Literal["still", "max_run", "handled"]
-
-
-@dataclass(frozen=True, slots=True)
-class Disarmed:
-    t_s: float
-
-
-Event = Armed | Released | Rejected | Settled | Disarmed
-
-
-@dataclass(frozen=True, slots=True)
-class OnsetFit:
-    t0_s: float
-    accel_m_s2: float
-    rms_m: float
 
 
 class ReleaseDetector:
@@ -568,52 +479,3 @@ class ReleaseDetector:
         t = np.array([w[0] for w in window]) - trigger_t
         y = np.array([w[1][channel] for w in window]) - self._hold[channel]
         return fit_onset(t, y, settings.fit_powers, trigger_offset_s=trigger_t)
-
-
-def fit_onset(t: npt.NDArray[np.float64], y: npt.NDArray[np.float64], powers: Sequence[int],
-              trigger_offset_s: float = 0.0) -> OnsetFit | None:
-    """Least-squares onset of `y = x0 + Σ c_k max(t - t0, 0)^k` (shapes (N,)).
-
-    t0 is searched on [t[0], t[-1]] by a grid at the median sample spacing, then refined on a
-    grid 50× finer around the best point. Returns t0 (+ `trigger_offset_s`), `a = 2 c_2` and
-    the residual RMS, or None when there are too few samples.
-    """
-    if t.size < len(powers) + 3:
-        return None
-    step = float(np.median(np.diff(t)))
-    if not step > 0:
-        return None
-    coarse = np.arange(t[0], t[-1], step)
-    best = _best_onset(t, y, powers, coarse)
-    fine = np.linspace(best - step, best + step, 101)
-    best = _best_onset(t, y, powers, fine)
-    coefs, rms = _solve_at(t, y, powers, np.array([best]))
-    span = float(t[-1] - t[0])
-    accel = 2.0 * float(coefs[0, 1 + list(powers).index(2)]) / span ** 2
-    return OnsetFit(best + trigger_offset_s, accel, float(rms[0]))
-
-
-def _best_onset(t: npt.NDArray[np.float64], y: npt.NDArray[np.float64], powers: Sequence[int],
-                candidates: npt.NDArray[np.float64]) -> float:
-    _, rms = _solve_at(t, y, powers, candidates)
-    return float(candidates[int(np.argmin(rms))])
-
-
-def _solve_at(t: npt.NDArray[np.float64], y: npt.NDArray[np.float64], powers: Sequence[int],
-              candidates: npt.NDArray[np.float64]) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
-    """Batched linear least squares for every candidate t0: coefficients (G, 1+P) and RMS (G,).
-
-    τ is scaled by the window span (τ/T) for conditioning: c_k(unscaled) = c_k / T^k.
-    """
-    span = float(t[-1] - t[0])
-    tau = np.maximum(t[None, :] - candidates[:, None], 0.0) / span      # (G, N)
-    columns = [np.ones_like(tau)] + [tau ** p for p in powers]
-    design = np.stack(columns, axis=2)                                  # (G, N, 1+P)
-    design_t = design.transpose(0, 2, 1)                                # (G, 1+P, N)
-    normal = design_t @ design                                          # batched BLAS, not einsum
-    rhs = design_t @ y                                                  # (G, 1+P)
-    ridge = 1e-12 * np.eye(normal.shape[1])
-    coefs = np.asarray(np.linalg.solve(normal + ridge, rhs[..., None])[..., 0], dtype=np.float64)   # (G, 1+P)
-    residual = y[None, :] - (design @ coefs[..., None])[..., 0]
-    rms: npt.NDArray[np.float64] = np.sqrt(np.mean(residual ** 2, axis=1))
-    return coefs, rms

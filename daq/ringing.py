@@ -267,12 +267,14 @@ def date_release(t: Array, y: Array, vs: Array, free: FreeFit, t_coarse: float,
     tw, yw, vw = t[keep], y[keep], vs[keep]
     if tw.size < 10:
         return None
-    candidates = np.arange(t_coarse - 0.5 * back, t_coarse + 0.75 * back, step)
+    # the RSS has a local minimum between every two samples: the coarse grid must be finer
+    # than the sample spacing, or it lands in the wrong interval
+    candidates = np.arange(t_coarse - 0.5 * back, t_coarse + 0.75 * back, step / 8.0)
     candidates = candidates[(candidates > tw[2]) & (candidates < tw[-4])]
     if candidates.size == 0:
         return None
     best = _best_joint(tw, yw, vw, free, candidates)
-    best = _best_joint(tw, yw, vw, free, np.linspace(best - step, best + step, 101))
+    best = _best_joint(tw, yw, vw, free, np.linspace(best - step / 8.0, best + step / 8.0, 25))
     coef, _ = _joint_solve(tw, yw, vw, free, best)
     _, _, d1, d2 = _basis(np.array([best]), free.t_ref, free.sigma, free.omega)
     # f'' of the free part at t0: (σ² - ω²) g + 2σω h-terms; from the ODE x'' = -2σ x' - (σ²+ω²)(x - c)

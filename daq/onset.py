@@ -1,0 +1,74 @@
+"""The onset of a release from a still hold: a piecewise-polynomial least-squares fit. Pure.
+
+The hand lets go at t0; from rest, the cart's position is then
+`x(t) = x0 + ½ a (t - t0)² + b (t - t0)³ + …` (spring force step; the cubic term carries
+damping and the first change of the force). The threshold crossing comes 10–40 ms late, so
+t0 is back-dated by least squares on the samples around the crossing with the piecewise model
+`y(t) = x0 + Σ_k c_k max(t - t0, 0)^k`: linear in (x0, c_k) for a given t0, t0 found by a grid
+search (coarse at the sample period, then fine). The hold samples before t0 pin x0; the
+samples after pin the curvature. Used by `daq.detector`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+
+
+@dataclass(frozen=True, slots=True)
+class OnsetFit:
+    t0_s: float
+    accel_m_s2: float
+    rms_m: float
+
+
+def fit_onset(t: npt.NDArray[np.float64], y: npt.NDArray[np.float64], powers: Sequence[int],
+              trigger_offset_s: float = 0.0) -> OnsetFit | None:
+    """Least-squares onset of `y = x0 + Σ c_k max(t - t0, 0)^k` (shapes (N,)).
+
+    t0 is searched on [t[0], t[-1]] by a grid at the median sample spacing, then refined on a
+    grid 50× finer around the best point. Returns t0 (+ `trigger_offset_s`), `a = 2 c_2` and
+    the residual RMS, or None when there are too few samples.
+    """
+    if t.size < len(powers) + 3:
+        return None
+    step = float(np.median(np.diff(t)))
+    if not step > 0:
+        return None
+    coarse = np.arange(t[0], t[-1], step)
+    best = _best_onset(t, y, powers, coarse)
+    fine = np.linspace(best - step, best + step, 101)
+    best = _best_onset(t, y, powers, fine)
+    coefs, rms = _solve_at(t, y, powers, np.array([best]))
+    span = float(t[-1] - t[0])
+    accel = 2.0 * float(coefs[0, 1 + list(powers).index(2)]) / span ** 2
+    return OnsetFit(best + trigger_offset_s, accel, float(rms[0]))
+
+
+def _best_onset(t: npt.NDArray[np.float64], y: npt.NDArray[np.float64], powers: Sequence[int],
+                candidates: npt.NDArray[np.float64]) -> float:
+    _, rms = _solve_at(t, y, powers, candidates)
+    return float(candidates[int(np.argmin(rms))])
+
+
+def _solve_at(t: npt.NDArray[np.float64], y: npt.NDArray[np.float64], powers: Sequence[int],
+              candidates: npt.NDArray[np.float64]) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+    """Batched linear least squares for every candidate t0: coefficients (G, 1+P) and RMS (G,).
+
+    τ is scaled by the window span (τ/T) for conditioning: c_k(unscaled) = c_k / T^k.
+    """
+    span = float(t[-1] - t[0])
+    tau = np.maximum(t[None, :] - candidates[:, None], 0.0) / span      # (G, N)
+    columns = [np.ones_like(tau)] + [tau ** p for p in powers]
+    design = np.stack(columns, axis=2)                                  # (G, N, 1+P)
+    design_t = design.transpose(0, 2, 1)                                # (G, 1+P, N)
+    normal = design_t @ design                                          # batched BLAS, not einsum
+    rhs = design_t @ y                                                  # (G, 1+P)
+    ridge = 1e-12 * np.eye(normal.shape[1])
+    coefs = np.asarray(np.linalg.solve(normal + ridge, rhs[..., None])[..., 0], dtype=np.float64)   # (G, 1+P)
+    residual = y[None, :] - (design @ coefs[..., None])[..., 0]
+    rms: npt.NDArray[np.float64] = np.sqrt(np.mean(residual ** 2, axis=1))
+    return coefs, rms
