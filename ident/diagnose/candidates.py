@@ -19,7 +19,7 @@ from numpy.typing import NDArray
 
 from ident.diagnose import starts
 from ident.diagnose.evidence import EvidenceResult
-from ident.diagnose.fitting import FitResult, evaluate, fit, held_out_cost, held_out_samples
+from ident.diagnose.fitting import FitResult, evaluate, fit, held_out_cost
 from ident.diagnose.lattice import lattice_likelihood_gain, reading_noise
 from ident.diagnose.models import ModelSpec, effect_names, smoothed_staircase
 from ident.modal import fit_modes, project
@@ -266,8 +266,12 @@ def refine(prob: Problem, trial: Trial) -> FitResult:
                  prob.train, max_nfev=REFINE_NFEV)
     q, offset, blur = result.theta[result.spec.block("quantization")]
     read = smoothed_staircase(trial.cv_base[None], np.array([q]), np.array([offset]), np.array([blur]))[0]
-    held = held_out_samples(prob.y.shape[0]) & prob.train
-    gain_cv = lattice_likelihood_gain(prob.y[held], trial.cv_base[held], q, offset, trial.reading_noise_m)
+    # every stretch, the anchoring one too (whole-window prediction there): the carts' refits
+    # need it to fix the release state, a lattice does not, and a dry-friction cart may rest
+    # through every held-out block, where its readings are one level whatever the lattice.
+    # (The lattice itself is the whole record's: this checks the readings against the carts'
+    # held-out predictions, not the lattice's proposal, which its look-elsewhere term charges.)
+    gain_cv = lattice_likelihood_gain(prob.y[prob.train], trial.cv_base[prob.train], q, offset, trial.reading_noise_m)
     return dataclasses.replace(result, sse_val=held_out_cost(read, prob.y, prob.train), cv_prediction=read,
                                likelihood_gain=(trial.result.likelihood_gain[0], gain_cv))
 

@@ -205,24 +205,36 @@ def lattice_likelihood_gain(y: FloatArray, prediction: FloatArray, q: float, off
     that holds x (probability Φ((L_k + q/2 - p)/σ_x) - Φ((L_k - q/2 - p)/σ_x)) plus N(0, s²):
     a mixture over the reading's nearest level and its two neighbours; σ_x (what the
     prediction misses beyond the reading) is profiled on a grid from q/20 to 3σ, as σ is for
-    the Gaussian. Unlike an SSE ratio this holds when the prediction is off by more than a
-    quantum: readings ON a lattice are still far likelier under it (each gains about
-    ln(q/(s√(2π)))), continuous readings are not.
+    the Gaussian, and s is the lattice's or σ if smaller. Unlike an SSE ratio this holds when
+    the prediction is off by more than a quantum: readings ON a lattice are still far
+    likelier under it (each gains about ln(q/(s√(2π)))), continuous readings are not.
     """
     import scipy.special  # deferred: keeps `import ident` fast
     p, yy = prediction.ravel(), y.ravel()
     n = yy.size
     sigma2 = max(float(np.mean((yy - p) ** 2)), 1e-30)
     ell0 = -0.5 * n * (np.log(2 * np.pi * sigma2) + 1.0)
-    s = max(noise, 1e-12)
     k = np.round((yy - offset) / q)
-    reading = [(offset + q * (k + j), np.exp(-0.5 * ((yy - offset - q * (k + j)) / s) ** 2) / (s * np.sqrt(2 * np.pi)))
-               for j in (-1, 0, 1)]
     best = -np.inf
-    for sx in np.geomspace(0.05 * q, max(3.0 * np.sqrt(sigma2), 0.1 * q), 16):
-        mix = np.zeros(n)
-        for level, density in reading:
-            prob = scipy.special.ndtr((level + q / 2 - p) / sx) - scipy.special.ndtr((level - q / 2 - p) / sx)
-            mix += prob * density
-        best = max(best, float(np.sum(np.log(np.maximum(mix, 1e-300)))))
+    # s: the lattice's own, or the Gaussian's σ when smaller (a resting cart's readings are
+    # one level whatever the lattice: they must cost the lattice nothing, not favour it)
+    for s in {max(noise, 1e-12), max(min(noise, np.sqrt(sigma2)), 1e-12)}:
+        reading = [(offset + q * (k + j), np.exp(-0.5 * ((yy - offset - q * (k + j)) / s) ** 2)
+                    / (s * np.sqrt(2 * np.pi))) for j in (-1, 0, 1)]
+        for sx in np.geomspace(0.05 * q, max(3.0 * np.sqrt(sigma2), 0.1 * q), 16):
+            mix = np.zeros(n)
+            for level, density in reading:
+                prob = scipy.special.ndtr((level + q / 2 - p) / sx) - scipy.special.ndtr((level - q / 2 - p) / sx)
+                mix += prob * density
+            best = max(best, float(np.sum(np.log(np.maximum(mix, 1e-300)))))
     return 2.0 * (best - float(ell0))
+
+
+def lattice_worth_points(y: FloatArray, q: float) -> float:
+    """What a lattice of quantum `q` costs a perfect model of `y` (N, c), in fit-% points:
+    its reading error is uniform on ±q/2 (Widrow: rms q/√12) whatever the motion, so per
+    output 100 (q/√12) / rms(y - ȳ), averaged over the outputs that move."""
+    spread = np.sqrt(np.mean((y - np.mean(y, axis=0)) ** 2, axis=0))
+    moving = spread[spread > 0]
+    return float(np.mean(100.0 * q / np.sqrt(12.0) / moving)) if moving.size else 0.0
+

@@ -34,7 +34,7 @@ from ident.diagnose import explain
 from ident.diagnose.candidates import Problem, fit_baseline
 from ident.diagnose.evidence import EvidenceResult, collect
 from ident.diagnose.fitting import FitResult
-from ident.diagnose.lattice import find_lattice, find_noisy_lattice
+from ident.diagnose.lattice import find_lattice, find_noisy_lattice, lattice_worth_points
 from ident.diagnose.models import EFFECTS, effect_names
 from ident.diagnose.select import Judgement, Step, forward, is_material, threshold
 from ident.diagnose.window import MAX_WORK_SAMPLES, Window, find_window, hold_level
@@ -123,7 +123,7 @@ def diagnose(t: FloatArray, y: FloatArray, carts: int | None = None, step_m: flo
         lambda cur, e: _staged(f"diagnosis: screening {e}", lambda: cands.screen(prob, cur, e, ev, wn_modes)),
         lambda trial: _staged(f"diagnosis: fitting {trial.effect}", lambda: cands.refine(prob, trial)), carts)
     ext = steps[-1].judgement.result if steps else base
-    effects = _ranked(prob, steps)
+    effects = _ranked(prob, steps, y_arr)
     cause = next((e.effect for e in effects if e.material), "none")
     report = _report(prob, win, t_arr, base, ext, first_round, effects, cause, ev, coherence, step_m,
                      source, time.perf_counter() - started)
@@ -251,8 +251,9 @@ def _no_lattice(prob: Problem, base: FitResult) -> Candidate:
                      significant=False, note="the measured positions lie on no lattice (no encoder steps)")
 
 
-def _ranked(prob: Problem, steps: list[Step]) -> list[EffectFit]:
-    """Accepted effects with their own gain, largest first (parameters from the final fit)."""
+def _ranked(prob: Problem, steps: list[Step], record: FloatArray) -> list[EffectFit]:
+    """Accepted effects with their own gain, largest first (parameters from the final fit);
+    `record` (N, c) the readings of the whole record (an encoder lattice's worth)."""
     final = steps[-1].judgement.result if steps else None
     rows = []
     for k, step in enumerate(steps, start=1):
@@ -260,7 +261,11 @@ def _ranked(prob: Problem, steps: list[Step]) -> list[EffectFit]:
         gain = _fit_points(prob, j.result) - _fit_points(prob, step.before)
         assert final is not None
         params, std = cands.effect_parameters(final, j.effect)
-        rows.append((gain, k, j, params, std, is_material(step, gain, final)))
+        # an encoder lattice matters by what it costs a perfect reading of the record (the
+        # sensor reads all of it), not by what the staircase happened to gain on a model
+        # that is itself off by some quanta
+        worth = lattice_worth_points(record, params["quantum_m"]) if j.effect == "quantization" else gain
+        rows.append((gain, k, j, params, std, is_material(step, worth, final)))
     rows.sort(key=lambda r: -r[0])
     return [EffectFit(effect=j.effect, rank=rank, step=k, parameters=params, parameter_std=std,  # type: ignore[arg-type]
                       gain_points=gain, cv_ratio=j.lr_cv, cv_threshold=j.threshold, bic_drop=j.bic_drop,

@@ -162,8 +162,9 @@ def is_material(step: Step, gain_points: float, final: FitResult) -> bool:
     `MATERIAL_FRACTION` of what the final model still misses, or it adds `MATERIAL_POINTS`.
     (An encoder lattice of 0.3 counts under a friction model's 20-count misfit does not.)
     An encoder lattice is a property of the measurement, not of the carts: it matters only by
-    the points it adds (a 50 µm lattice worth 0.02 points on an otherwise linear run is listed,
-    never the headline, even though it removes most of the little misfit left)."""
+    its points (`gain_points` is then what it costs a perfect reading,
+    `lattice.lattice_worth_points`: a 50 µm lattice worth 0.02 points on an otherwise linear
+    run is listed, never the headline, even though it removes most of the little misfit left)."""
     if step.judgement.effect == "quantization":
         return gain_points >= MATERIAL_POINTS
     removed = step.before.sse_train - step.judgement.result.sse_train
