@@ -32,7 +32,8 @@ from ident.physics import (
     rk4,
 )
 from ident.prediction_error import pem
-from ident.release import estimate_release_time, moving_outputs, noise_std
+from ident.release import moving_outputs, noise_std
+from ident.releases import Release, find_releases, with_found_release
 from ident.simple import SimpleFit, fit_simple
 from ident.subspace import moesp
 from ident.zoh import c2d_zoh, d2c_zoh
@@ -42,6 +43,7 @@ __all__ = [
     "Mode",
     "ModeEstimate",
     "Model",
+    "Release",
     "ResidualTest",
     "SimpleFit",
     "SingleCart",
@@ -53,9 +55,9 @@ __all__ = [
     "compare",
     "d2c",
     "d2c_zoh",
-    "estimate_release_time",
     "euler",
     "euler_coulomb",
+    "find_releases",
     "fit_percent",
     "fit_simple",
     "from_release",
@@ -72,4 +74,5 @@ __all__ = [
     "rk4",
     "simulate",
     "step_input",
+    "with_found_release",
 ]

@@ -21,7 +21,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ident import summary
 from ident.errors import IdentDimensionError, IdentValueError
-from ident.release import estimate_release_time, moving_outputs
+from ident.release import moving_outputs
 
 FloatArray = NDArray[np.float64]
 
@@ -268,14 +268,13 @@ def from_release(t: ArrayLike, y: ArrayLike, release_time_s: float | None,
                  name: str = "") -> IdData:
     """Build `IdData` for a release run: the step input from a (float) release time.
 
-    With `release_time_s=None` the release is estimated from the data
-    (`ident.release.estimate_release_time`) and the note says so.
+    The release time is required: a record whose release is not known has it found by
+    `ident.releases.with_found_release` (the release finder, ident's one estimator).
     """
     t_arr, _, y_arr = check_arrays(t, None, y)
-    notes: tuple[str, ...] = ()
-    known = release_time_s
     if release_time_s is None:
-        release_time_s = estimate_release_time(t_arr, y_arr)
-        notes = (f"release time estimated from the data: {release_time_s:.4f} s",)
-    return IdData(t_arr, step_input(t_arr, release_time_s, amplitude), y_arr, known,
-                  pulled_cart, name, notes)
+        raise IdentValueError("release_time_s", "a release time (s) on the record's time base; to find it "
+                              "in the data use ident.releases.with_found_release(t, y) or `ident releases`",
+                              None)
+    return IdData(t_arr, step_input(t_arr, release_time_s, amplitude), y_arr, release_time_s,
+                  pulled_cart, name, ())

@@ -10,8 +10,9 @@ Formats
 - `daq` MCAP runs (`/samples` SampleBatch messages, `cartlab.run` RunMetadata): the release
   time and pulled cart come from the metadata.
 
-The input is the lab's position step `u = step_m·H(t - t_r)`; with no release time known it
-is estimated from the data (`ident.release`), which the fitters refine anyway.
+The input is the lab's position step `u = step_m·H(t - t_r)`; with no release time known the
+step is placed at the first complete release the release finder finds (`ident.releases`),
+which the fitters refine anyway.
 """
 
 from __future__ import annotations
@@ -27,6 +28,7 @@ import numpy as np
 
 from ident.data import FloatArray, IdData, check_arrays, from_release
 from ident.errors import DataFileError, IdentValueError
+from ident.releases.select import with_found_release
 from ident.text_dialect import SAMPLE_LINES, clean, sniff
 from schemas import SchemaError, run_file, topics
 
@@ -263,7 +265,7 @@ def load_text(path: str | Path, time_col: str | None = None, pos_cols: list[str]
         return IdData(t, u_in, y, release_time_s, pulled_cart, file.name, (u_note,), columns)
     if raw:
         return IdData(t, np.zeros(t.shape), y, release_time_s, pulled_cart, file.name, (), columns)
-    return replace(from_release(t, y, release_time_s, step_m, pulled_cart, file.name), columns=columns)
+    return replace(_step_run(t, y, release_time_s, step_m, pulled_cart, file.name), columns=columns)
 
 
 def _from_comments(comments: dict[str, str], release_time_s: float | None, pulled_cart: int | None
@@ -332,11 +334,19 @@ def load_mcap(path: str | Path, step_m: float = DEFAULT_STEP_M,
     _check_plausible(y)
     names = tuple(f"pos{j + 1}_m" for j in range(y.shape[1]))
     data = (IdData(t, np.zeros(t.shape), y, release, pulled, file.name, (), names) if raw
-            else replace(from_release(t, y, release, step_m, pulled, file.name), columns=names))
+            else replace(_step_run(t, y, release, step_m, pulled, file.name), columns=names))
     if read.complete:
         return data
     damage = (read.stop_reason or "file ended early")[:120]
     return replace(data, notes=(*data.notes, f"run file damaged after {len(t)} samples ({damage})"))
+
+
+def _step_run(t: FloatArray, y: FloatArray, release_time_s: float | None, step_m: float,
+              pulled_cart: int | None, name: str) -> IdData:
+    """The record with the release step at the known release, or where the finder puts it."""
+    if release_time_s is not None:
+        return from_release(t, y, release_time_s, step_m, pulled_cart, name)
+    return with_found_release(t, y, step_m, pulled_cart, name)
 
 
 def load(path: str | Path, time_col: str | None = None, pos_cols: list[str] | None = None,

@@ -43,7 +43,7 @@ from ident.innovation import refine
 from ident.model import ModeEstimate, Model
 from ident.physical_start import carts_at_peaks, physical_start
 from ident.physics import fit_percent, spectral_peaks
-from ident.release import check_motion, estimate_release_time, moving_outputs, noise_std
+from ident.release import check_motion, moving_outputs, noise_std
 from ident.zoh import d2c_zoh
 
 #: Orders tried by the order selection.
@@ -132,14 +132,11 @@ def _problem(data: IdData, relative_degree: tuple[int, ...], dc_gain: tuple[floa
 
 
 def _release_start(data: IdData, jumps: NDArray[np.intp]) -> float:
-    """Start value of the release: the known one, else the motion onset, else where u steps
-    (a recorded input whose response starts with the record)."""
+    """Start value of the release: the known one, else where u steps (whoever built `data`
+    placed the step at the release; `ident.releases` finds it in a raw record)."""
     if data.release_time_s is not None:
         return data.release_time_s
-    try:
-        return estimate_release_time(data.t, data.y)
-    except IdentValueError:
-        return float(data.t[int(jumps[0]) + 1])
+    return float(data.t[int(jumps[0]) + 1])
 
 
 def _noise_level(data: IdData, release0: float) -> FloatArray:

@@ -37,7 +37,7 @@ from ident.data import IdData
 from ident.errors import FitFailed, IdentValueError
 from ident.physics.free import NonlinearTerms, simulate_free
 from ident.physics.steppers import Method, euler_coulomb, linear_step_response
-from ident.release import check_motion, estimate_release_time, moving_outputs, noise_std, rest_window
+from ident.release import check_motion, moving_outputs, noise_std, rest_window
 
 FloatArray = NDArray[np.float64]
 PARAMETER_NAMES = ("wn", "zeta", "gain", "release_time_s", "offset", "friction")
@@ -230,7 +230,8 @@ def fit_simple(data: IdData, method: Method = "rk4", *, friction: bool = False, 
     jumps = np.flatnonzero(np.diff(data.u) != 0.0)
     if jumps.size != 1:
         raise IdentValueError("u", "a single step (the release)", f"{jumps.size} changes")
-    release0 = data.release_time_s if data.release_time_s is not None else estimate_release_time(data.t, y)
+    # unknown: start where u steps (whoever built `data` placed the step at the release)
+    release0 = data.release_time_s if data.release_time_s is not None else float(data.t[int(jumps[0]) + 1])
     fixed = None if fit_release else release0
     start = start_values(data.t, y, amplitude, release0)
     # with friction the linear start is RK4's: Euler's inflated ζ would be a worse start

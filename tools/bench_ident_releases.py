@@ -1,57 +1,76 @@
 """Benchmark of the offline release finder (`ident.releases.find_releases`, issue 10).
 
     OPENBLAS_NUM_THREADS=1 PYTHONPATH=. .venv/bin/python tools/bench_ident_releases.py [--records 50]
-        [--seed 1000] [--idle-minutes 10]
+        [--seed 1000] [--idle-minutes 10] [--rates 50,100,200,1000] [--list]
 
 Records come from `testkit.student_records` (its own stick/slip physics, no `ident` import):
 students' records with 1–4 releases (flicks, pull-hold-releases, nudges, a loosely held cart
-that wanders and is touched, records starting in motion, back-to-back releases, the last cut).
-Printed per sample rate (50, 100, 200, 1000 Hz): releases found once (%), releases found
-elsewhere (false), the release-instant error against the simulator's (median, 95th
-percentile, share within one sample period), the pulled cart right (%), and false releases in
-`--idle-minutes` of handling only (nudges of one cart, touches of the other).
+that wanders and is touched, records starting in motion, back-to-back releases, the last cut,
+both carts free). Each seed is simulated once and sampled at every rate. Printed per sample
+rate (50, 100, 200, 1000 Hz): releases found once (%), releases found elsewhere (false), the
+release-instant error against the simulator's (median, 95th percentile, share within one
+sample period), the pulled cart right (%), false releases in `--idle-minutes` of handling
+only (nudges of one cart, touches of the other), and the misses by kind of release and by
+what else the record holds. `--list` prints every miss and false release (seed, time).
 """
 
 from __future__ import annotations
 
 import argparse
 import time
+from collections import Counter
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from ident.releases import find_releases
-from testkit.student_records import RATES_HZ, handling_record, student_record
+from testkit.student_records import RATES_HZ, StudentRecord, handling_records, student_records
 
 MATCH_S = 0.25
 
 
-def rate_figures(rate_hz: float, seeds: range, idle_minutes: float) -> str:
-    started = time.perf_counter()
-    total = found = cart_ok = false = 0
-    errors: list[float] = []
-    for seed in seeds:
-        rec = student_record(seed, rate_hz)
+@dataclass
+class Tally:
+    """What one rate scored over the records."""
+
+    total: int = 0
+    found: int = 0
+    cart_ok: int = 0
+    false: int = 0
+    idle_false: int = 0
+    errors: list[float] = field(default_factory=list)
+    missed_by: Counter[str] = field(default_factory=Counter)
+    listing: list[str] = field(default_factory=list)
+
+    def add(self, seed: int, rec: StudentRecord) -> None:
         hits = find_releases(rec.t, rec.y)
-        total += len(rec.releases)
+        self.total += len(rec.releases)
         for true in rec.releases:
             near = [r for r in hits if abs(r.release_time_s - true.time_s) < MATCH_S]
             if len(near) == 1:
-                found += 1
-                cart_ok += near[0].pulled_cart == true.pulled_cart
-                errors.append(near[0].release_time_s - true.time_s)
-        false += sum(all(abs(r.release_time_s - true.time_s) >= MATCH_S for true in rec.releases) for r in hits)
-    idle_false = 0
-    chunks = max(1, round(idle_minutes))
-    for k in range(chunks):
-        rec = handling_record(10_000 + k, rate_hz, 60.0 * idle_minutes / chunks)
-        idle_false += len(find_releases(rec.t, rec.y))
-    err = np.abs(np.asarray(errors))
-    within = float(np.mean(err <= 1.0 / rate_hz)) if err.size else 0.0
-    return (f"{rate_hz:6.0f} Hz  {len(seeds)} records, {total} releases: found {100 * found / total:.1f} %, "
-            f"false {false}, pulled cart right {100 * cart_ok / max(found, 1):.1f} %; instant error median "
-            f"{1e3 * float(np.median(err)):.1f} ms, 95th {1e3 * float(np.percentile(err, 95)):.1f} ms, "
-            f"within one sample {100 * within:.1f} %; {idle_minutes:g} min of handling: {idle_false} false "
-            f"releases ({time.perf_counter() - started:.0f} s)")
+                self.found += 1
+                self.cart_ok += near[0].pulled_cart == true.pulled_cart
+                self.errors.append(near[0].release_time_s - true.time_s)
+                continue
+            kind = f"{true.kind}{' cut' if true.cut else ''}{' both free' if rec.both_free else ''}"
+            self.missed_by[kind] += 1
+            self.listing.append(f"  miss  seed {seed} at {true.time_s:.3f} s: {kind}; events {rec.events}")
+        for r in hits:
+            if all(abs(r.release_time_s - true.time_s) >= MATCH_S for true in rec.releases):
+                self.false += 1
+                self.listing.append(f"  false seed {seed} at {r.release_time_s:.3f} s; events {rec.events}")
+
+    def line(self, rate_hz: float, records: int, idle_minutes: float, seconds: float) -> str:
+        err = np.abs(np.asarray(self.errors))
+        within = float(np.mean(err <= 1.0 / rate_hz)) if err.size else 0.0
+        med = 1e3 * float(np.median(err)) if err.size else float("nan")
+        p95 = 1e3 * float(np.percentile(err, 95)) if err.size else float("nan")
+        kinds = ", ".join(f"{k} {n}" for k, n in sorted(self.missed_by.items())) or "none"
+        return (f"{rate_hz:6.0f} Hz  {records} records, {self.total} releases: found "
+                f"{100 * self.found / max(self.total, 1):.1f} %, false {self.false}, pulled cart right "
+                f"{100 * self.cart_ok / max(self.found, 1):.1f} %; instant error median {med:.1f} ms, "
+                f"95th {p95:.1f} ms, within one sample {100 * within:.1f} %; {idle_minutes:g} min of "
+                f"handling: {self.idle_false} false releases; missed by kind: {kinds} ({seconds:.0f} s)")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -59,9 +78,29 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--records", type=int, default=50, help="records per rate")
     parser.add_argument("--seed", type=int, default=1000, help="first seed")
     parser.add_argument("--idle-minutes", type=float, default=10.0, help="handling-only minutes per rate")
+    parser.add_argument("--rates", default=",".join(f"{r:g}" for r in RATES_HZ), help="sample rates (Hz)")
+    parser.add_argument("--list", action="store_true", help="print every miss and false release")
     args = parser.parse_args(argv)
-    for rate in RATES_HZ:
-        print(rate_figures(rate, range(args.seed, args.seed + args.records), args.idle_minutes), flush=True)
+    rates = tuple(float(r) for r in args.rates.split(","))
+    tallies = {rate: Tally() for rate in rates}
+    seconds = dict.fromkeys(rates, 0.0)
+    for seed in range(args.seed, args.seed + args.records):
+        for rate, rec in student_records(seed, rates).items():
+            started = time.perf_counter()
+            tallies[rate].add(seed, rec)
+            seconds[rate] += time.perf_counter() - started
+    chunks = max(1, round(args.idle_minutes))
+    for k in range(chunks):
+        for rate, rec in handling_records(10_000 + k, rates, 60.0 * args.idle_minutes / chunks).items():
+            started = time.perf_counter()
+            found = find_releases(rec.t, rec.y)
+            tallies[rate].idle_false += len(found)
+            tallies[rate].listing += [f"  false idle {10_000 + k} at {r.release_time_s:.3f} s" for r in found]
+            seconds[rate] += time.perf_counter() - started
+    for rate in rates:
+        print(tallies[rate].line(rate, args.records, args.idle_minutes, seconds[rate]), flush=True)
+        if args.list and tallies[rate].listing:
+            print("\n".join(tallies[rate].listing))
     return 0
 
 

@@ -24,7 +24,6 @@ from ident.fitrun.usecase import (
                                    fit_file,
                                    fit_first,
                                    load_run,
-                                   only_release,
                                    report_of,
                                    with_pending,
 )
@@ -46,7 +45,6 @@ __all__ = [
                                    "fit_file",
                                    "fit_first",
                                    "load_run",
-                                   "only_release",
                                    "poly_text",
                                    "report_of",
                                    "tf_text",

@@ -3,9 +3,10 @@ and the worker (`ident/worker/pipeline.py`).
 
 Two stages, so a caller can publish early results:
 1. `fit_first(path, who)`: load the run (`ident.io.load`), pick release K when asked
-   (`select`), detect the case, simple identification and PEM (`analyse_fits`): well under
-   a second. A run that cannot be read or fitted gives a `failed` report naming the reason;
-   nothing is raised for bad input.
+   (`select`; a raw record without a known release: its first complete release), detect the
+   case, simple identification and PEM (`analyse_fits`): well under a second. A run that
+   cannot be read or fitted gives a `failed` report naming the reason; nothing is raised
+   for bad input.
 2. `complete(first, who, draw)`: the diagnosis (`ident.diagnose`, seconds), then `draw`
    (injected: the caller's renderer, which returns the names of the figure files it wrote;
    this module draws nothing), then the complete report.
@@ -25,11 +26,12 @@ from pathlib import Path
 import numpy as np
 
 from ident import __version__
-from ident.data import IdData
-from ident.errors import IdentError, IdentValueError
+from ident.data import IdData, from_release
+from ident.errors import IdentError
 from ident.fitrun.analysis import FitSettings, RunAnalysis, analyse_fits, with_diagnosis
 from ident.fitrun.records import to_fit_report
 from ident.io import DEFAULT_STEP_M, load
+from ident.releases import FIRST_COMPLETE, select_or_whole
 from schemas.fit import FitReport, FitTimings
 
 #: Picks release K (1-based) of a loaded run: the run cut to that release's free response.
@@ -74,27 +76,31 @@ class RunFit:
     report: FitReport
 
 
-def only_release(data: IdData, release: int) -> IdData:
-    """The default selector: the run as loaded is release 1 (one release per run file)."""
-    if release != 1:
-        raise IdentValueError("release", "1 (this run is fitted as one release)", repr(release))
-    return data
-
-
 def load_run(path: str | Path, options: RunFileOptions = RunFileOptions(),
-             release: int | None = None, select: ReleaseSelector = only_release) -> IdData:
-    """Load a run file; with `release` K, the run cut to its K-th release by `select`."""
-    # raw when a release is picked: a record of several releases, or one that starts in
-    # motion, has no single release to build the step from
+             release: int | None = None, select: ReleaseSelector = select_or_whole) -> IdData:
+    """Load a run file; with `release` K, the run cut to its K-th release by `select`
+    (`FIRST_COMPLETE`: the first complete one). Without `release`: a motor input or a known
+    release time (a daq run's metadata, a `daq export`'s comments, `options.release_time_s`)
+    gives the run as loaded; a raw record whose release is not known is cut to its first
+    complete release, as `ident fit` and `ident diagnose` do (the release finder decides)."""
+    # raw: a record of several releases, or one that starts in motion, has no single
+    # release to build the step from
     data = load(path, options.time_col, None if options.pos_cols is None else list(options.pos_cols),
                 options.scale, options.release_time_s, options.step_m, options.input_col,
-                options.rate_hz, raw=release is not None and select is not only_release)
-    return data if release is None else select(data, release)
+                options.rate_hz, raw=True)
+    if release is not None:
+        return select(data, release)
+    if options.input_col is not None:
+        return data
+    if data.release_time_s is None:
+        return select(data, FIRST_COMPLETE)
+    stepped = from_release(data.t, data.y, data.release_time_s, options.step_m, data.pulled_cart, data.name)
+    return dataclasses.replace(stepped, notes=data.notes, columns=data.columns)
 
 
 def fit_first(path: str | Path, who: RunIdentity = RunIdentity(), *,
               options: RunFileOptions = RunFileOptions(), settings: FitSettings | None = None,
-              release: int | None = None, select: ReleaseSelector = only_release) -> RunFit:
+              release: int | None = None, select: ReleaseSelector = select_or_whole) -> RunFit:
     """Stage 1: load and fit (simple identification, PEM); a failed report for a bad run."""
     settings = settings or FitSettings(step_input=options.input_col is None)
     started = time.perf_counter()
@@ -129,7 +135,7 @@ def complete(first: RunFit, who: RunIdentity = RunIdentity(),
 
 def fit_file(path: str | Path, who: RunIdentity = RunIdentity(), *,
              options: RunFileOptions = RunFileOptions(), settings: FitSettings | None = None,
-             release: int | None = None, select: ReleaseSelector = only_release,
+             release: int | None = None, select: ReleaseSelector = select_or_whole,
              diagnose: bool = True, draw: Renderer | None = None) -> RunFit:
     """Both stages (the diagnosis and `draw` only when `diagnose`)."""
     first = fit_first(path, who, options=options, settings=settings, release=release,
@@ -179,7 +185,6 @@ __all__ = [
     "fit_file",
     "fit_first",
     "load_run",
-    "only_release",
     "report_of",
     "with_pending",
 ]

@@ -9,7 +9,7 @@ Steps (arrays in, `Release` records out):
    hand episodes where it is large; weaker but sustained pushes (a held cart moved, which
    moves this one through the spring) also end a free response;
 4. a candidate release is the end of a hand episode followed by a free response: at least
-   one period without a hand, ringing (two turning points) with an amplitude of at least
+   one period without a hand, ringing (a turning point at least) with an amplitude of at least
    a centimetre (`MIN_RELEASE_AMPLITUDE_M`) and well above the noise and the dry-friction
    band, after a hand force comparable with the spring's at that amplitude (a touch while
    the cart rings is not). The pulled cart is the column whose hand episode it is; when a
@@ -30,7 +30,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ident.errors import IdentDimensionError
-from ident.releases.hand import FreeModel, fit_free_model
+from ident.releases.hand import HAND_SIGMAS, FreeModel, fit_free_model
 from ident.releases.instant import release_instant
 from ident.releases.motion import FloatArray, Motion, motion
 from ident.releases.record import EndedBy, Release
@@ -39,8 +39,9 @@ from ident.releases.record import EndedBy, Release
 HELD_FRACTION = 0.25
 #: During a touch the held cart moves at least this fraction of what the pulled cart moves.
 TOUCH_FRACTION = 0.2
-#: A release rings: at least this many turning points (a full cycle) in its free response.
-MIN_TURNS = 2
+#: A release rings: at least this many turning points in its free response (the cart swings
+#: out and back; a cart whose slow mode has a long period may be taken again within a cycle).
+MIN_TURNS = 1
 #: Its first swing exceeds this many metres: students release carts by centimetres (flicks to
 #: 3–5 cm, pulls to 15 cm), while handling (nudges, a held cart's wander and touches) moves
 #: them by millimetres. `find_releases(min_amplitude_m=...)` changes it.
@@ -48,9 +49,15 @@ MIN_RELEASE_AMPLITUDE_M = 0.01
 #: ... and this many noise stds and this many dry-friction bands.
 MIN_AMPLITUDE_SIGMAS = 30.0
 MIN_AMPLITUDE_BANDS = 4.0
+#: A hand that lets a ringing cart go where it took it leaves a swing below this many
+#: `min_amplitude_m` when it only nudged it (`nudged_while_ringing`).
+NUDGE_AMPLITUDE_FACTOR = 2.0
 #: The hand's largest force on a released cart is at least this fraction of the spring's
 #: force at the amplitude of the free response (per unit mass: wn²·A).
 HAND_FORCE_FRACTION = 0.3
+#: A hand episode that does not move the cart (a still hold) pushes beyond this many kinetic
+#: dry-friction forces (static friction holds a stuck cart with at most ~1.3 of them).
+STILL_HOLD_BANDS = 3.0
 #: A sustained push: the residual's moving average over a quarter period beyond this many scales.
 SUSTAINED_SIGMAS = 2.5
 
@@ -124,7 +131,11 @@ def hand_episodes(m: Motion, model: FreeModel) -> list[tuple[int, int]]:
     x = m.x[:, model.column]
     floor = 8.0 * float(m.noise_m[model.column])
     shortest = m.samples(m.period_s / 10)
-    return [(a, b) for a, b in runs if b - a >= shortest and float(np.ptp(x[a:b + 1])) > floor]
+    # a hand holding the cart still (a record that starts while the hand holds it) moves
+    # nothing but pushes harder than dry friction can hold it
+    held = STILL_HOLD_BANDS * abs(model.dry) + HAND_SIGMAS * model.scale
+    return [(a, b) for a, b in runs if b - a >= shortest
+            and (float(np.ptp(x[a:b + 1])) > floor or float(np.max(np.abs(model.residual[a:b + 1]))) > held)]
 
 
 def sustained_pushes(m: Motion, model: FreeModel) -> list[tuple[int, int]]:
@@ -132,7 +143,10 @@ def sustained_pushes(m: Motion, model: FreeModel) -> list[tuple[int, int]]:
     `SUSTAINED_SIGMAS` scales for at least T/8) that move the cart: a held cart moved by hand pulls this
     one through the spring."""
     width = m.samples(0.25 * m.period_s)
-    mean = np.convolve(np.abs(model.residual), np.ones(width) / width, mode="same")
+    # what dry friction may leave near a stop is not a push
+    excess = np.abs(model.residual) if model.allowance is None else \
+        np.maximum(np.abs(model.residual) - model.allowance, 0.0)
+    mean = np.convolve(excess, np.ones(width) / width, mode="same")
     mask = mean > SUSTAINED_SIGMAS * model.scale
     edge = width
     mask[:edge] = False
@@ -164,12 +178,13 @@ def is_release(m: Motion, model: FreeModel, first: int, last: int, nxt: int, fre
     stop = min(nxt, last + m.samples(3.0 * m.period_s))
     band = abs(model.dry) / max(float(model.stiffness[0]), 1e-12)
     level = max(MIN_AMPLITUDE_SIGMAS * float(m.noise_m[j]), MIN_AMPLITUDE_BANDS * band)
-    # the end of the record may cut a release after half a cycle
-    if turning_points(x[last:stop], max(level / 3.0, 2.0 * band)) < (1 if at_end else MIN_TURNS):
+    if turning_points(x[last:stop], max(level / 3.0, 2.0 * band)) < MIN_TURNS:
         return False
     span = x[last:min(stop, last + m.samples(m.period_s))]
     amplitude = 0.5 * float(np.ptp(span))
     if amplitude < max(level, min_amplitude_m):
+        return False
+    if nudged_while_ringing(m, j, first, last, amplitude, min_amplitude_m):
         return False
     # a hand that lets a cart go held it against the spring: its force was comparable with
     # the spring's at the amplitude that follows (a touch while the cart rings is not)
@@ -180,6 +195,24 @@ def is_release(m: Motion, model: FreeModel, first: int, last: int, nxt: int, fre
     own = float(np.ptp(x[lead:last + 1]))
     held = [i for i in range(m.y.shape[1]) if i not in free]
     return all(float(np.ptp(m.x[lead:last + 1, i])) < TOUCH_FRACTION * own for i in held)
+
+
+def nudged_while_ringing(m: Motion, j: int, first: int, last: int, amplitude: float,
+                         min_amplitude_m: float) -> bool:
+    """Whether the hand episode [first, last] of column `j` is a nudge of a ringing cart: the
+    hand took the cart and let it go within `min_amplitude_m` of where it took it, and the
+    cart swings after it (`amplitude`, m) no more than in the period before, and by less
+    than `NUDGE_AMPLITUDE_FACTOR`·`min_amplitude_m`: the hand interrupted a free response
+    but gave the cart no swing of its own, as a release does. (A flick or a hold that ends
+    where the hand took a ringing cart looks the same; it is a release when it leaves a
+    swing a student means, of a few centimetres.)"""
+    x = m.x[:, j]
+    before = 0.5 * float(np.ptp(x[max(0, first - m.samples(m.period_s)):first + 1]))
+    # the smoothing sees the hand half a window early and late
+    took = float(x[min(first + m.window // 2, last)])
+    let_go = float(x[max(last - m.window // 2, first)])
+    return (amplitude <= before and amplitude < NUDGE_AMPLITUDE_FACTOR * min_amplitude_m
+            and abs(let_go - took) < min_amplitude_m)
 
 
 def turning_points(x: FloatArray, hysteresis: float) -> int:

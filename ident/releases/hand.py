@@ -27,6 +27,14 @@ from ident.releases.motion import FloatArray, Motion
 TUKEY_C = 4.685
 #: A residual beyond this many robust scales is a hand.
 HAND_SIGMAS = 6.0
+#: Near a stop (a reversal, or the cart stuck) dry friction is anywhere between -f_s and
+#: +f_s (static, up to ~1.3× the kinetic f) and flips there; the smoothed sgn(v) regressor
+#: places the flip only roughly, so the residual may reach f + f_s there without a hand:
+#: that much (in units of the fitted kinetic f) is allowed on top of the noise.
+STICK_ALLOWANCE = 2.5
+#: ... and this fraction of the modelled acceleration |a| is model error, not a hand (a hand
+#: that lets a cart go held it with a force comparable with the spring's: far above it).
+MODEL_FRACTION = 0.02
 
 
 @dataclass(frozen=True)
@@ -36,8 +44,9 @@ class FreeModel:
     `column` the cart's column; `others` the columns whose positions enter; `stiffness`
     (len(others)+1,) k_jj first (1/s²); `viscous` c_j (1/s); `dry` f_j (m/s²); `offset` b_j
     (m/s²); `v_smooth` v_s (m/s); `residual` (N,) m/s²; `scale` its robust std over the
-    free samples; `hand` (N,) bool, where |residual - drift| > HAND_SIGMAS·scale (`drift`);
-    `slow` the columns of `others` entering by their period average (held carts).
+    free samples; `hand` (N,) bool, where |residual - drift| > HAND_SIGMAS·scale + allowance
+    (`drift`); `slow` the columns of `others` entering by their period average (held carts);
+    `allowance` (N,) m/s² the dry-friction error allowed near a stop (`near_stop`).
     """
 
     column: int
@@ -51,6 +60,7 @@ class FreeModel:
     scale: float
     hand: NDArray[np.bool_]
     slow: tuple[int, ...] = ()
+    allowance: FloatArray | None = None
 
     @property
     def wn(self) -> float:
@@ -117,7 +127,55 @@ def _fit(m: Motion, column: int, others: tuple[int, ...], slow: tuple[int, ...])
     moving = np.abs(v) > 0.05 * speed
     if np.count_nonzero(moving) < basis.shape[1] * 4:
         moving = np.ones(m.n_samples, dtype=bool)
-    weights = moving.astype(np.float64)
+    coef, scale = _best_fit(m, basis, target, moving)
+    resid = target - basis @ coef
+    n_k = 1 + len(others)
+    # and a small share of the modelled force: the free model is fitted on the whole record,
+    # so its error grows with the swing (a cart swinging further than most of the record)
+    allowance = (STICK_ALLOWANCE * abs(float(coef[n_k + 1])) * near_stop(m, column, v_smooth)
+                 + MODEL_FRACTION * np.abs(basis @ coef))
+    limit = HAND_SIGMAS * scale + allowance
+    hand = np.abs(resid - drift(resid, np.abs(resid) > limit, m.samples(2.0 * m.period_s))) > limit
+    return FreeModel(column, others, np.asarray(coef[:n_k]), float(coef[n_k]), float(coef[n_k + 1]),
+                     float(coef[n_k + 2]), v_smooth, resid, scale, hand, slow, allowance)
+
+
+def _best_fit(m: Motion, basis: FloatArray, target: FloatArray, moving: NDArray[np.bool_]
+              ) -> tuple[FloatArray, float]:
+    """The robust fit (`_irls`) from all moving samples, or from the inliers of the best
+    least-squares fit on one stretch of 1.5 periods (least median of |residual| over the
+    moving samples), whichever leaves the smaller median |residual|: a short record with a
+    long pull or hold drags a fit started from every sample off the free motion, while a
+    stretch of free motion fits the rest of the free motion."""
+    def spread(c: FloatArray) -> float:
+        return float(np.median(np.abs(target - basis @ c)[moving]))
+
+    coef, scale = _irls(basis, target, moving, moving)
+    width = m.samples(1.5 * m.period_s)
+    best, best_spread = coef, spread(coef)
+    for lo in range(0, max(1, m.n_samples - width + 1), max(1, width // 2)):
+        part = np.zeros(m.n_samples, dtype=bool)
+        part[lo:lo + width] = True
+        part &= moving
+        if np.count_nonzero(part) < 4 * basis.shape[1]:
+            continue
+        c = np.asarray(np.linalg.lstsq(basis[part], target[part], rcond=None)[0], dtype=np.float64)
+        if spread(c) < best_spread:
+            best, best_spread = c, spread(c)
+    if best is coef:
+        return coef, scale
+    start = moving & (np.abs(target - basis @ best) < 3.0 * best_spread)
+    if np.count_nonzero(start) < 4 * basis.shape[1]:
+        return coef, scale
+    other, other_scale = _irls(basis, target, moving, start)
+    return (other, other_scale) if spread(other) < spread(coef) else (coef, scale)
+
+
+def _irls(basis: FloatArray, target: FloatArray, moving: NDArray[np.bool_], start: NDArray[np.bool_]
+          ) -> tuple[FloatArray, float]:
+    """Tukey-bisquare regression of `target` on `basis` over the `moving` samples, from a
+    least-squares fit on the `start` samples: (coefficients, robust residual scale)."""
+    weights = start.astype(np.float64)
     coef: FloatArray = np.zeros(basis.shape[1])
     scale = 0.0
     for _ in range(12):
@@ -128,12 +186,18 @@ def _fit(m: Motion, column: int, others: tuple[int, ...], slow: tuple[int, ...])
         scale = max(scale, 1e-12)
         u = resid / (TUKEY_C * scale)
         weights = np.where(moving & (np.abs(u) < 1.0), (1.0 - u ** 2) ** 2, 0.0)
-    resid = target - basis @ coef
-    n_k = 1 + len(others)
-    hand = np.abs(resid - drift(resid, np.abs(resid) > HAND_SIGMAS * scale, m.samples(2.0 * m.period_s))) \
-        > HAND_SIGMAS * scale
-    return FreeModel(column, others, np.asarray(coef[:n_k]), float(coef[n_k]), float(coef[n_k + 1]),
-                     float(coef[n_k + 2]), v_smooth, resid, scale, hand, slow)
+    return coef, scale
+
+
+def near_stop(m: Motion, column: int, v_smooth: float) -> FloatArray:
+    """1.0 (N,) within a smoothing window of where the cart stops (|v| below a few `v_smooth`)
+    or reverses (v changes sign), else 0.0: where dry friction flips or holds the cart."""
+    v = m.v[:, column]
+    stop = np.abs(v) < 3.0 * v_smooth
+    stop[1:] |= np.signbit(v[1:]) != np.signbit(v[:-1])
+    width = 2 * m.window + 1
+    spread = np.convolve(stop.astype(np.float64), np.ones(width), mode="same") > 0.5
+    return np.asarray(spread, dtype=np.float64)
 
 
 def drift(resid: FloatArray, hand: NDArray[np.bool_], width: int) -> FloatArray:

@@ -19,6 +19,7 @@ computed from the filter itself). No I/O.
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import NDArray
 from scipy.signal import savgol_filter
 
 from ident.releases.hand import FreeModel, regressors
@@ -54,9 +55,17 @@ def release_instant(m: Motion, model: FreeModel, first: int, last: int) -> float
     peak = float(np.max(np.abs(resid[first - lo:last + 1 - lo])))
     limit = max(FRACTION_OF_PEAK * peak, NOISE_SIGMAS * noise)
     seg = np.abs(resid[first - lo:hi - lo])
-    start = int(np.argmax(seg[:last + 1 - first]))
+    # from the peak, but not earlier than two smoothing windows before the episode's end (the
+    # coarse residual sees the hand's force half a window after it ends): a hand that grabs
+    # a ringing cart and pulls it slowly may push with almost no force for a while after the
+    # grab, which is not where it lets go; nor later than a window after the episode's end
+    # (the fine residual's noise is not a hand)
+    peak_at = int(np.argmax(seg[:last + 1 - first]))
     quiet = m.samples(m.period_s * QUIET_FRACTION)
-    loud = np.flatnonzero(seg[start:] > limit) + start
+    late = min(seg.size, last - first + m.window + 1)
+    loud = _loud(seg, limit, max(peak_at, last - first - 2 * m.window), late)
+    if not loud.size:
+        loud = _loud(seg, limit, peak_at, late)
     # the first gap between loud samples that lasts a quiet stretch: the force has ended
     gaps = np.flatnonzero(np.diff(np.concatenate([loud, [seg.size + quiet]])) > quiet)
     if not loud.size:
@@ -70,6 +79,11 @@ def release_instant(m: Motion, model: FreeModel, first: int, last: int) -> float
     crossing = k + (seg[k] - limit) / max(seg[k] - seg[k + 1], 1e-300)
     release = first + crossing - smoothing_delay(window, limit / before)
     return float(m.t[0] + np.clip(release, first, m.n_samples - 1) * m.dt)
+
+
+def _loud(seg: NDArray[np.float64], limit: float, lo: int, hi: int) -> NDArray[np.intp]:
+    """Indices in [lo, hi) where `seg` exceeds `limit`."""
+    return np.flatnonzero(seg[lo:hi] > limit) + lo
 
 
 def smoothing_delay(window: int, level: float) -> float:

@@ -11,7 +11,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.signal import savgol_filter
 
-from ident.release import noise_std
+from ident.physics.measures import noise_std
 
 FloatArray = NDArray[np.float64]
 

@@ -3,7 +3,10 @@
 `choose(releases, number)`: release K (1-based), or with `FIRST_COMPLETE` the first release
 the record does not cut (else the first); `window_of(data, release)`: the record from the
 release instant to the end of its free response, with the release step at that instant;
-`select_release(data, number)`: both, as `ident.fitrun`'s release selector. No file I/O.
+`select_release(data, number)`: both, as `ident.fitrun`'s release selector;
+`with_found_release(t, y)`: a whole record with its release step where the finder puts the
+first complete release (the loaders' choice for a record whose release time is not known).
+No file I/O.
 """
 
 from __future__ import annotations
@@ -12,9 +15,11 @@ from collections.abc import Sequence
 from dataclasses import replace
 
 import numpy as np
+from numpy.typing import ArrayLike
 
-from ident.data import IdData, from_release
+from ident.data import IdData, check_arrays, from_release
 from ident.errors import IdentValueError
+from ident.release import check_motion
 from ident.releases.finder import find_releases
 from ident.releases.record import Release
 
@@ -79,12 +84,33 @@ def moving_columns(data: IdData, release: Release | None) -> list[int]:
 
 def select_or_whole(data: IdData, number: int) -> IdData:
     """The record cut to release `number`; for `FIRST_COMPLETE` in a record where no release
-    is found (a daq run the finder cannot place, a motor input), the whole record with the
-    release step where it is known or estimated, as before releases were found."""
+    is found but whose release time is known (a daq run's metadata, a `daq export`'s
+    comments, `--release-s`), the whole record with the release step there, as loaded."""
     releases = releases_of(data)
-    if releases or number != FIRST_COMPLETE:
+    if not releases and (number != FIRST_COMPLETE or data.release_time_s is None):
+        check_motion(data.y)   # a record that never moves says so, before "no release"
+    if releases or number != FIRST_COMPLETE or data.release_time_s is None:
         return window_of(data, choose(releases, number))
     step = data.step_amplitude or 0.15
     whole = from_release(data.t, data.y, data.release_time_s, step, data.pulled_cart, data.name)
-    return replace(whole, notes=(*data.notes, *whole.notes, "no release found: the whole record is fitted"),
+    return replace(whole, notes=(*data.notes, *whole.notes, "no release found: the whole record is fitted "
+                                 f"from the known release at {data.release_time_s:.4f} s"),
                    columns=data.columns)
+
+
+def with_found_release(t: ArrayLike, y: ArrayLike, amplitude: float = 0.15, pulled_cart: int | None = None,
+                       name: str = "") -> IdData:
+    """`IdData` of a whole record `y` (N,) or (N, n) m on `t` (N,) s whose release time is not
+    known: the release step (`amplitude`, m) at the first complete release `find_releases`
+    finds (the first release when the record cuts every one), the pulled cart the finder's
+    unless given; the note says so. Raises `IdentValueError` when there is no release."""
+    t_arr, _, y_arr = check_arrays(t, None, y)
+    releases = find_releases(t_arr, y_arr)
+    if not releases:
+        check_motion(y_arr)   # a record that never moves says so, before "no release"
+    release = choose(releases, FIRST_COMPLETE)
+    data = from_release(t_arr, y_arr, release.release_time_s, amplitude,
+                        release.pulled_cart if pulled_cart is None else pulled_cart, name)
+    note = (f"release time found in the data: {release.release_time_s:.4f} s "
+            f"(release {release.number} of {len(releases)}; see `ident releases`)")
+    return replace(data, notes=(*data.notes, note))

@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 from ident.cli import main
+from ident.comparison import fit_percent
 from ident.io import load
 from ident.prediction_error import pem
 from ident.simple import fit_simple
@@ -41,7 +43,11 @@ def test_fit_text_report_for_one_cart_all_methods(tmp_path: Path, capsys: pytest
     assert main(["fit", str(path)]) == 0
     out = capsys.readouterr().out
     assert "[pem order 2]" in out and "[simple rk4]" in out and "[simple euler]" in out
-    assert "G(s) = (" in out and "fit 99.8" in out
+    assert "G(s) = (" in out
+    # every method fits the release's window to within 0.1 points of the run's noise floor
+    floor = min(fit_percent(run.y, run.y_clean))
+    fits = [float(f) for f in re.findall(r"fit (\d+\.\d+) %", out)]
+    assert len(fits) >= 3 and min(fits) >= floor - 0.1, (fits, floor)
 
 
 def test_fit_reports_bad_input_with_status_2(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

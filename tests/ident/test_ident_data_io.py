@@ -7,10 +7,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from ident.data import IdData, check_arrays, make_uniform, step_input
+from ident.data import IdData, check_arrays, from_release, make_uniform, step_input
 from ident.errors import DataFileError, IdentDimensionError, IdentValueError
 from ident.io import load, read_table
-from ident.release import estimate_release_time
+from ident.releases import with_found_release
 from testkit.ident_synth import cart1_run, cart2_run
 from testkit.mcap_runs import write_mcap_run
 
@@ -67,9 +67,24 @@ def test_rounded_time_stamps_become_the_grid_and_gaps_are_interpolated() -> None
     assert np.max(np.abs(fixed.y[:, 0] - np.sin(fixed.t))) < 2e-3
 
 
-def test_release_time_estimate_is_close_enough_to_start_a_fit() -> None:
+def test_release_time_found_in_the_data_is_close_enough_to_start_a_fit() -> None:
+    # a run that starts while the hand holds the cart still: the release finder places the step
     for run in (cart1_run(50.0), cart2_run(200.0)):
-        assert abs(estimate_release_time(run.t, run.y) - run.release_time_s) < 0.01
+        data = with_found_release(run.t, run.y)
+        assert data.release_time_s is not None and abs(data.release_time_s - run.release_time_s) < 0.01
+        assert data.pulled_cart == 1 and "release time found in the data" in data.notes[-1]
+
+
+def test_a_release_step_needs_a_release_time() -> None:
+    run = cart1_run(50.0)
+    with pytest.raises(IdentValueError, match="with_found_release"):
+        from_release(run.t, run.y, None)
+
+
+def test_a_record_without_a_release_is_refused_when_no_release_time_is_known() -> None:
+    t = np.arange(0.0, 5.0, 0.01)
+    with pytest.raises(IdentValueError, match="release"):
+        with_found_release(t, np.zeros((t.size, 2)))
 
 
 def test_our_csv_needs_no_options(tmp_path: Path) -> None:
@@ -79,7 +94,9 @@ def test_our_csv_needs_no_options(tmp_path: Path) -> None:
     path.write_text("time_s,pos1_m,pos2_m\n" + rows + "\n")
     data = load(path)
     assert data.n_outputs == 2 and data.y[:, 1] == pytest.approx(run.y[:, 1], abs=1e-6)
-    assert data.release_time_s is None and "estimated" in data.notes[0]
+    # no release time in the file: the release finder places the step
+    assert data.release_time_s == pytest.approx(run.release_time_s, abs=0.01)
+    assert "found in the data" in data.notes[0]
     assert abs(data.step_time() - run.release_time_s) < 0.03  # type: ignore[operator]
 
 

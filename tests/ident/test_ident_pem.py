@@ -6,9 +6,10 @@ import numpy as np
 import pytest
 
 from ident.comparison import compare, fit_percent
-from ident.data import IdData, from_release
+from ident.data import IdData
 from ident.errors import IdentValueError
 from ident.prediction_error import pem
+from ident.releases import with_found_release
 from testkit.ident_synth import PULL_M, Run, cart1_run, cart2_run, step
 
 
@@ -35,7 +36,7 @@ def test_one_cart_order_2_with_a_step_input_0_12_s_early(fs: float) -> None:
 @pytest.mark.parametrize("fs", [50.0, 200.0])
 def test_two_carts_order_4_both_outputs_release_estimated(fs: float) -> None:
     run = cart2_run(fs)
-    data = from_release(run.t, run.y, None)  # the release is estimated from y alone
+    data = with_found_release(run.t, run.y)  # the release is estimated from y alone
     model = pem(data, 4)
     _check(run, model.modes, model.release_time_s, compare(model, data))
     # case 3: cart 1 settles at the pull, cart 2 back at its rest

@@ -6,9 +6,10 @@ import numpy as np
 import pytest
 
 from ident.comparison import compare, fit_percent, resid, residual_test
-from ident.data import IdData, from_release
+from ident.data import IdData
 from ident.errors import IdentValueError
 from ident.physics.steppers import euler_coulomb
+from ident.releases import with_found_release
 from ident.simple import fit_simple
 from testkit.ident_synth import cart1_run, step
 
@@ -30,7 +31,7 @@ def test_rk4_simple_fit_recovers_the_cart_with_unknown_release(fs: float) -> Non
 
 def test_euler_overestimates_damping_less_with_substeps() -> None:
     run = cart1_run(50.0, seed=22)
-    data = from_release(run.t, run.y, None)
+    data = with_found_release(run.t, run.y)
     coarse = fit_simple(data, "euler").zeta / run.zeta[0] - 1
     fine = fit_simple(data, "euler", substeps=10).zeta / run.zeta[0] - 1
     assert coarse > 0.5  # Euler's growing amplitude is absorbed as extra damping
