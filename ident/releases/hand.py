@@ -19,7 +19,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.signal import savgol_filter
 
 from ident.releases.motion import FloatArray, Motion
 
@@ -89,6 +88,7 @@ def friction_sign(m: Motion, column: int, v_smooth: float) -> FloatArray:
     """sgn(v_j) as the smoothed acceleration sees it: the sign of the velocity (tanh over
     `v_smooth` against noise) passed through the same Savitzky–Golay filter, so that a dry
     friction force flipping at a velocity zero is blurred in the regressor as in the data."""
+    from scipy.signal import savgol_filter  # deferred: keeps `import ident` fast
     sign = np.tanh(m.v[:, column] / v_smooth)
     if m.window >= m.n_samples:
         return np.asarray(sign, dtype=np.float64)

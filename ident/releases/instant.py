@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.signal import savgol_filter
 
 from ident.releases.hand import FreeModel, regressors
 from ident.releases.motion import Motion
@@ -34,6 +33,7 @@ QUIET_FRACTION = 1.0 / 12.0
 
 def release_instant(m: Motion, model: FreeModel, first: int, last: int) -> float:
     """The release time (s, on `m.t`) after the hand episode [first, last] of `model.column`."""
+    from scipy.signal import savgol_filter  # deferred: keeps `import ident` fast
     period_n = m.samples(m.period_s)
     window = max(5, 2 * round(FINE_FRACTION * period_n / 2) + 1)
     lo = max(0, first - window)
@@ -90,6 +90,7 @@ def smoothing_delay(window: int, level: float) -> float:
     """Samples by which the cubic Savitzky–Golay second derivative over `window` samples sees
     an acceleration that drops at once from 1 to 0 fall below `level` (0 < level < 1) after
     the drop: the filter applied to x = ½·min(k - c, 0)² (acceleration 1 before c, 0 after)."""
+    from scipy.signal import savgol_filter  # deferred: keeps `import ident` fast
     n = 4 * window + 1
     c = n // 2
     k = np.arange(n, dtype=np.float64)

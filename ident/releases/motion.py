@@ -9,7 +9,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.signal import savgol_filter
 
 from ident.physics.measures import noise_std
 
@@ -85,6 +84,7 @@ def dominant_period(y: FloatArray, dt: float) -> float:
 
 def motion(t: FloatArray, y: FloatArray) -> Motion:
     """Grid, period, noise and Savitzky–Golay (cubic) derivatives of a record."""
+    from scipy.signal import savgol_filter  # deferred: keeps `import ident` fast
     t_u, y_u = uniform(np.asarray(t, dtype=np.float64), np.asarray(y, dtype=np.float64).reshape(len(t), -1))
     dt = float(t_u[1] - t_u[0])
     period = dominant_period(y_u, dt)
