@@ -339,6 +339,7 @@ def test_the_allowed_flows_of_a_bench_work_through_the_secure_router(router: Rou
                               .replace("change-me-ident", PASSWORDS["ident"]))
         events: queue.Queue[BusEvent] = queue.Queue()
         with WorkerBus(BusConfig(config_file=str(ident_file)), "w1", events) as worker:
+            worker.declare_alive()
             report = FitReport(bench="bench1", run_id="r10", worker="w1", status="failed", reason="test")
             worker.publish_fit(report)
             fits = Inbox()

@@ -7,7 +7,8 @@ published at once, then the diagnosis and the figures).
 
 How a run is fitted exactly once
 --------------------------------
-Every worker holds a liveliness token `keys.ident_alive(name)` and follows the others'
+Every worker holds a liveliness token `keys.ident_alive(name)` (declared once its fit
+process is ready to take a job) and follows the others'
 tokens (liveliness subscriber with history), so each knows the set A of alive workers;
 a token disappears within milliseconds of a clean exit or a kill -9 on a LAN (the TCP
 reset), or after the Zenoh lease (10 s) for a hung host.

@@ -10,7 +10,8 @@ scheduling happen on the worker's own thread (`ident.worker.service`). Subscript
 | liveliness `keys.ALL_IDENT_ALIVE` | history | `worker` PUT/DELETE |
 | liveliness `keys.ALL_DAQ_ALIVE` | history | `daq` PUT/DELETE |
 
-Published: liveliness token `keys.ident_alive(name)`, and per run an advanced publisher with
+Published: liveliness token `keys.ident_alive(name)` (declared by `declare_alive`, once the
+worker's fit process is ready, not when the session opens), and per run an advanced publisher with
 a cache on `keys.run_fit(bench, run_id)` (claim first, then the report). A queryable on
 `keys.ALL_FITS` answers with every complete report this worker has seen (its own and the
 others') and with its own claims in progress, from immutable snapshots the loop replaces: a
@@ -102,6 +103,7 @@ class WorkerBus:
         self._queued_bytes = 0
         self._bytes_lock = threading.Lock()
         self._transport_opened = threading.Event()
+        self._token: Any = None
 
     # -- lifecycle ----------------------------------------------------------------------
     def __enter__(self) -> WorkerBus:
@@ -137,9 +139,15 @@ class WorkerBus:
             live.declare_subscriber(keys.ALL_IDENT_ALIVE, self._on_worker, history=True),
             live.declare_subscriber(keys.ALL_DAQ_ALIVE, self._on_daq, history=True),
             session.declare_queryable(keys.ALL_FITS, self._on_fit_query),
-            live.declare_token(keys.ident_alive(self.name)),
             session.info.declare_transport_events_listener(self._on_transport),
         ]
+
+    def declare_alive(self) -> None:
+        """Declare the liveliness token `keys.ident_alive(name)`: from now on the others count
+        this worker in (they hand it runs). The worker does this once it can fit at once."""
+        if self._token is None:
+            self._token = self.session.liveliness().declare_token(keys.ident_alive(self.name))
+            self._handles.append(self._token)
 
     def close(self) -> None:
         for handle in [*self._fit_publishers.values(), *reversed(self._handles)]:
@@ -148,6 +156,7 @@ class WorkerBus:
                 handle.undeclare()
         self._fit_publishers.clear()
         self._handles.clear()
+        self._token = None
         if self._session is not None:
             self._session.close()
             self._session = None

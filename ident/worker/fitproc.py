@@ -25,6 +25,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
+from ident.errors import IdentError
 from schemas.errors import SchemaError
 from schemas.fit import FitReport
 
@@ -43,6 +44,14 @@ class Pending:
 
 
 FitOutcome = FitReport | Pending
+
+
+class FitProcessError(IdentError, RuntimeError):
+    """The fit process ended before it could take a job (its fitter failed to load)."""
+
+    def __init__(self, exitcode: int | None) -> None:
+        super().__init__(f"the fit process ended at start-up (exit code {exitcode}): expected it to load "
+                         "the fitter; run the worker in the foreground to see the child's traceback")
 
 
 @dataclass(frozen=True)
@@ -77,6 +86,8 @@ def _child_main(fitter: Callable[[Any], FitOutcome], conn: multiprocessing.conne
 
     _die_with_parent(parent_pid)
     signal.signal(signal.SIGINT, signal.SIG_IGN)   # the parent decides when a fit ends
+    # the fitter was unpickled before this runs: its module and what it imports are loaded
+    conn.send(("ready", 0, b""))
     while True:
         try:
             item = conn.recv()
@@ -123,14 +134,27 @@ class FitProcess:
         self._start_child()
 
     def _start_child(self) -> None:
+        self._ready = threading.Event()   # set when the child is ready, or gone
+        self._child_ready = False
         parent, child = self._ctx.Pipe()
         self._conn = parent
         self._proc = self._ctx.Process(target=_child_main, args=(self._fitter, child, os.getpid()),
                                        name="ident-fit", daemon=False)
         self._proc.start()
         child.close()
-        self._reader = threading.Thread(target=self._read, args=(parent,), name="fit-results")
+        self._reader = threading.Thread(target=self._read, args=(parent, self._ready), name="fit-results")
         self._reader.start()
+
+    def wait_ready(self, timeout_s: float, stop: threading.Event | None = None) -> bool:
+        """Wait (at most `timeout_s`, less if `stop` is set) until the child has loaded the
+        fitter; True when it has. Raises `FitProcessError` if the child ended before."""
+        deadline = self._clock() + timeout_s
+        while not self._ready.wait(timeout=0.1):
+            if self._clock() >= deadline or (stop is not None and stop.is_set()):
+                return False
+        if not self._child_ready:
+            raise FitProcessError(self._proc.exitcode)
+        return True
 
     @property
     def backlog(self) -> int:
@@ -163,12 +187,22 @@ class FitProcess:
             self._out.put(FitResult(running.job_id, running.on_error(reason)))
         self._start_child()
 
-    def _read(self, conn: multiprocessing.connection.Connection) -> None:
+    def _read(self, conn: multiprocessing.connection.Connection, ready: threading.Event) -> None:
+        try:
+            self._read_results(conn, ready)
+        finally:
+            ready.set()   # the child is gone: nobody waits for it any more
+
+    def _read_results(self, conn: multiprocessing.connection.Connection, ready: threading.Event) -> None:
         while True:
             try:
                 kind, job_id, payload = conn.recv()
             except (EOFError, OSError):
                 return
+            if kind == "ready":
+                self._child_ready = True
+                ready.set()
+                continue
             with self._lock:
                 running = next((r for r in self._queued if r.job_id == job_id), None)
                 if kind == "final":
@@ -207,4 +241,4 @@ class FitProcess:
         self._stop_child(kill=False)
 
 
-__all__ = ["DEFAULT_MAX_FIT_S", "FitOutcome", "FitProcess", "FitResult", "Pending"]
+__all__ = ["DEFAULT_MAX_FIT_S", "FitOutcome", "FitProcess", "FitProcessError", "FitResult", "Pending"]

@@ -61,7 +61,8 @@ class WorkerOptions:
     """Settings of one worker. `settle_s` is how long a claim waits for rival claims;
     `retry_s` how long a run whose file could not be had waits before it is tried again;
     `stall_s` the gap between two turns of the loop that means the process was stopped, and
-    `reconnect_s` how long it then waits for its session to reconnect before syncing."""
+    `reconnect_s` how long it then waits for its session to reconnect before syncing;
+    `ready_s` the longest the worker waits for its fit process before it declares itself alive."""
 
     name: str
     runs_dir: Path
@@ -74,6 +75,7 @@ class WorkerOptions:
     stall_s: float = 2.0
     reconnect_s: float = 5.0
     max_fit_s: float = DEFAULT_MAX_FIT_S
+    ready_s: float = 300.0
 
 
 def failed_report(finished: RunFinished, worker: str, reason: str) -> FitReport:
@@ -190,13 +192,25 @@ class Worker:
             self.catch_up_bench(bench)
         self._last_turn = self.clock()   # blocking queries are not a stall
 
-    def start(self) -> None:
-        """Learn who is alive and which runs the others know are done, scan the runs
-        directory, ask each daq, gather history. The fit process starts first: its imports
-        (seconds) overlap with the rest."""
-        _ = self.fits
+    def start(self, stop: threading.Event | None = None) -> None:
+        """Scan the runs directory, wait for the fit process to be ready, declare this worker
+        alive, then learn who else is alive and which runs the others know are done, ask each
+        daq, gather history. The fit process starts first: its imports (seconds) overlap with
+        the scan. The token comes only once a job can start at once: the others hand this
+        worker runs as soon as they see it, and a first fit must not wait for the start-up
+        (after `ready_s` it is declared anyway, its jobs then waiting; on `stop` never)."""
+        fits = self.fits
         for _, finished in scan_runs(self.options.runs_dir):
             self.sched.run_announced(finished)
+        started = self.clock()
+        if fits.wait_ready(self.options.ready_s, stop):
+            log.info("fit process ready in %.1f s", self.clock() - started)
+        elif stop is not None and stop.is_set():
+            return   # stopped while starting: never declared, nothing to undo
+        else:
+            log.warning("the fit process is not ready after %.0f s: declaring this worker alive anyway",
+                        self.options.ready_s)
+        self.bus.declare_alive()
         self.catch_up()
         self.pump(self.options.sync_s)
         self._last_turn = self.clock()
@@ -336,7 +350,7 @@ class Worker:
         return None
 
     def serve(self, stop: threading.Event) -> None:
-        self.start()
+        self.start(stop)
         while not stop.is_set():
             self.step()
 
