@@ -5,7 +5,7 @@ Modules: `window` (release, hand's influence), `modal` (variable projection, spe
 `models`
 (baseline and extensions), `starts` (start values, bounds), `fitting` (output-error fits),
 `lattice` (quantization), `evidence` (residual analysis), `select` (tests against noise),
-`explain` (words), `run` (`diagnose`).
+`explain` (words), `still` (outputs that never move, dropped before fitting), `run` (`diagnose`).
 """
 
 from __future__ import annotations

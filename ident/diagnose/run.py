@@ -37,6 +37,7 @@ from ident.diagnose.fitting import FitResult
 from ident.diagnose.lattice import find_lattice, find_noisy_lattice, lattice_worth_points
 from ident.diagnose.models import EFFECTS, effect_names
 from ident.diagnose.select import Judgement, Step, forward, is_material, threshold
+from ident.diagnose.still import Outputs, moving_outputs
 from ident.diagnose.window import MAX_WORK_SAMPLES, Window, find_window, hold_level
 from ident.errors import IdentDimensionError, IdentValueError
 from ident.physics.chain import LINEAR_NAMES, modes
@@ -93,7 +94,8 @@ def diagnose(t: FloatArray, y: FloatArray, carts: int | None = None, step_m: flo
     (N, m) a measured force input (any unit), `start_s`/`stop_s` the stretch to use (a
     release window on the run's time base; default the whole record)."""
     started = time.perf_counter()
-    t_arr, y_arr = _check(t, y)
+    outputs = _moving(y, carts)   # before anything is fitted: a still column has no fit %
+    t_arr, y_arr = _check(t, outputs.y)
     u_arr = _check_input(u, t_arr.size)
     keep = _stretch(t_arr, start_s, stop_s)
     t_arr, y_arr = t_arr[keep], y_arr[keep]
@@ -127,6 +129,8 @@ def diagnose(t: FloatArray, y: FloatArray, carts: int | None = None, step_m: flo
     cause = next((e.effect for e in effects if e.material), "none")
     report = _report(prob, win, t_arr, base, ext, first_round, effects, cause, ev, coherence, step_m,
                      source, time.perf_counter() - started)
+    if outputs.dropped:
+        report = report.model_copy(update={"validation": f"{report.validation}; {outputs.note()}"})
     extrema = ev.extrema.copy()
     extrema[:, 0] += t_arr[win.start]
     return Diagnosis(report, t_arr[idx], prob.y, base.prediction, ext.prediction, prob.train, extrema)
@@ -171,6 +175,16 @@ def _window(t: FloatArray, y: FloatArray, carts: int, u: FloatArray | None) -> W
     release = float(t[moved[0]]) if moved.size else float(t[0])
     decimation = max(1, int(np.ceil(t.size / MAX_WORK_SAMPLES)))
     return Window(0, decimation, hold, noise, release, float("nan"))
+
+
+def _moving(y: FloatArray, carts: int | None) -> Outputs:
+    """`y`'s columns that move (`ident.diagnose.still`); a `y` of a wrong shape is passed on
+    whole, for `_check` to refuse."""
+    y_arr = np.asarray(y, dtype=np.float64)
+    y_arr = y_arr[:, None] if y_arr.ndim == 1 else y_arr
+    if y_arr.ndim != 2:
+        return Outputs(y_arr, (), {})
+    return moving_outputs(y_arr, carts)
 
 
 def _check(t: FloatArray, y: FloatArray) -> tuple[FloatArray, FloatArray]:
