@@ -103,6 +103,11 @@ def _coulomb(z: FloatArray, wz: FloatArray, gam: FloatArray, kt: FloatArray, c: 
         return
     _matvec_add(gam, af, wz, True)
     for i in range(c):
+        if held[i]:
+            # exactly at rest: g·(-v/g) leaves ~1e-20 m/s, and a cart that is not exactly at
+            # rest is slipping (kinetic friction), so a held cart would creep away
+            wz[c + i] = 0.0
+    for i in range(c):
         x_rev[i] = z[i]
         theta[i] = 0.0
         rev[i] = False

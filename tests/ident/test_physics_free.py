@@ -40,6 +40,22 @@ def test_coulomb_envelope_drops_by_2f_over_wn2_and_static_friction_stops_it_soon
     assert np.all(z[-100:] == z[-1])
 
 
+def test_a_cart_at_rest_stays_while_static_friction_holds_the_spring() -> None:
+    # at rest at x0 = pull/wn² off its rest, kinetic 0.05 and static 0.1 m/s²: no pull below
+    # the static level starts it (each stays put to the bit; a held cart left with a rounding
+    # residue of velocity used to slip away under kinetic friction), pulls above it do
+    wn, fk, fs = 10.0, 0.05, 0.1
+    pulls = np.linspace(0.052, 0.14, 45)
+    x0 = pulls / wn ** 2
+    rows = pulls.size
+    z = simulate_free(np.tile([wn, 0.02], (rows, 1)), np.column_stack([x0, np.zeros(rows)]), 0.005, 400, 1,
+                      NonlinearTerms(friction_m_s2=np.full((rows, 1), fk),
+                                     static_friction_m_s2=np.full((rows, 1), fs)))[:, :, 0]
+    moved = np.max(np.abs(z - x0[:, None]), axis=1)
+    assert np.all(moved[pulls < fs] < 1e-15)
+    assert np.all(moved[pulls > fs] > 0.1 * x0[pulls > fs])
+
+
 def test_dahl_friction_is_a_spring_at_small_amplitude_and_coulomb_at_large() -> None:
     wn, f, sigma = 10.0, 0.5, 300.0
     terms = NonlinearTerms(friction_m_s2=np.array([[f]]), presliding_per_s2=np.array([[sigma]]))
