@@ -58,17 +58,18 @@ def spectrum(y: FloatArray, dt: float, pad: int = 8) -> tuple[FloatArray, FloatA
 
 def spectral_peaks(y: FloatArray, dt: float, count: int, min_rad_s: float = 0.5,
                    exclude: FloatArray | None = None, exclude_rel: float = 0.15,
-                   fill: bool = True) -> FloatArray:
+                   fill: bool = True, max_rad_s: float = np.inf) -> FloatArray:
     """The `count` largest local maxima of the spectrum (rad/s, parabolic interpolation in
-    log power), sorted; peaks within `exclude_rel`·ω of a frequency in `exclude` are skipped,
-    and peaks closer than 15 % to a stronger one are merged into it.
+    log power) in [`min_rad_s`, `max_rad_s`], sorted; peaks within `exclude_rel`·ω of a
+    frequency in `exclude` are skipped, and peaks closer than 15 % to a stronger one are
+    merged into it.
 
     When fewer than `count` peaks exist, `fill` pads with guesses (twice the highest, or
     2π rad/s) so that callers needing exactly `count` values get them; `fill=False` returns
     only the peaks found (PEM then knows it has too few)."""
     w, p = spectrum(y, dt)
     local = np.flatnonzero((p[1:-1] > p[:-2]) & (p[1:-1] >= p[2:])) + 1
-    local = local[w[local] >= min_rad_s]
+    local = local[(w[local] >= min_rad_s) & (w[local] <= max_rad_s)]
     if exclude is not None:
         keep = [i for i in local if np.all(np.abs(w[i] - exclude) > exclude_rel * np.asarray(exclude))]
         local = np.asarray(keep, dtype=int)

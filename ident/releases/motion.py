@@ -10,7 +10,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from ident.physics.measures import noise_std
+from ident.physics.measures import noise_std, spectral_peaks
 
 FloatArray = NDArray[np.float64]
 
@@ -66,20 +66,16 @@ def dominant_period(y: FloatArray, dt: float) -> float:
 
     Velocity (first differences) rather than position, so slow drift and steps of a held
     cart do not win; the peak is searched between `MIN_FREQUENCY_HZ` and a fifth of the
-    sample rate and refined by a parabola through the three bins around it.
+    sample rate by the one spectral-peak finder (`ident.physics.spectral_peaks`).
     """
     vel = np.diff(y, axis=0)
-    n = 1 << int(np.ceil(np.log2(max(4 * vel.shape[0], 64))))
-    power = np.sum(np.abs(np.fft.rfft(vel - vel.mean(axis=0), n=n, axis=0)) ** 2, axis=1)
-    freqs = np.fft.rfftfreq(n, dt)
-    band = np.flatnonzero((freqs >= MIN_FREQUENCY_HZ) & (freqs <= 0.2 / dt))
-    if band.size < 3:
+    if vel.shape[0] < 3:
         return 1.0 / max(MIN_FREQUENCY_HZ, 1.0 / (dt * max(len(y), 2)))
-    k = int(band[np.argmax(power[band])])
-    k = min(max(k, 1), power.size - 2)
-    p0, p1, p2 = np.log(power[k - 1:k + 2] + 1e-300)
-    shift = 0.5 * (p0 - p2) / (p0 - 2 * p1 + p2) if (p0 - 2 * p1 + p2) != 0 else 0.0
-    return 1.0 / float(freqs[k] + float(np.clip(shift, -0.5, 0.5)) * (freqs[1] - freqs[0]))
+    peaks = spectral_peaks(vel, dt, 1, min_rad_s=2.0 * np.pi * MIN_FREQUENCY_HZ,
+                           max_rad_s=2.0 * np.pi * 0.2 / dt, fill=False)
+    if peaks.size == 0:
+        return 1.0 / max(MIN_FREQUENCY_HZ, 1.0 / (dt * max(len(y), 2)))
+    return float(2.0 * np.pi / peaks[0])
 
 
 def motion(t: FloatArray, y: FloatArray) -> Motion:
