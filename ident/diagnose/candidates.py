@@ -20,7 +20,7 @@ from numpy.typing import NDArray
 from ident.diagnose import starts
 from ident.diagnose.evidence import EvidenceResult
 from ident.diagnose.fitting import FitResult, evaluate, fit, held_out_cost
-from ident.diagnose.lattice import lattice_likelihood_gain, reading_noise
+from ident.diagnose.lattice import Lattice, lattice_likelihood_gain, reading_noise
 from ident.diagnose.models import ModelSpec, effect_names, smoothed_staircase
 from ident.modal import fit_modes, project
 from ident.physics.measures import spectral_peaks
@@ -188,9 +188,8 @@ def available(effect: str, current: ModelSpec, prob: Problem, ev: EvidenceResult
     if effect == "held_cart_motion":
         return prob.held is not None
     if effect == "quantization":
-        # only an exact lattice of encoder counts: a lattice searched under noise fitted
-        # model error as often as it found a real encoder (see docs/diagnosis.md)
-        return ev.lattice is not None
+        # a lattice read off the positions, or fainter ones the model's prediction may confirm
+        return ev.lattice is not None or bool(ev.lattice_proposals)
     return True
 
 
@@ -205,8 +204,10 @@ class Trial:
     typical: FloatArray
     #: the current model's cross-validated prediction (N, c), for an effect of the sensor alone
     cv_base: FloatArray | None = None
-    #: the lattice's reading noise (m), for the mixture likelihood of an encoder lattice
+    #: the lattice's reading noise (m), for the mixture likelihood of an encoder lattice, and
+    #: the look-elsewhere charge 2 ln(searched) of a faint proposal
     reading_noise_m: float = 0.0
+    look_elsewhere: float = 0.0
 
 
 #: Function evaluations of the quick (screening) fit and of the refinement.
@@ -221,12 +222,9 @@ def screen(prob: Problem, current: FitResult, effect: str, ev: EvidenceResult, w
     theta0, lower, upper, typical = _assemble(prob, current, spec, effect, ev, wn_modes, res)
     at = spec.block(effect).start
     wn2 = float(wn_modes[0]) ** 2
-    if effect == "quantization":
-        if ev.lattice is None:   # no exact lattice: noise after the encoder; search q and offset
-            theta0[at:at + 3] = search_lattice(current.prediction, prob.y, prob.amplitude)
-        theta0 = _best_on_grid(spec, prob, theta0, at + 2, (0.03, 0.1, 0.2, 0.3, 0.45))
-        fixed = {**spec.fixed, "quantum_m": float(theta0[at]), "lattice_offset_m": float(theta0[at + 1])}
-        spec = ModelSpec(spec.effects, spec.carts, fixed, spec.inputs, spec.held, spec.outputs)
+    lattice = _lattice_for(prob, current, ev) if effect == "quantization" else None
+    if lattice is not None:
+        return _screen_lattice(prob, current, spec, lattice, (theta0, lower, upper, typical))
     if effect == "presliding":
         theta0 = _best_on_grid(spec, prob, theta0, at, tuple(wn2 * g for g in (0.3, 1, 3, 10, 30, 50)))
     if effect == "held_cart_motion":
@@ -239,13 +237,28 @@ def screen(prob: Problem, current: FitResult, effect: str, ev: EvidenceResult, w
         result = _fit_friction(spec, prob, theta0, lower, upper, typical, ev, SCREEN_NFEV)
     else:
         result = fit(spec, theta0, lower, upper, typical, prob.dt, prob.y, prob.train, max_nfev=SCREEN_NFEV)
-    if effect != "quantization" or ev.lattice is None:
-        return Trial(effect, result, lower, upper, typical)
-    noise = reading_noise(ev.lattice)
-    q, offset = ev.lattice.quantum_m, ev.lattice.offset_m
-    gain = lattice_likelihood_gain(prob.y, current.prediction, q, offset, noise)
-    return Trial(effect, dataclasses.replace(result, likelihood_gain=(gain, gain)), lower, upper, typical,
-                 current.cv_prediction, noise)
+    return Trial(effect, result, lower, upper, typical)
+
+
+def _screen_lattice(prob: Problem, current: FitResult, spec: ModelSpec, lattice: Lattice, bounds: Bounds) -> Trial:
+    """The quantization trial: its likelihood gain first; the staircase is fitted (blur and the
+    carts, the lattice fixed) only when the readings are likelier as its levels at all."""
+    theta0, lower, upper, typical = bounds
+    at = spec.block("quantization").start
+    noise = reading_noise(lattice)
+    gain = lattice_likelihood_gain(prob.y, current.prediction, lattice.quantum_m, lattice.offset_m, noise)
+    charge = 2.0 * float(np.log(lattice.searched))   # a faint proposal: the best of many quanta
+    gain -= charge
+    theta0[at:at + 2] = (lattice.quantum_m, lattice.offset_m)
+    fixed = {**spec.fixed, "quantum_m": lattice.quantum_m, "lattice_offset_m": lattice.offset_m}
+    spec = ModelSpec(spec.effects, spec.carts, fixed, spec.inputs, spec.held, spec.outputs)
+    if gain <= 0.0:   # cannot pass: no fit
+        result = evaluate(spec, theta0, prob.dt, prob.y, prob.train)
+    else:
+        theta0 = _best_on_grid(spec, prob, theta0, at + 2, (0.03, 0.1, 0.2, 0.3, 0.45))
+        result = fit(spec, theta0, lower, upper, typical, prob.dt, prob.y, prob.train, max_nfev=SCREEN_NFEV)
+    return Trial("quantization", dataclasses.replace(result, likelihood_gain=(gain, gain)), lower, upper, typical,
+                 current.cv_prediction, noise, charge)
 
 
 def refine(prob: Problem, trial: Trial) -> FitResult:
@@ -271,30 +284,24 @@ def refine(prob: Problem, trial: Trial) -> FitResult:
     # through every held-out block, where its readings are one level whatever the lattice.
     # (The lattice itself is the whole record's: this checks the readings against the carts'
     # held-out predictions, not the lattice's proposal, which its look-elsewhere term charges.)
-    gain_cv = lattice_likelihood_gain(prob.y[prob.train], trial.cv_base[prob.train], q, offset, trial.reading_noise_m)
+    gain_cv = lattice_likelihood_gain(prob.y[prob.train], trial.cv_base[prob.train], q, offset,
+                                      trial.reading_noise_m) - trial.look_elsewhere
     return dataclasses.replace(result, sse_val=held_out_cost(read, prob.y, prob.train), cv_prediction=read,
                                likelihood_gain=(trial.result.likelihood_gain[0], gain_cv))
 
 
-#: Encoder quanta searched when the samples lie on no exact lattice (m), and offsets per quantum.
-LATTICE_GRID = np.geomspace(5e-6, 5e-3, 61)
-LATTICE_OFFSETS = 4
-
-
-def search_lattice(prediction: FloatArray, y: FloatArray, amplitude: float) -> FloatArray:
-    """(q, offset, blur) of the smoothed staircase through which `prediction` (N, c) best
-    reads as `y`: a grid of quanta (below a fifth of the swing) × offsets, blur 0.15."""
-    best, best_cost = np.array([1e-3 * amplitude, 0.0, 0.45]), np.inf
-    x = prediction[None]
-    for q in LATTICE_GRID[0.2 * amplitude > LATTICE_GRID]:
-        offsets = q * np.arange(LATTICE_OFFSETS) / LATTICE_OFFSETS
-        stairs = smoothed_staircase(np.repeat(x, offsets.size, axis=0), np.full(offsets.size, q), offsets,
-                                    np.full(offsets.size, 0.15))
-        cost = np.sum((stairs - y[None]) ** 2, axis=(1, 2))
-        k = int(np.argmin(cost))
-        if cost[k] < best_cost:
-            best, best_cost = np.array([q, offsets[k], 0.15]), float(cost[k])
-    return best
+def _lattice_for(prob: Problem, current: FitResult, ev: EvidenceResult) -> Lattice | None:
+    """The exact lattice of the readings' encoder steps, or else, of the lattice proposed
+    under noise and the fainter proposals, the one whose levels best explain the readings
+    about the current prediction."""
+    if ev.lattice is not None and ev.lattice.levels > 0:
+        return ev.lattice
+    options = ([ev.lattice] if ev.lattice is not None else []) + list(ev.lattice_proposals)
+    if not options:
+        return None
+    gains = [lattice_likelihood_gain(prob.y, current.prediction, lat.quantum_m, lat.offset_m, reading_noise(lat))
+             for lat in options]
+    return options[int(np.argmax(gains))]
 
 
 def _assemble(prob: Problem, current: FitResult, spec: ModelSpec, effect: str, ev: EvidenceResult,

@@ -52,6 +52,8 @@ class EvidenceResult:
     lattice: Lattice | None
     second_frequency_hz: float | None
     extrema: FloatArray       # (K, 2): time (s, from window start) and |y - rest| (m)
+    #: lattices too faint to be named from the positions alone, for the model to weigh
+    lattice_proposals: tuple[Lattice, ...] = ()
 
 
 def noise_std(residual: FloatArray) -> float:

@@ -44,12 +44,15 @@ BAND = 4.0
 
 @dataclass(frozen=True)
 class Lattice:
-    """`quantum_m` q, `offset_m` in [0, q), `coherence` mean cos(2π (y - offset)/q) ∈ [-1, 1]."""
+    """`quantum_m` q, `offset_m` in [0, q), `coherence` mean cos(2π (y - offset)/q) ∈ [-1, 1];
+    `searched`: how many independent quanta a faint proposal was the best of (its likelihood
+    ratio is charged 2 ln(searched)); 1 for a lattice established on its own."""
 
     quantum_m: float
     offset_m: float
     coherence: float
     levels: int
+    searched: float = 1.0
 
 
 def lattice_coherence(y: FloatArray, q: float, offset: float) -> float:
@@ -146,7 +149,7 @@ def find_noisy_lattice(y: FloatArray) -> Lattice | None:
     q_b = q_min
     while q_b < q_max:
         weights = np.minimum(motion, q_b)
-        f, spec = _spectrum(values, weights, q_min)
+        f, spec = _spectrum(values, weights, q_b)
         band = (f >= 1 / min(BAND * q_b, q_max)) & (f <= 1 / q_b)
         null = float(np.sum(weights ** 2) / np.sum(weights) ** 2)
         bar = max(float(np.sqrt(null * np.log(n_f / NOISY_ALPHA))), NOISY_MIN_COHERENCE)
@@ -238,3 +241,38 @@ def lattice_worth_points(y: FloatArray, q: float) -> float:
     moving = spread[spread > 0]
     return float(np.mean(100.0 * q / np.sqrt(12.0) / moving)) if moving.size else 0.0
 
+
+
+def lattice_candidates(y: FloatArray, count: int = 8) -> list[Lattice]:
+    """The `count` strongest peaks of the weighted |C(f)| (relative to their noise bar, over
+    every band as in `find_noisy_lattice`), significant or not: lattices too faint for the
+    characteristic function alone, for the diagnosis to weigh with the likelihood of the
+    readings as levels about its model's prediction (`lattice_likelihood_gain`), which each
+    reading near its predicted level makes far stronger. Sorted best first; [] if none."""
+    values, motion = _weighted(y)
+    if values.size == 0 or np.sum(motion) <= 0:
+        return []
+    span = float(np.ptp(values))
+    q_max, q_min = span / NOISY_MIN_LEVELS, max(NOISY_MIN_QUANTUM_M, 1e-7 * span)
+    if q_max <= 2 * q_min:
+        return []
+    peaks: list[tuple[float, float, FloatArray]] = []
+    q_b = q_min
+    while q_b < q_max:
+        weights = np.minimum(motion, q_b)
+        f, spec = _spectrum(values, weights, q_b)
+        band = np.flatnonzero((f >= 1 / min(BAND * q_b, q_max)) & (f <= 1 / q_b))
+        null = float(np.sum(weights ** 2) / np.sum(weights) ** 2)
+        inner = band[(band > 0) & (band < f.size - 1)]
+        local = inner[(spec[inner] > spec[inner - 1]) & (spec[inner] >= spec[inner + 1])]
+        for k in local[np.argsort(spec[local])[::-1][:count]]:
+            peaks.append((float(spec[k] / np.sqrt(null)), float(f[k]), weights))
+        q_b *= BAND
+    out = []
+    for _, f_k, weights in sorted(peaks, key=lambda p: -p[0])[:count]:
+        f_q = _refine(values, weights, f_k, span)
+        c = weighted_coherence(values, weights, np.array([f_q]))[0]
+        q = 1.0 / f_q
+        out.append(Lattice(q, float(np.mod(values[0] + np.angle(c) / (2 * np.pi) * q, q)), float(abs(c)), 0,
+                           max(1.0, (1 / q_min - 1 / q_max) * span)))
+    return out

@@ -20,6 +20,7 @@ A single-cart diagnosis of a record with a second, held cart (its swing under
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -34,7 +35,7 @@ from ident.diagnose import explain
 from ident.diagnose.candidates import Problem, fit_baseline
 from ident.diagnose.evidence import EvidenceResult, collect
 from ident.diagnose.fitting import FitResult
-from ident.diagnose.lattice import find_lattice, find_noisy_lattice, lattice_worth_points
+from ident.diagnose.lattice import find_lattice, find_noisy_lattice, lattice_candidates, lattice_worth_points
 from ident.diagnose.models import EFFECTS, effect_names
 from ident.diagnose.select import Judgement, Step, forward, is_material, threshold
 from ident.diagnose.still import Outputs, moving_outputs
@@ -120,6 +121,8 @@ def diagnose(t: FloatArray, y: FloatArray, carts: int | None = None, step_m: flo
     wn_modes = np.array([w for w, _ in modes(base.theta[None, :n_lin], carts)])
     rest = base.theta[n_lin + 2 * carts:n_lin + 3 * carts]
     ev = collect(prob.tau, prob.y, base.prediction, rest, wn_modes, lattice)
+    if lattice is None or lattice.levels == 0:   # no exact encoder steps: fainter lattices too
+        ev = dataclasses.replace(ev, lattice_proposals=tuple(lattice_candidates(y_arr[win.start:])))
     steps, first_round = forward(
         base, lambda cur: [e for e in EFFECTS if cands.available(e, cur.spec, prob, ev)],
         lambda cur, e: _staged(f"diagnosis: screening {e}", lambda: cands.screen(prob, cur, e, ev, wn_modes)),
