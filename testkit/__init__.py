@@ -10,7 +10,13 @@ submodules directly (`from testkit.waiting import wait_until`), never each other
   processes, a stand-in daq, a fit collector), `fake_fitters` (fitters the worker tests
   plug in), `benchkit` (a whole bench as a service), `faultkit` (kill -9 trials),
   `web_harness` and `web_support` (the bench page in a process or a thread, headless
-  Chromium), `zenoh_router` (a Zenoh router from Python, also `tools/zenoh_router.py`).
+  Chromium), `browser_page` (the page in Chromium and its DOM read-outs), `zenoh_router`
+  (a Zenoh router from Python, also `tools/zenoh_router.py`), `secure_bus` (the lab's secure
+  router and its clients, for the access tests).
+- the faults of issue 14 (`tools/bench_faults.py --issue14`): `fault_rows` (all rows),
+  `fault_table` (the `Row` and its table), `fault_rows_files`, `fault_rows_worker`,
+  `fault_rows_resources` (the rows by concept), `full_disk` (a disk that fills up, behind
+  the daq's file opener).
 - generators: `effects` (runs with a hidden effect, written from the physics, for the
   diagnosis tests and `tools/bench_diagnose.py`).
 - data writers and readers: `mcap_runs` (daq-style MCAP runs), `ident_synth` (synthetic

@@ -1,4 +1,5 @@
-"""Access: who may join the bus and who may publish what (issue 6, part 5).
+"""Access: who may join the bus and who may publish what (issue 6, part 5). The default
+configuration is checked in `tests/test_access_defaults.py`, TLS in `tests/test_access_tls.py`.
 
 A real Zenoh router (`testkit.zenoh_router`, as `tools/zenoh_router.py` runs it, router mode in
 this process) on an ephemeral
@@ -13,16 +14,13 @@ there had the router forwarded it.
 from __future__ import annotations
 
 import contextlib
-import ipaddress
 import json
 import queue
-import shutil
 import subprocess
 import sys
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from pathlib import Path
-from typing import Any
 
 import pytest
 import zenoh
@@ -35,50 +33,16 @@ from schemas.bus import BusConfig
 from schemas.daq import DaqCounters, DaqStatus, RunFinished, RunList, ZeroReply
 from schemas.fit import FitReport
 from testkit import ports, zenoh_router
-from testkit.waiting import wait_until
-from testkit.zenoh_router import (
-    DAQ_CLIENT,
-    IDENT_CLIENT,
-    SECURE_ROUTER,
-    VIEWER_CLIENT,
-    client_config,
-    open_router,
-    router_config,
+from testkit.secure_bus import (
+    PASSWORDS,
+    REFUSE_MS,
+    WAIT_S,
+    Inbox,
+    Router,
+    client_file,
+    put_until_received,
 )
-
-PASSWORDS = {"daq-bench1": "pw-daq1", "daq-bench2": "pw-daq2", "ident": "pw-ident", "viewer": "pw-view",
-             "operator": "pw-op"}
-CLIENT_FILES = {"daq-bench1": DAQ_CLIENT, "ident": IDENT_CLIENT, "viewer": VIEWER_CLIENT}
-WAIT_S = 10.0
-REFUSE_MS = 700
-
-
-class Router:
-    """The secure router of the lab and the clients opened against it (closed at the end)."""
-
-    def __init__(self, endpoint: str, credentials: Path) -> None:
-        self.endpoint = endpoint
-        self.session = open_router(router_config(SECURE_ROUTER, listen=[endpoint], credentials=credentials))
-        self._closers: list[Callable[[], Any]] = []
-
-    def client(self, user: str, password: str | None = None, config_file: Path | None = None,
-               fail_after_ms: int = 5000) -> zenoh.Session:
-        path = config_file or CLIENT_FILES.get(user, VIEWER_CLIENT)
-        config = client_config(path, connect=[self.endpoint], user=user,
-                               password=PASSWORDS[user] if password is None else password,
-                               fail_after_ms=fail_after_ms)
-        session = zenoh.open(config)
-        self._closers.append(session.close)
-        return session
-
-    def keep(self, handle: Any) -> Any:
-        self._closers.append(handle.undeclare)
-        return handle
-
-    def close(self) -> None:
-        for close in reversed(self._closers):
-            close()
-        self.session.close()
+from testkit.zenoh_router import DAQ_CLIENT, IDENT_CLIENT, SECURE_ROUTER, VIEWER_CLIENT, client_config
 
 
 @pytest.fixture(scope="module")
@@ -90,99 +54,6 @@ def router(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Router]:
         yield hub
     finally:
         hub.close()
-
-
-class Inbox:
-    """A subscriber's samples, as (key, payload) pairs, waited on with a deadline."""
-
-    def __init__(self) -> None:
-        self.queue: queue.Queue[tuple[str, str]] = queue.Queue()
-        self.seen: list[tuple[str, str]] = []
-
-    def __call__(self, sample: zenoh.Sample) -> None:
-        self.queue.put((str(sample.key_expr), sample.payload.to_string()))
-
-    def wait_for(self, key: str, payload: str, timeout_s: float = WAIT_S) -> list[tuple[str, str]]:
-        deadline = time.monotonic() + timeout_s
-        while (key, payload) not in self.seen:
-            left = deadline - time.monotonic()
-            if left <= 0:
-                raise TimeoutError(f"expected {(key, payload)} within {timeout_s} s, got {self.seen}")
-            try:
-                self.seen.append(self.queue.get(timeout=left))
-            except queue.Empty:
-                continue
-        return self.seen
-
-
-def _put_until_received(sender: zenoh.Session, inbox: Inbox, key: str, payload: str,
-                        before: Callable[[], None] = lambda: None) -> list[tuple[str, str]]:
-    """Repeat `before(); put(key, payload)` until `inbox` has it (declarations propagate
-    asynchronously: the first puts may go out before the subscriber is known)."""
-    deadline = time.monotonic() + WAIT_S
-    for attempt in range(200):
-        before()
-        sender.put(key, f"{payload}#{attempt}")
-        try:
-            return inbox.wait_for(key, f"{payload}#{attempt}", timeout_s=0.1)
-        except TimeoutError:
-            if time.monotonic() > deadline:
-                break
-    raise TimeoutError(f"{key}: nothing received within {WAIT_S} s")
-
-
-# --- the default configuration --------------------------------------------------------------
-
-
-def _is_loopback(endpoint: str) -> bool:
-    host = endpoint.split("/", 1)[1].rsplit(":", 1)[0].strip("[]")
-    return host == "localhost" or ipaddress.ip_address(host).is_loopback
-
-
-def test_default_bus_config_listens_on_loopback_only_and_never_scouts() -> None:
-    conf = BusConfig().zenoh_dict()
-    assert conf["listen"]["endpoints"] and all(_is_loopback(e) for e in conf["listen"]["endpoints"])
-    assert conf["connect"]["endpoints"] == []
-    assert conf["scouting"]["multicast"]["enabled"] is False
-    assert conf["scouting"]["gossip"]["enabled"] is False
-    # The same once Zenoh has parsed it (Zenoh's own default is tcp/[::]:0 plus multicast).
-    parsed = zenoh.Config.from_json5(BusConfig().zenoh_json5())
-    assert json.loads(parsed.get_json("scouting/multicast/enabled")) is False
-    assert all(_is_loopback(e) for e in json.loads(parsed.get_json("listen/endpoints")))
-
-
-def test_default_daq_and_worker_command_lines_stay_on_loopback() -> None:
-    from daq.cli import _bus_config, build_parser
-    from ident.cli import build_parser as ident_parser
-    from ident.commands.worker import bus_config as worker_bus_config
-
-    daq_bus = _bus_config(build_parser().parse_args(["run", "--port", "sim://"]))
-    assert daq_bus is not None and daq_bus.config_file is None
-    assert daq_bus.listen and all(_is_loopback(e) for e in daq_bus.listen)
-    worker_bus = worker_bus_config(ident_parser().parse_args(["worker", "--name", "w1"]))
-    assert worker_bus.listen == [] and all(_is_loopback(e) for e in worker_bus.connect)
-
-
-def test_a_session_opened_with_the_default_config_has_only_loopback_links(free_port: int) -> None:
-    endpoint = f"tcp/127.0.0.1:{free_port}"
-    with zenoh.open(zenoh.Config.from_json5(BusConfig.listener(endpoint).zenoh_json5())) as listener, \
-            zenoh.open(zenoh.Config.from_json5(BusConfig.connector(endpoint).zenoh_json5())) as peer:
-        wait_until(lambda: list(peer.info.peers_zid()), WAIT_S, "the peer to link")
-        links = list(listener.info.links())
-        assert links, "expected the connecting peer to be linked"
-        for link in links:
-            for locator in (str(link.src), str(link.dst)):
-                assert _is_loopback(locator), locator
-
-
-def test_shipped_configs_parse_and_keep_scouting_off() -> None:
-    for path in (SECURE_ROUTER, DAQ_CLIENT, IDENT_CLIENT, VIEWER_CLIENT):
-        config = zenoh.Config.from_file(str(path))
-        assert json.loads(config.get_json("scouting/multicast/enabled")) is False, path
-        assert all(_is_loopback(e) for e in json.loads(config.get_json("listen/endpoints"))), path
-    secure = zenoh.Config.from_file(str(SECURE_ROUTER))
-    acl = json.loads(secure.get_json("access_control"))
-    assert acl["enabled"] is True and acl["default_permission"] == "deny"
 
 
 # --- authentication ---------------------------------------------------------------------------
@@ -216,7 +87,7 @@ def test_a_refused_peer_that_keeps_retrying_reaches_no_one(router: Router) -> No
     with zenoh.open(config) as intruder:
         intruder.put(keys.samples("bench1"), "intruder")
         # A legitimate sample sent after the intruder's is received; the intruder's never was.
-        seen = _put_until_received(daq, inbox, keys.samples("bench1"), "legit",
+        seen = put_until_received(daq, inbox, keys.samples("bench1"), "legit",
                                    before=lambda: intruder.put(keys.samples("bench1"), "intruder"))
         assert list(intruder.info.routers_zid()) == []
         assert list(intruder.info.peers_zid()) == []
@@ -233,7 +104,7 @@ def test_ident_cannot_publish_run_records_but_can_publish_fits(router: Router) -
     ident = router.client("ident")
     forged = keys.run_finished("bench1", "r1")
     fit = keys.run_fit("bench1", "r1")
-    seen = _put_until_received(ident, inbox, fit, "fit",
+    seen = put_until_received(ident, inbox, fit, "fit",
                                before=lambda: (ident.put(forged, "forged"),
                                                ident.put(keys.samples("bench1"), "forged"),
                                                ident.put(keys.state("bench1"), "forged")))
@@ -247,7 +118,7 @@ def test_daq_publishes_only_under_its_own_bench(router: Router) -> None:
     router.keep(viewer.declare_subscriber("cartlab/**", inbox))
     daq = router.client("daq-bench1")
     own = keys.run_finished("bench1", "r2")
-    seen = _put_until_received(daq, inbox, own, "own",
+    seen = put_until_received(daq, inbox, own, "own",
                                before=lambda: (daq.put(keys.run_finished("bench2", "r2"), "forged"),
                                                daq.put(keys.samples("bench2"), "forged"),
                                                daq.put("cartlab/ident/w1", "forged"),
@@ -264,7 +135,7 @@ def test_a_viewer_publishes_nothing(router: Router) -> None:
     daq = router.client("daq-bench1")
     for key in (keys.samples("bench1"), keys.run_finished("bench1", "r3"), keys.run_fit("bench1", "r3")):
         viewer.put(key, "forged")
-    seen = _put_until_received(daq, inbox, keys.state("bench1"), "legit")
+    seen = put_until_received(daq, inbox, keys.state("bench1"), "legit")
     # Ordering holds per sender only: give the viewer's puts a second chance to show up, by
     # round-tripping a query through the router from the viewer's own session.
     list(viewer.get(keys.daq_query("bench1", "status"), timeout=0.5))
@@ -405,78 +276,12 @@ def test_router_main_rejects_missing_files(tmp_path: Path, capsys: pytest.Captur
     assert zenoh_router.main(["--config", str(SECURE_ROUTER), "--credentials", str(tmp_path / "none")]) == 2
 
 
-# --- TLS (the commented blocks of the shipped configs, made real with throw-away certificates) ---
-
-
-def _openssl(*args: str, cwd: Path) -> None:
-    subprocess.run(["openssl", *args], cwd=cwd, check=True, capture_output=True, timeout=30)
-
-
-def _make_certificates(folder: Path) -> None:
-    """A lab CA, a router certificate for localhost/127.0.0.1, a client certificate (CN
-    daq-bench1) signed by it, and a client certificate signed by another CA."""
-    ec = ("-newkey", "ec", "-pkeyopt", "ec_paramgen_curve:prime256v1", "-nodes")
-    (folder / "server.ext").write_text("subjectAltName=DNS:localhost,IP:127.0.0.1\nbasicConstraints=CA:FALSE\n"
-                                       "keyUsage=digitalSignature\nextendedKeyUsage=serverAuth\n")
-    (folder / "client.ext").write_text("subjectAltName=DNS:daq-bench1\nbasicConstraints=CA:FALSE\n"
-                                       "keyUsage=digitalSignature\nextendedKeyUsage=clientAuth\n")
-    for ca in ("ca", "rogue-ca"):
-        _openssl("req", "-x509", *ec, "-keyout", f"{ca}-key.pem", "-out", f"{ca}.pem", "-days", "1",
-                 "-subj", f"/CN=cartlab {ca}", cwd=folder)
-    for name, cn, ca, ext in (("router", "localhost", "ca", "server.ext"), ("daq", "daq-bench1", "ca", "client.ext"),
-                              ("rogue", "daq-bench1", "rogue-ca", "client.ext")):
-        _openssl("req", *ec, "-keyout", f"{name}-key.pem", "-out", f"{name}.csr", "-subj", f"/CN={cn}", cwd=folder)
-        _openssl("x509", "-req", "-in", f"{name}.csr", "-CA", f"{ca}.pem", "-CAkey", f"{ca}-key.pem",
-                 "-CAcreateserial", "-out", f"{name}-cert.pem", "-days", "1", "-extfile", ext, cwd=folder)
-
-
-@pytest.mark.skipif(shutil.which("openssl") is None, reason="openssl is needed to make test certificates")
-def test_mutual_tls_lets_in_only_clients_with_a_certificate_of_the_lab_ca(tmp_path: Path, free_port: int) -> None:
-    _make_certificates(tmp_path)
-    endpoint = f"tls/localhost:{free_port}"
-    router = zenoh.Config.from_json5(BusConfig(mode="router", listen=[]).zenoh_json5())
-    router.insert_json5("listen/endpoints", json.dumps([endpoint]))
-    router.insert_json5("transport/link/tls", json.dumps({
-        "listen_private_key": str(tmp_path / "router-key.pem"), "listen_certificate": str(tmp_path / "router-cert.pem"),
-        "root_ca_certificate": str(tmp_path / "ca.pem"), "enable_mtls": True}))
-
-    def client(cert: str | None) -> zenoh.Config:
-        tls: dict[str, object] = {"root_ca_certificate": str(tmp_path / "ca.pem"), "verify_name_on_connect": True}
-        if cert is not None:
-            tls.update(connect_private_key=str(tmp_path / f"{cert}-key.pem"),
-                       connect_certificate=str(tmp_path / f"{cert}-cert.pem"), enable_mtls=True)
-        config = zenoh.Config.from_json5(BusConfig(mode="client", listen=[], connect=[]).zenoh_json5())
-        config.insert_json5("connect/endpoints", json.dumps([endpoint]))
-        config.insert_json5("connect/timeout_ms", str(REFUSE_MS))
-        config.insert_json5("connect/exit_on_failure", "true")
-        config.insert_json5("transport/link/tls", json.dumps(tls))
-        return config
-
-    with open_router(router):
-        for refused in (None, "rogue"):
-            with pytest.raises(zenoh.ZError, match="Unable to connect"):
-                zenoh.open(client(refused))
-        with zenoh.open(client("daq")) as listener, zenoh.open(client("daq")) as sender:
-            inbox = Inbox()
-            sub = listener.declare_subscriber("cartlab/**", inbox)
-            try:
-                _put_until_received(sender, inbox, keys.samples("bench1"), "over-tls")
-            finally:
-                sub.undeclare()
-
-
-def _client_file(template: Path, dest: Path, endpoint: str, user: str) -> Path:
-    text = template.read_text().replace("tcp/127.0.0.1:7447", endpoint)
-    dest.write_text(text.replace(f"change-me-{user.removeprefix('daq-')}", PASSWORDS[user]))
-    return dest
-
-
 def test_real_daq_and_worker_processes_run_a_bench_through_the_secure_router(router: Router, tmp_path: Path) -> None:
     """`daq run` and `ident worker` with the shipped client configs: the run is announced,
     fetched over Zenoh by the worker (its runs directory is empty) and its fit published."""
     repo = Path(__file__).resolve().parents[1]
-    daq_conf = _client_file(DAQ_CLIENT, tmp_path / "daq.json5", router.endpoint, "daq-bench1")
-    ident_conf = _client_file(IDENT_CLIENT, tmp_path / "ident.json5", router.endpoint, "ident")
+    daq_conf = client_file(DAQ_CLIENT, tmp_path / "daq.json5", router.endpoint, "daq-bench1")
+    ident_conf = client_file(IDENT_CLIENT, tmp_path / "ident.json5", router.endpoint, "ident")
     viewer = router.client("viewer")
     fits = Inbox()
     router.keep(zenoh.ext.declare_advanced_subscriber(

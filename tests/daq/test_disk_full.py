@@ -6,12 +6,9 @@ continuation file once space returns, and recovers the part that was cut into a 
 
 from __future__ import annotations
 
-import errno
 import itertools
 import logging
-import os
 from pathlib import Path
-from typing import Any, BinaryIO
 
 import numpy as np
 import pytest
@@ -21,42 +18,9 @@ from daq.run_file import load_run
 from daq.serial_link import SerialLink
 from daq.service import Service, ServiceConfig
 from schemas import run_file
+from testkit.full_disk import Disk
 
 SIM = "sim://?realtime=0&rate_hz=500&cases=cart1&seed=21&rest_s=1&pull_s=0.6&hold_s=1&tail_s=1"
-
-
-class Disk:
-    """A disk of `budget` bytes; it refuses (ENOSPC) until `refusals_left` refusals were made,
-    then space returns."""
-
-    def __init__(self, budget: int, refusals_until_space: int | None) -> None:
-        self.budget = budget
-        self.refusals = 0
-        self.refusals_until_space = refusals_until_space
-
-    def take(self, n: int) -> None:
-        if n > self.budget:
-            self.refusals += 1
-            if self.refusals_until_space is not None and self.refusals >= self.refusals_until_space:
-                self.budget = 1 << 40     # someone freed space
-            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
-        self.budget -= n
-
-    def opener(self, path: Path) -> BinaryIO:
-        self.take(1)
-        return _OnDisk(open(path, "xb"), self)
-
-
-class _OnDisk:
-    def __init__(self, handle: BinaryIO, disk: Disk) -> None:
-        self._handle, self._disk = handle, disk
-
-    def write(self, data: bytes) -> int:
-        self._disk.take(len(data))
-        return self._handle.write(data)
-
-    def __getattr__(self, name: str) -> Any:
-        return getattr(self._handle, name)
 
 
 def _run(runs_dir: Path, disk: Disk, backlog_samples: int = BACKLOG_SAMPLES) -> Service:

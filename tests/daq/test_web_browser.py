@@ -1,5 +1,6 @@
 """The bench page in a real browser: Debian's headless Chromium driven by Selenium, against
-the page server and a real `daq run` on a simulated 1 kHz two-cart rig (`sim://`).
+the page server and a real `daq run` on a simulated 1 kHz two-cart rig (`sim://`). The page
+helpers are `testkit/browser_page.py`; the Host check is `test_web_browser_security.py`.
 
 Skipped, with the reason, when `chromium` or `chromedriver` is not installed (`make browser`
 installs them). The fit report of the run is published by the test itself on the run's fit
@@ -29,16 +30,23 @@ from schemas.daq import DaqStatus, RunFinished, RunList
 from schemas.diagnosis import EffectFit
 from schemas.fit import FitReport, ModeRec, PemFitRec, SimpleFitRec, TransferFunctionRec
 from testkit import ports
+from testkit.browser_page import (
+    NEEDS_CHROMIUM,
+    blue_pixels,
+    canvas_png,
+    fits_in,
+    js,
+    open_page,
+    overflow_px,
+    query,
+    row_cells,
+    row_links,
+    run_ids,
+)
 from testkit.waiting import wait_until
-from testkit.web_support import DaqProcess, FakeDaq, PageServer, chromium_driver, chromium_paths, diagnosis_record
+from testkit.web_support import DaqProcess, FakeDaq, PageServer, chromium_driver, diagnosis_record
 
-BROWSER, DRIVER = chromium_paths()
-pytestmark = [
-    pytest.mark.skipif(BROWSER is None or DRIVER is None,
-                       reason="headless Chromium not installed (Debian packages chromium and "
-                       "chromium-driver; `make browser` installs them): browser tests skipped"),
-    pytest.mark.timeout(90),
-]
+pytestmark = [NEEDS_CHROMIUM, pytest.mark.timeout(90)]
 
 BENCH = "benchA"
 # One cart-1 case at 1 kHz, real time: release ~3.5 s after start, settled ~4 s later, then
@@ -77,18 +85,8 @@ def page(runs_dir: Path, endpoints: dict[str, str]) -> Iterator[PageServer]:
 @pytest.fixture(scope="module")
 def browser(page: PageServer, workdir: Path) -> Iterator[Any]:
     """The page open in Chromium before the daq starts, recording its state badge's texts."""
-    driver = chromium_driver(str(workdir / "chromium-profile"))
-    try:
-        driver.set_page_load_timeout(20)
-        driver.get(page.url + "/")
-        driver.execute_script("""
-            window.badgeTexts = [document.getElementById('state-text').textContent];
-            new MutationObserver(() => window.badgeTexts.push(document.getElementById('state-text').textContent))
-              .observe(document.getElementById('state-text'),
-                       {childList: true, characterData: true, subtree: true});""")
+    with open_page(page, str(workdir / "chromium-profile")) as driver:
         yield driver
-    finally:
-        driver.quit()
 
 
 @pytest.fixture(scope="module")
@@ -115,44 +113,6 @@ def session(daq: DaqProcess, endpoints: dict[str, str]) -> Iterator[zenoh.Sessio
     s = zenoh.open(zenoh.Config.from_json5(bus.zenoh_json5()))
     yield s
     s.close()
-
-
-def js(browser: Any, expr: str) -> Any:
-    return browser.execute_script(f"return {expr};")
-
-
-def query(session: zenoh.Session, key: str) -> bytes:
-    for reply in session.get(key, timeout=5.0):
-        if reply.ok is not None:
-            return bytes(reply.ok.payload.to_bytes())
-    raise AssertionError(f"no reply on {key}")
-
-
-def run_ids(browser: Any) -> list[str]:
-    return list(js(browser, "[...document.querySelectorAll('#runs-body tr[data-run]')].map(r => r.dataset.run)"))
-
-
-def row_cells(browser: Any, run_id: str) -> list[str]:
-    """The text of each cell of a run's row, read in one go (the table is re-rendered)."""
-    return list(browser.execute_script(
-        "const r = document.querySelector(`#runs-body tr[data-run=\"${arguments[0]}\"]`);"
-        "return r ? [...r.cells].map(c => c.innerText.trim()) : [];", run_id))
-
-
-def row_links(browser: Any, run_id: str) -> dict[str, str]:
-    return dict(browser.execute_script(
-        "const r = document.querySelector(`#runs-body tr[data-run=\"${arguments[0]}\"]`);"
-        "return r ? [...r.querySelectorAll('td.files a')].map(a => [a.textContent, a.href]) : [];", run_id))
-
-
-def blue_pixels(browser: Any) -> int:
-    """Pixels of the canvas drawn in cart 1's colour (#1f5fbf)."""
-    return int(browser.execute_script("""
-        const c = document.getElementById('plot'), d = c.getContext('2d').getImageData(0, 0, c.width, c.height).data;
-        let n = 0;
-        for (let i = 0; i < d.length; i += 4)
-          if (Math.abs(d[i] - 31) < 40 && Math.abs(d[i + 1] - 95) < 40 && Math.abs(d[i + 2] - 191) < 40) n++;
-        return n;"""))
 
 
 def test_live_trace_moves_release_settles_and_the_run_appears_with_its_fit(
@@ -264,10 +224,6 @@ def test_zero_button_zeroes(browser: Any, session: zenoh.Session) -> None:
     assert "0.000" in browser.find_element("id", "st-pos1").text
 
 
-def canvas_png(browser: Any) -> str:
-    return str(js(browser, "document.getElementById('plot').toDataURL()"))
-
-
 def test_pause_freezes_the_plot_and_the_cursor_reads_the_samples(browser: Any, page: PageServer) -> None:
     from selenium.webdriver.common.action_chains import ActionChains
 
@@ -320,14 +276,6 @@ def test_pause_freezes_the_plot_and_the_cursor_reads_the_samples(browser: Any, p
     browser.find_element("id", "pause-btn").click()
     wait_until(lambda: js(browser, "window.cartlab.framesDrawn") > frames + 5, 5, "redraws after resume")
     assert canvas_png(browser) != png
-
-
-def fits_in(browser: Any, width: int) -> bool:
-    return bool(js(browser, "window.innerWidth") <= width)
-
-
-def overflow_px(browser: Any) -> int:
-    return int(js(browser, "document.documentElement.scrollWidth - document.documentElement.clientWidth"))
 
 
 def test_no_horizontal_overflow_at_laptop_and_phone_width(browser: Any) -> None:
@@ -426,29 +374,6 @@ def test_an_unplugged_encoder_port_is_reported_and_cleared(browser: Any, page: P
     finally:
         log = unplugging.stop()
     assert "back after" in log
-
-
-def test_a_dns_rebinding_page_is_refused(page: PageServer, workdir: Path) -> None:
-    """A foreign name resolved to 127.0.0.1 (what DNS rebinding does) gets neither the page nor
-    the buttons: the server refuses its Host, the browser's own same-origin fetch included."""
-    rules = "--host-resolver-rules=MAP rebind.example 127.0.0.1"
-    driver = chromium_driver(str(workdir / "chromium-rebind"), (rules,))
-    try:
-        driver.set_page_load_timeout(20)
-        driver.get(f"http://rebind.example:{page.port}/")
-        assert "expected one of" in driver.find_element("tag name", "body").text
-        assert not driver.find_elements("id", "plot")
-        result = driver.execute_async_script("""
-            const done = arguments[arguments.length - 1];
-            const post = (p) => fetch(p, {method: 'POST', headers: {'X-Cartlab-Action': '1'}}).then(r => r.status);
-            Promise.all([post('/api/bench/benchA/zero'), post('/api/bench/benchA/arm'),
-                         fetch('/api/snapshot').then(r => r.status), fetch('/files/x/mcap').then(r => r.status)])
-              .then(done, (e) => done(String(e)));""")
-        assert result == [403, 403, 403, 403]
-        driver.get(f"http://127.0.0.1:{page.port}/")                 # the right name still works
-        assert driver.find_elements("id", "plot")
-    finally:
-        driver.quit()
 
 
 def test_a_page_opened_late_shows_the_recent_past_within_a_second(

@@ -1,0 +1,219 @@
+"""Rows 2-4 of issue 14: a worker and its peers (a stopped daq, a paused worker, abuse).
+
+Workers run as `ident worker` processes connected as clients to a router in this process,
+which also plays the daq (`FakeDaq`), the attacker, and the collector of every fit message.
+The fitters are `testkit.fake_fitters` plug-ins: these rows are about scheduling, not numerics.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import os
+import signal
+import time
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Any
+
+import zenoh
+
+from schemas import keys
+from schemas.bus import BusConfig
+from schemas.fit import FitReport
+from testkit import ports
+from testkit.fault_table import BENCH, Row
+from testkit.waiting import wait_until
+from testkit.worker_harness import FakeDaq, FitCollector, alive_workers, start_worker, stop
+
+LEASE_MS = 3000
+
+
+def client_config(path: Path, endpoint: str) -> list[str]:
+    config = BusConfig(mode="client", listen=[], connect=[endpoint]).zenoh_dict()
+    config["transport"]["link"] = {"tx": {"lease": LEASE_MS, "keep_alive": 4}}
+    path.write_text(json.dumps(config))
+    return ["--zenoh-config", str(path)]
+
+
+@contextmanager
+def router() -> Iterator[tuple[str, zenoh.Session]]:
+    endpoint = f"tcp/127.0.0.1:{ports.free_port()}"
+    config = BusConfig(mode="router", listen=[endpoint]).zenoh_dict()
+    config["transport"]["link"] = {"tx": {"lease": LEASE_MS, "keep_alive": 4}}
+    session = zenoh.open(zenoh.Config.from_json5(json.dumps(config)))
+    try:
+        yield endpoint, session
+    finally:
+        session.close()
+
+
+def _rss_bytes(pid: int) -> int:
+    for line in Path(f"/proc/{pid}/status").read_text().splitlines():
+        if line.startswith("VmRSS:"):
+            return int(line.split()[1]) * 1024
+    return 0
+
+
+def _finals_score(collector: FitCollector, runs: list[Any]) -> tuple[int, int]:
+    finals = collector.finals()
+    return sum(max(0, len(finals.get(r, [])) - 1) for r in runs), sum(1 for r in runs if not finals.get(r))
+
+
+# --- row 2: transient failures retried ----------------------------------------------------------------
+
+def row2_daq_gone(work: Path) -> Row:
+    runs_dir = work / "r2"
+    runs_dir.mkdir()
+    with router() as (endpoint, session):
+        daq = FakeDaq(session, BENCH, runs_dir)
+        collector = FitCollector(session)
+        worker = start_worker("w2", client_config(work / "w2.json5", endpoint), runs_dir / "worker", work,
+                              "testkit.fake_fitters:instant_fit", {"FAKE_FIT_LOG": str(work / "r2.log")})
+        try:
+            wait_until(lambda: "w2" in alive_workers(session), 60, "worker up", worker)
+            run = daq.announce("aborted", content=None)   # the daq is stopped: no file, no reply
+            wait_until(lambda: _withdrawn(collector, "aborted"), 60, "the fetch given up for now", worker)
+            early_final = bool(collector.finals().get(run))
+            daq.come_back({"aborted": b"fake-run served after the daq came back"})
+            collector.wait_finals([run], timeout_s=60)
+            doubles, unfitted = _finals_score(collector, [run])
+            status = collector.finals()[run][0].status
+        finally:
+            code = stop(worker)
+            collector.close()
+    return Row("2 stopped daq", "run announced, its daq gone (no file, no reply), then the daq back",
+               f"deferred (no final while away: {not early_final}), fitted {status} once the daq was back",
+               crashes=int(code != 0), double_fits=doubles, unfitted=unfitted)
+
+
+def _withdrawn(collector: FitCollector, run_id: str) -> bool:
+    collector.drain()
+    return any(r.run_id == run_id and r.status == "withdrawn" for r in collector.messages)
+
+
+# --- row 3: pauses longer than the lease ------------------------------------------------------------
+
+def row3_pause(work: Path, n_runs: int = 18, pause_s: float = 15.0) -> Row:
+    runs_dir = work / "r3"
+    runs_dir.mkdir()
+    gate = work / "r3.gate"
+    env = {"FAKE_FIT_LOG": str(work / "r3.log"), "FAKE_FIT_GATE": str(gate)}
+    with router() as (endpoint, session):
+        daq = FakeDaq(session, BENCH, runs_dir)
+        collector = FitCollector(session)
+        workers = {n: start_worker(n, client_config(work / f"{n}.json5", endpoint), runs_dir, work,
+                                   "testkit.fake_fitters:gated_fit", env) for n in ("wa", "wb")}
+        try:
+            wait_until(lambda: alive_workers(session) == {"wa", "wb"}, 60, "both workers up", workers.values())
+            runs = [daq.announce(f"p{i:02d}") for i in range(n_runs)]
+            wait_until(lambda: (work / "r3.log").exists() and
+                       (work / "r3.log").read_text().count("start") >= 2, 60, "both mid-fit", workers.values())
+            workers["wa"].send_signal(signal.SIGSTOP)
+            paused_at = time.monotonic()
+            gate.touch()
+            wait_until(lambda: time.monotonic() - paused_at >= pause_s, pause_s + 5, "the pause")
+            workers["wa"].send_signal(signal.SIGCONT)
+            collector.wait_finals(runs, timeout_s=120)
+            # its fit may have ended before the take-over: then the finals alone say what happened
+            with contextlib.suppress(TimeoutError):
+                wait_until(lambda: "(fenced)" in (work / "wa.log").read_text(), 30, "wa's stale fit fenced")
+            doubles, unfitted = _finals_score(collector, runs)
+            fenced = (work / "wa.log").read_text().count("(fenced)")
+        finally:
+            gate.touch()
+            workers["wa"].send_signal(signal.SIGCONT)
+            codes = [stop(w) for w in workers.values()]
+            collector.close()
+    return Row("3 paused worker", f"SIGSTOP of one of two workers mid-fit for {pause_s:.0f} s (lease "
+               f"{LEASE_MS / 1000:g} s), {n_runs} runs", f"every run reported once; the paused worker fenced "
+               f"{fenced}x", crashes=sum(c != 0 for c in codes), double_fits=doubles, unfitted=unfitted)
+
+
+# --- row 4: abuse of a worker ------------------------------------------------------------------------
+
+def row4_abuse(work: Path) -> list[Row]:
+    runs_dir = work / "r4"
+    runs_dir.mkdir()
+    rows = []
+    with router() as (endpoint, session):
+        daq = FakeDaq(session, BENCH, runs_dir)
+        collector = FitCollector(session)
+        worker = start_worker("w4", client_config(work / "w4.json5", endpoint), runs_dir, work,
+                              "testkit.fake_fitters:instant_fit", {"FAKE_FIT_LOG": str(work / "r4.log")})
+        try:
+            wait_until(lambda: "w4" in alive_workers(session), 60, "worker up", worker)
+            rows.append(_forged_final(session, daq, collector, worker))
+            rows.append(_rogue_replier(session, daq, worker, runs_dir, work / "w4.log"))
+            rows.append(_silent_replier(session, daq, collector, worker))
+            rows.append(_flood(session, daq, collector, worker))
+        finally:
+            code = stop(worker)
+            collector.close()
+    if code != 0:
+        rows[-1].crashes += 1
+    return rows
+
+
+def _forged_final(session: zenoh.Session, daq: FakeDaq, collector: FitCollector, worker: Any) -> Row:
+    forged = FitReport(bench=BENCH, run_id="forged", worker="mallory", status="ok")
+    session.put(keys.run_fit(BENCH, "forged"), forged.to_json_bytes())
+    run = daq.announce("forged")
+    wait_until(lambda: any(r.worker == "w4" for r in collector.finals().get(run, [])), 60, "the real fit", worker)
+    real = [r for r in collector.finals()[run] if r.worker == "w4"]
+    return Row("4a forged final report", "a final 'ok' report for a run put before the run is announced",
+               f"the run fitted anyway by the worker ({len(real)} real report)", double_fits=len(real) - 1)
+
+
+def _rogue_replier(session: zenoh.Session, daq: FakeDaq, worker: Any, runs_dir: Path, log: Path) -> Row:
+    blob = os.urandom(60 << 20)
+    rogue = session.declare_queryable(keys.daq_query(BENCH, "run"), lambda q: q.reply(q.key_expr, blob))
+    try:
+        before = _rss_bytes(worker.pid)
+        daq.announce("rogue", content=None)   # claims 100 samples: at most 1.2 MB may be fetched
+        wait_until(lambda: f"{BENCH}/rogue:" in log.read_text(), 60, "the fetch refused", worker)
+        written = sum(p.stat().st_size for p in runs_dir.rglob("rogue*"))
+        grown = _rss_bytes(worker.pid) - before
+    finally:
+        rogue.undeclare()
+    return Row("4b rogue run replier", "a `daq/run` replier answering 60 MB for a run that claims 100 samples",
+               f"refused before writing ({written} bytes on disk), worker RSS +{grown / 1e6:.0f} MB",
+               data_lost="0")
+
+
+def _silent_replier(session: zenoh.Session, daq: FakeDaq, collector: FitCollector, worker: Any) -> Row:
+    held: list[zenoh.Query] = []
+    silent = session.declare_queryable(keys.daq_query("silent", "run"), held.append)
+    other = FakeDaq(session, "silent", daq.runs_dir / "silent-none")
+    try:
+        started = time.monotonic()
+        other.announce("s1", content=None)
+        wait_until(lambda: _withdrawn(collector, "s1"), 60, "the silent fetch given up", worker)
+        stalled = time.monotonic() - started
+        real = daq.announce("after-silent")
+        collector.wait_finals([real], timeout_s=60)
+    finally:
+        held.clear()
+        silent.undeclare()
+    return Row("4c silent replier", "a `daq/run` replier that never answers, then a real run",
+               f"the forged run given up after {stalled:.1f} s (bound 5 s + claim) and deferred; the real run fitted")
+
+
+def _flood(session: zenoh.Session, daq: FakeDaq, collector: FitCollector, worker: Any) -> Row:
+    before = _rss_bytes(worker.pid)
+    blob = os.urandom(3 << 20)
+    peak = before
+    for i in range(600):
+        session.put(keys.run_fit(BENCH, f"flood{i % 50}"), blob)
+        if i % 50 == 0:
+            peak = max(peak, _rss_bytes(worker.pid))
+    real = daq.announce("after-flood")
+    collector.wait_finals([real], timeout_s=90)
+    peak = max(peak, _rss_bytes(worker.pid))
+    return Row("4d flood", "600 puts of 3 MB on the fit keys, then a real run",
+               f"worker RSS {before / 1e6:.0f} -> peak {peak / 1e6:.0f} MB; the real run fitted")
+
+
+
+__all__ = ["LEASE_MS", "router", "row2_daq_gone", "row3_pause", "row4_abuse"]
