@@ -23,7 +23,7 @@ from schemas import keys
 from schemas.bus import BusConfig
 from schemas.fit import FitReport
 from testkit import ports
-from testkit.fault_table import BENCH, Row
+from testkit.fault_table import BENCH, Row, record_sim
 from testkit.waiting import wait_until
 from testkit.worker_harness import FakeDaq, FitCollector, alive_workers, start_worker, stop
 
@@ -85,6 +85,35 @@ def row2_daq_gone(work: Path) -> Row:
             collector.close()
     return Row("2 stopped daq", "run announced, its daq gone (no file, no reply), then the daq back",
                f"deferred (no final while away: {not early_final}), fitted {status} once the daq was back",
+               crashes=int(code != 0), double_fits=doubles, unfitted=unfitted)
+
+
+def row11_worker_start(work: Path) -> Row:
+    """A worker with the real fitter, handed a run the moment its token appears: the first
+    results must not wait for the fit process's start-up (its imports take seconds)."""
+    run_bytes = record_sim(work / "r11-daq", "sim://?cases=cart1&rate_hz=200&seed=4&realtime=0").read_bytes()
+    runs_dir = work / "r11"
+    runs_dir.mkdir()
+    with router() as (endpoint, session):
+        daq = FakeDaq(session, BENCH, runs_dir)
+        collector = FitCollector(session)
+        started = time.monotonic()
+        worker = start_worker("w11", client_config(work / "w11.json5", endpoint), runs_dir, work)
+        try:
+            wait_until(lambda: "w11" in alive_workers(session), 120, "worker up", worker)
+            alive = time.monotonic()
+            run = daq.announce("first", content=run_bytes)
+            collector.wait_results([run], timeout_s=120)
+            first = time.monotonic()
+            collector.wait_finals([run], timeout_s=300)
+            doubles, unfitted = _finals_score(collector, [run])
+            status = collector.finals()[run][0].status
+        finally:
+            code = stop(worker)
+            collector.close()
+    return Row("11 worker start", "a worker (the real fitter) handed a run the moment its liveliness token appears",
+               f"alive {alive - started:.1f} s after its start (once its fit process was ready); first results "
+               f"{first - alive:.2f} s after the run was announced; final {status}",
                crashes=int(code != 0), double_fits=doubles, unfitted=unfitted)
 
 
@@ -216,4 +245,4 @@ def _flood(session: zenoh.Session, daq: FakeDaq, collector: FitCollector, worker
 
 
 
-__all__ = ["LEASE_MS", "router", "row2_daq_gone", "row3_pause", "row4_abuse"]
+__all__ = ["LEASE_MS", "router", "row2_daq_gone", "row3_pause", "row4_abuse", "row11_worker_start"]

@@ -5,7 +5,9 @@
 
 `--issue14` runs only the rows of issue 14 (`testkit/fault_rows.py`: every row tried for
 real, loopback only) and prints their table: fault, what was tried, outcome, data lost,
-crashes, double fits, runs left unfitted (the targets are all zero).
+crashes, double fits, runs left unfitted (the targets are all zero). Rows 1b, 5b and 11 are
+its leftovers: the simple fit's start on carts stuck between two encoder counts, a full disk
+for longer than the backlog holds, a worker handed a run the moment it is declared alive.
 
 Sections (each prints its figures; `--json` writes them all):
 1. serial corruption — a 1 kHz two-encoder `sim://` capture with 1 % of its lines corrupted
