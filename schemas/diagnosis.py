@@ -21,15 +21,17 @@ from schemas.base import Record
 
 #: The physical extensions `ident diagnose` can name (DESIGN.md "Effect names"), plus the
 #: families added with forward selection: `presliding` (Dahl friction: the Coulomb friction's
-#: pre-sliding stiffness) and `held_cart_motion` (the held cart's measured motion driving the
-#: free cart through the coupling spring).
+#: pre-sliding stiffness), `static_friction` (a breakaway level above the kinetic one) and
+#: `held_cart_motion` (the held cart's measured motion driving the free cart through the
+#: coupling spring).
 EffectName = Literal["coulomb_friction", "quadratic_drag", "cubic_stiffness", "quantization",
-                     "coupled_mode", "presliding", "held_cart_motion", "none"]
+                     "coupled_mode", "presliding", "static_friction", "held_cart_motion", "none"]
 #: How the peaks of |x - x_rest| decay, from the extrema of the measured run.
 EnvelopeShape = Literal["constant_ratio", "constant_step", "amplitude_dependent", "undetermined"]
 
 EFFECT_NAMES: tuple[str, ...] = ("coulomb_friction", "quadratic_drag", "cubic_stiffness",
-                                 "quantization", "coupled_mode", "presliding", "held_cart_motion", "none")
+                                 "quantization", "coupled_mode", "presliding", "static_friction", "held_cart_motion",
+                                 "none")
 
 
 class ModelFit(Record):

@@ -48,7 +48,7 @@ REALDATA = ROOT.parent / "shared" / "realdata" / "ECP210_UCSD_2025_team1"
 ECP_COUNTS_PER_M = 56000.0
 BASELINE_COMMIT = "cebba2a"   # main before issue 11's diagnosis rewrite
 CAUSES = ("coulomb_friction", "quadratic_drag", "cubic_stiffness", "quantization", "coupled_mode",
-          "held_cart_motion", "presliding", "none")
+          "held_cart_motion", "presliding", "static_friction", "none")
 
 
 def diagnose_case(case: Case) -> tuple[Any, float]:

@@ -18,6 +18,7 @@ _WHAT = {
     "quantization": "encoder quantization",
     "coupled_mode": "a second resonance (an imperfectly pinned cart or a track mode)",
     "presliding": "pre-sliding (Dahl) friction: a stiff, saturating friction at small amplitude",
+    "static_friction": "static friction above the kinetic level: a stopped cart breaks away only under a larger pull",
     "held_cart_motion": "the held cart's motion, driving the free cart through the spring",
 }
 
@@ -65,6 +66,8 @@ def _signs(report: DiagnosisReport) -> str:
     if report.cause == "quantization":
         q = ev.lattice_quantum_m or 0.0
         return f"every measured position lies on a staircase of {1e6 * q:.3g} µm steps"
+    if report.cause == "static_friction":
+        return "a stopped cart stays put under a pull larger than its sliding friction"
     if report.cause == "presliding":
         return "the last small cycles ring faster than the first large ones"
     if report.cause == "held_cart_motion":

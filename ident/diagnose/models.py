@@ -11,6 +11,9 @@ of the input column, only with `--input`), then each effect's block in `EFFECTS`
     coulomb_friction   F_i = coulomb_accel_m_s2[_cart2]   (kinetic friction force / mass)
     presliding         presliding_per_s2 σ: the friction is Dahl's (w' = σ(v - |v| w/F));
                        only on top of coulomb_friction
+    static_friction    static_friction_ratio r ≥ 1: a cart at rest breaks away only when the
+                       pull exceeds r F_i (kinetic F_i); on top of coulomb_friction, not with
+                       presliding (Dahl friction has no stick)
     quadratic_drag     drag_per_m             (drag / m, the same on every cart)
     cubic_stiffness    cubic_per_m2_s2 κ: a_i = -κ (x_i - rest_i)³ on every cart (one cart:
                        a spring k (e + γ e³) with κ = wn² γ)
@@ -40,7 +43,7 @@ from ident.physics.free import NonlinearTerms, simulate_free
 FloatArray = NDArray[np.float64]
 
 #: Canonical order of the effect blocks in a parameter vector.
-EFFECTS: tuple[str, ...] = ("coulomb_friction", "presliding", "quadratic_drag", "cubic_stiffness",
+EFFECTS: tuple[str, ...] = ("coulomb_friction", "presliding", "static_friction", "quadratic_drag", "cubic_stiffness",
                             "held_cart_motion", "coupled_mode", "quantization")
 
 
@@ -57,6 +60,8 @@ def effect_names(effect: str, carts: int, outputs: int | None = None) -> tuple[s
         return ("coulomb_accel_m_s2",) + (("coulomb_accel_m_s2_cart2",) if carts == 2 else ())
     if effect == "presliding":
         return ("presliding_per_s2",)
+    if effect == "static_friction":
+        return ("static_friction_ratio",)
     if effect == "quadratic_drag":
         return ("drag_per_m",)
     if effect == "cubic_stiffness":
@@ -144,6 +149,9 @@ class ModelSpec:
         kw: dict[str, FloatArray] = {}
         if "coulomb_friction" in self.effects:
             kw["friction_m_s2"] = np.abs(theta[:, self.block("coulomb_friction")])
+        if "static_friction" in self.effects:
+            ratio = np.maximum(theta[:, self.block("static_friction")], 1.0)
+            kw["static_friction_m_s2"] = kw["friction_m_s2"] * ratio
         if "presliding" in self.effects:
             kw["presliding_per_s2"] = np.repeat(theta[:, self.block("presliding")], c, axis=1)
         if "quadratic_drag" in self.effects:
