@@ -10,7 +10,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ident.errors import IdentValueError
-from ident.physics.measures import noise_std
+from ident.physics.measures import encoder_quantum, noise_std
 
 FloatArray = NDArray[np.float64]
 
@@ -36,7 +36,7 @@ def check_motion(y: FloatArray) -> None:
     amplitude = motion_amplitude(y2)
     sigma = noise_std(y2)
     ratio = float(np.max(amplitude / sigma))
-    quantum = _quantum(y2)
+    quantum = encoder_quantum(y2)
     if ratio < MIN_MOTION_SIGMAS or float(np.max(amplitude)) <= 3.0 * quantum:
         raise IdentValueError(
             "y", f"motion after a release (largest deviation ≥ {MIN_MOTION_SIGMAS:g} noise std)",
@@ -51,11 +51,4 @@ def moving_outputs(y: FloatArray) -> list[int]:
     amplitude = motion_amplitude(y2)
     sigma = noise_std(y2)
     return [j for j in range(y2.shape[1])
-            if amplitude[j] >= MIN_MOTION_SIGMAS * sigma[j] and amplitude[j] > 3.0 * _quantum(y2[:, [j]])]
-
-
-def _quantum(y: FloatArray) -> float:
-    """Smallest non-zero step between consecutive samples (0 when there is none)."""
-    steps = np.abs(np.diff(y, axis=0)).ravel()
-    steps = steps[steps > 0]
-    return float(np.min(steps)) if steps.size else 0.0
+            if amplitude[j] >= MIN_MOTION_SIGMAS * sigma[j] and amplitude[j] > 3.0 * encoder_quantum(y2[:, [j]])]

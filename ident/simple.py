@@ -36,6 +36,7 @@ from ident.comparison import fit_percent
 from ident.data import IdData
 from ident.errors import FitFailed, IdentValueError
 from ident.physics.free import NonlinearTerms, simulate_free
+from ident.physics.measures import encoder_quantum
 from ident.physics.steppers import Method, euler_coulomb, linear_step_response
 from ident.release import check_motion, moving_outputs, noise_std, rest_window
 
@@ -187,10 +188,7 @@ def swing_floor(y: FloatArray) -> float:
     The quantum is the smallest non-zero step between samples. On a quantized record the rest
     reads one count, so its noise std is ~0 and the quantum is what bounds the dither.
     """
-    steps = np.abs(np.diff(y))
-    steps = steps[steps > 1e-12 * max(float(np.max(np.abs(y))), 1e-300)]
-    quantum = float(np.min(steps)) if steps.size else 0.0
-    return max(SWING_NOISE * float(noise_std(y)[0]), SWING_QUANTA * quantum)
+    return max(SWING_NOISE * float(noise_std(y)[0]), SWING_QUANTA * encoder_quantum(y))
 
 
 def _significant_crossings(e: FloatArray, floor: float) -> NDArray[np.int64]:

@@ -33,14 +33,22 @@ import itertools
 import numpy as np
 
 from ident.data import FloatArray
+from ident.physics.measures import encoder_quantum
 from schemas.fit import EnvelopeRec
 
-#: Peaks below this many noise standard deviations are not peaks of the ring.
+#: Peaks below this many noise standard deviations are not peaks of the ring...
 PEAK_SIGMAS = 6.0
+#: ... nor below this many encoder counts (a cart stuck on the lattice dithers by one count,
+#: and on a quantized record the noise std is ~0).
+PEAK_QUANTA = 3.0
 #: Fewest peaks for a law to be fitted (two parameters each, and one to judge them).
 MIN_PEAKS = 4
 #: A peak this many times the one a cycle before is a new push, not the free ring.
 REGROW = 1.2
+#: A half-cycle this many times longer or shorter than the ring's median so far is not one:
+#: the cart stopped (dry friction) and a later extreme is a touch, drift or a count's dither,
+#: not the ring (neither friction law changes the period).
+STRETCH = 1.5
 
 
 def coulomb_line(env: EnvelopeRec, t: FloatArray) -> FloatArray:
@@ -56,8 +64,12 @@ def viscous_curve(env: EnvelopeRec, t: FloatArray) -> FloatArray:
 def half_cycle_peaks(t: FloatArray, e: FloatArray) -> tuple[FloatArray, FloatArray]:
     """The extreme `e` (signed) of each half-cycle (between sign changes of `e`).
 
-    `t` (N,) s, `e` (N,) m measured from a rest."""
+    `t` (N,) s, `e` (N,) m measured from a rest. A sample exactly at the rest (common on an
+    encoder's lattice, where the rest guess is itself a reading) keeps the sign before it, so
+    a crossing through it is still one change of sign."""
     sign = np.sign(e)
+    filled = np.maximum.accumulate(np.where(sign != 0, np.arange(sign.size), 0))
+    sign = sign[filled]
     flips = np.flatnonzero(sign[1:] * sign[:-1] < 0) + 1
     bounds = np.concatenate([[0], flips, [e.size]])
     times, peaks = [], []
@@ -71,15 +83,20 @@ def half_cycle_peaks(t: FloatArray, e: FloatArray) -> tuple[FloatArray, FloatArr
 
 
 def ring_of(times: FloatArray, peaks: FloatArray, floor_m: float) -> slice:
-    """The free ring among the half-cycle peaks: from the largest (where the hand let go)
-    while the peaks stay above `floor_m` and do not grow (a peak more than `REGROW` times the
-    one a cycle before, same side, is the hand again)."""
+    """The free ring among the half-cycle peaks at `times` (s): from the largest (where the
+    hand let go) while the peaks stay above `floor_m`, do not grow (a peak more than `REGROW`
+    times the one a cycle before, same side, is the hand again) and keep their rhythm (a gap
+    `STRETCH` times longer or shorter than the median half-cycle so far: the cart had stopped)."""
     size = np.abs(peaks)
     first = int(np.argmax(size)) if size.size else 0
     last = first
     for k in range(first + 1, size.size):
         if size[k] < floor_m or (k >= first + 2 and size[k] > REGROW * size[k - 2]):
             break
+        if k >= first + 3:
+            gap, usual = times[k] - times[k - 1], float(np.median(np.diff(times[first:k])))
+            if not usual / STRETCH <= gap <= STRETCH * usual:
+                break
         last = k
     return slice(first, last + 1)
 
@@ -98,12 +115,14 @@ def fit_envelope(t: FloatArray, x: FloatArray, rest_guess_m: float, release_time
     (`rest_guess_m` only splits the half-cycles), and both laws fitted; `output` the cart's
     number (1 or 2) the record names.
 
-    None when fewer than `MIN_PEAKS` peaks stand above `PEAK_SIGMAS·noise_m`.
+    None when fewer than `MIN_PEAKS` peaks stand above `PEAK_SIGMAS·noise_m` and
+    `PEAK_QUANTA` encoder counts.
     """
     from scipy.optimize import least_squares  # deferred: keeps `import ident` fast
     after = t >= release_time_s
     times, signed = half_cycle_peaks(t[after], x[after] - rest_guess_m)
-    ring = ring_of(times, signed, PEAK_SIGMAS * max(noise_m, 1e-9))
+    floor = max(PEAK_SIGMAS * max(noise_m, 1e-9), PEAK_QUANTA * encoder_quantum(x[after]))
+    ring = ring_of(times, signed, floor)
     times, extremes = times[ring], signed[ring] + rest_guess_m
     if extremes.size < MIN_PEAKS:
         return None
@@ -126,5 +145,5 @@ def fit_envelope(t: FloatArray, x: FloatArray, rest_guess_m: float, release_time
                        mixed_loss_m_per_half=float(-minus_loss))
 
 
-__all__ = ["MIN_PEAKS", "PEAK_SIGMAS", "REGROW", "coulomb_line", "fit_envelope", "half_cycle_peaks",
-           "rest_from_extremes", "ring_of", "viscous_curve"]
+__all__ = ["MIN_PEAKS", "PEAK_QUANTA", "PEAK_SIGMAS", "REGROW", "STRETCH", "coulomb_line", "fit_envelope",
+           "half_cycle_peaks", "rest_from_extremes", "ring_of", "viscous_curve"]

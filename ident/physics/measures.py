@@ -1,4 +1,5 @@
-"""The measures every part of ident shares: fit %, the noise level, spectral peaks.
+"""The measures every part of ident shares: fit %, the noise level, the encoder's count,
+spectral peaks.
 
 One definition each, so that `compare`, the simple identification, PEM and the diagnosis
 agree on edge cases. Pure numpy, time-major arrays; no fitting and no I/O here.
@@ -43,6 +44,16 @@ def noise_std(y: FloatArray) -> FloatArray:
     second = y2[2:] - 2.0 * y2[1:-1] + y2[:-2]
     sigma = np.median(np.abs(second), axis=0) / 0.6745 / np.sqrt(6.0)
     return np.asarray(np.maximum(sigma, 1e-12), dtype=np.float64)
+
+
+def encoder_quantum(y: FloatArray) -> float:
+    """The encoder's count (m): the smallest non-zero step between consecutive samples of `y`
+    (N,) or (N, n), over all columns; 0 when nothing moves. Steps below 1e-12 of the largest
+    |y| are rounding of the scale, not counts."""
+    y2 = np.asarray(y, dtype=np.float64)
+    steps = np.abs(np.diff(y2, axis=0)).ravel()
+    steps = steps[steps > 1e-12 * max(float(np.max(np.abs(y2))) if y2.size else 0.0, 1e-300)]
+    return float(np.min(steps)) if steps.size else 0.0
 
 
 def spectrum(y: FloatArray, dt: float, pad: int = 8) -> tuple[FloatArray, FloatArray]:

@@ -17,7 +17,7 @@ import math
 import numpy as np
 import pytest
 
-from ident.fitrun.envelope import coulomb_line, fit_envelope, rest_from_extremes, viscous_curve
+from ident.fitrun.envelope import coulomb_line, fit_envelope, half_cycle_peaks, rest_from_extremes, viscous_curve
 from schemas.fit import EnvelopeRec
 
 
@@ -119,3 +119,36 @@ def test_the_envelope_is_the_reports_record_and_its_laws_pass_through_the_peaks(
     assert np.sqrt(np.mean((coulomb_line(env, times) - peaks) ** 2)) == pytest.approx(env.coulomb_rms_m, rel=1e-6)
     assert np.sqrt(np.mean((viscous_curve(env, times) - peaks) ** 2)) == pytest.approx(env.viscous_rms_m, rel=1e-6)
     assert env.viscous_ratio_per_cycle == pytest.approx(math.exp(-env.viscous_rate_1_s * env.period_s))
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_a_touch_long_after_the_cart_stuck_is_not_a_peak_of_the_ring(seed: int) -> None:
+    # a dry-friction ring sticks; seconds later a hand nudges the cart by a few noise levels
+    # more than the floor: that extreme is not a half-cycle of the ring (its gap breaks the
+    # rhythm), so the straight line and the period stay those of the ring
+    p = _draw(seed)
+    t, x = _ring(p, 0.0, p["fc_over_k"], seed)
+    stuck_at = 0.5 + (math.pi / p["wn"]) * math.floor(p["a0"] / (2 * p["fc_over_k"]))
+    late = stuck_at + 2.0 + 20 * math.pi / p["wn"]
+    t = np.concatenate([t, t[-1] + np.arange(1, int(3 * late * p["fs"])) / p["fs"]])
+    x = np.concatenate([x, np.full(t.size - x.size, x[-1])])
+    bump = np.exp(-0.5 * ((t - late) / 0.05) ** 2)
+    x = x + (20 * p["noise"] + 2 * p["fc_over_k"]) * bump * np.sign(p["rest"] - x[-1] + 1e-12)
+    env = fit_envelope(t, x, p["rest"], 0.5, p["noise"])
+    assert env is not None
+    assert max(env.t_s) < stuck_at + 0.5
+    assert env.period_s == pytest.approx(2 * math.pi / p["wn"], rel=0.02)
+    assert env.coulomb_loss_per_cycle_m == pytest.approx(4 * p["fc_over_k"], rel=0.03)
+
+
+def test_a_crossing_through_a_sample_exactly_at_the_rest_still_splits_the_half_cycles() -> None:
+    # an encoder reads the rest itself: a crossing can pass through e = 0 exactly
+    t = np.arange(0.0, 4.0, 0.01)
+    e = 0.02 * np.cos(np.pi * t) * np.exp(-0.3 * t)
+    e = np.round(e / 1e-4) * 1e-4                                   # a 0.1 mm lattice: zeros at crossings
+    assert np.any(e == 0.0)
+    times, peaks = half_cycle_peaks(t, e)
+    # half-cycles 0-0.5, 0.5-1.5, 1.5-2.5, 2.5-3.5 and the cut one from 3.5 s, alternating;
+    # extremes near k s (the decay moves them ~0.03 s early, the lattice's flat tops a little more)
+    assert times.size == 5 and np.all(np.sign(peaks[1:]) != np.sign(peaks[:-1]))
+    assert times[:4] == pytest.approx([0.0, 1.0, 2.0, 3.0], abs=0.08)
