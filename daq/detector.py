@@ -1,7 +1,8 @@
 """The release detector: a pure state machine fed with (t_s, positions) samples.
 
     idle --(every cart within ±still_band_m of an anchor for still_s)--> armed
-    armed --(a cart leaves its hold by > fire_m)--> candidate (collecting the fit window)
+    armed --(a cart leaves its hold by > fire_m)--> candidate (collecting the fit window, and
+            waiting until the cart is confirm_m from its hold or came back: a nudge is not a release)
     candidate --(initial-parabola fit says: sudden acceleration ≥ min_accel)--> released
     candidate --(otherwise: slow hand motion, a glitch)--> idle
     released --(every cart still within ±settle_band_m for settle_s, or max_run_s)--> settled
@@ -228,8 +229,14 @@ class ReleaseDetector:
             self._post_samples = 0
             return []
         self._post_samples += 1
-        if (t_s - self._trigger_t < self.settings.fit_post_s
-                or self._post_samples < self.settings.fit_min_post_samples):
+        settings = self.settings
+        if t_s - self._trigger_t < settings.fit_post_s or self._post_samples < settings.fit_min_post_samples:
+            return []
+        # a nudge by hand goes out a few mm and comes back: wait until the cart has gone confirm_m
+        # from its hold (a released cart is at least rest_margin_m from its rest and goes there),
+        # or came back, or the wait is as long as a slow spring's half-period
+        moved = max(abs(x - h) for x, h in zip(sample, self._hold))
+        if settings.fire_m < moved < settings.confirm_m and t_s - self._trigger_t < settings.ring_max_half_s:
             return []
         return [self._decide(t_s, sample)]
 
@@ -446,7 +453,9 @@ class ReleaseDetector:
         limit = max(float(t[0]), a.t_s - 4.0 * half)
         t_coarse, free = slide_back(t, y, vs, t_from, span, half, free, limit, 0.0003 * s2)
         started = self._first_t if self._first_t is not None else t[0]
-        if t_coarse - half / 8.0 < limit or t_coarse - started < 2.0 * self.settings.fit_post_s:
+        # a release shows the hand before it: within a half-period of the stream's start the data
+        # cannot tell a release from a swing that was going on (a record that starts in motion)
+        if t_coarse - half / 8.0 < limit or t_coarse - started < max(half, 2.0 * self.settings.fit_post_s):
             return Rejected(t_s, 0.0, "ringing: in motion since the stream started (no release seen)"
                             if t[0] <= started else "ringing: no release in view (it rang before)")
         date = date_release(t, y, vs, free, t_coarse, half)

@@ -22,6 +22,7 @@ class DetectorSettings:
     fit_powers: tuple[int, ...] = (2, 3)
     min_accel_m_s2: float = 2.5
     rest_margin_m: float = 0.02
+    confirm_m: float = 0.015
     settle_band_m: float = 0.002
     settle_s: float = 1.0
     max_run_s: float = 60.0
@@ -36,7 +37,7 @@ class DetectorSettings:
     held_ratio: float = 0.2
 
     def __post_init__(self) -> None:
-        for name in ("still_band_m", "still_s", "fire_m", "fit_post_s", "fit_lookback_s", "rest_margin_m",
+        for name in ("still_band_m", "still_s", "fire_m", "confirm_m", "fit_post_s", "fit_lookback_s", "rest_margin_m",
                      "min_accel_m_s2", "settle_band_m", "settle_s", "max_run_s", "max_hole_s",
                      "first_release_confirm_s", "ring_min_swing_m", "ring_max_half_s", "ring_half_ratio",
                      "ring_grow", "ring_fit_max_rel", "held_ratio"):
@@ -44,6 +45,8 @@ class DetectorSettings:
                 raise DaqValueError(f"detector {name}", "> 0", getattr(self, name))
         if self.pre_trigger_s < 0.5:
             raise DaqValueError("detector pre_trigger_s", ">= 0.5 s", self.pre_trigger_s)
+        if self.confirm_m <= self.fire_m:
+            raise DaqValueError("detector confirm_m", f"> fire_m ({self.fire_m})", self.confirm_m)
         if self.fire_m <= self.still_band_m:
             raise DaqValueError("detector fire_m", f"> still_band_m ({self.still_band_m})", self.fire_m)
         if 2 not in self.fit_powers or any(p < 1 for p in self.fit_powers):

@@ -41,6 +41,7 @@ class Tally:
     false_runs: int = 0
     errors_s: list[float] = field(default_factory=list)
     misses: list[str] = field(default_factory=list)
+    false: list[str] = field(default_factory=list)
 
     def add(self, truth: list[float], found: list[float], match_s: float, label: str) -> None:
         left = list(found)
@@ -55,3 +56,4 @@ class Tally:
             self.recorded += 1
             self.errors_s.append(best - t_true)
         self.false_runs += len(left)
+        self.false += [f"{label} at {f:.3f} s" for f in left]

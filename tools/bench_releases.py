@@ -58,6 +58,8 @@ def main(argv: list[str] | None = None) -> int:
         if args.show_misses:
             for miss in tally.misses:
                 print("   missed:", miss)
+            for false in tally.false:
+                print("   false run:", false)
     return 0
 
 

@@ -224,3 +224,39 @@ def test_a_hold_moved_after_start_up_still_gives_the_first_release() -> None:
     assert rejected[-1].reason == "pulled away from rest"                 # judged against the start-up hold ...
     releases = [e for e in events if isinstance(e, Released)]
     assert len(releases) == 1 and abs(releases[0].t_release_s - release) < 1e-3   # ... and still recorded
+
+
+@pytest.mark.parametrize("rate_hz", [50, 100, 1000])
+def test_a_quick_nudge_from_a_hold_away_from_rest_makes_no_run(rate_hz: int) -> None:
+    """A hand holds the cart away from its rest, then nudges it by 3-10 mm toward the rest and
+    brings it back (sin² bump, 0.2-0.5 s: the issue's handling; it starts as fast as a
+    release) and holds it still again: no release, whatever the size and speed of the nudge."""
+    rng = np.random.default_rng(rate_hz)
+    for dx in (0.003, 0.006, 0.010):
+        for dur in (0.2, 0.35, 0.5):
+            detector = ReleaseDetector()
+            t = np.arange(0.0, 6.0, 1.0 / rate_hz)
+            # at rest (0) for 1 s; pulled to 5 cm over 1.5 s (slowly); held; the nudge at 4 s
+            u = np.clip((t - 1.0) / 1.5, 0.0, 1.0)
+            x = 0.05 * u ** 3 * (10.0 - 15.0 * u + 6.0 * u * u)
+            bump = np.clip((t - 4.0) / dur, 0.0, 1.0)
+            x -= dx * np.sin(np.pi * bump) ** 2
+            x += rng.normal(0.0, 2e-5, t.size)
+            x = np.round(x * 20000.0) / 20000.0    # a 20,000 counts/m encoder
+            events = [e for ti, xi in zip(t, x) for e in detector.feed(float(ti), (float(xi),))]
+            assert not [e for e in events if isinstance(e, Released)], (dx, dur)
+
+
+@pytest.mark.parametrize("rate_hz", [50, 100, 200])
+def test_a_stream_that_starts_in_a_free_swing_makes_no_run(rate_hz: int) -> None:
+    """The record starts in the tail of an earlier release: the cart already swings freely
+    (1-5 cm, any phase; ω 11 rad/s, ζ 0.04) and nothing else happens: no release is in the data."""
+    rng = np.random.default_rng(7 + rate_hz)
+    t = np.arange(0.0, 8.0, 1.0 / rate_hz)
+    for amp in (0.012, 0.025, 0.05):
+        for phase in np.linspace(0.0, 2.0 * np.pi, 8, endpoint=False):
+            x = amp * np.exp(-0.44 * t) * np.cos(11.0 * t + phase) + rng.normal(0.0, 2e-5, t.size)
+            x = np.round(x * 20000.0) / 20000.0
+            detector = ReleaseDetector()
+            events = [e for ti, xi in zip(t, x) for e in detector.feed(float(ti), (float(xi), 0.0))]
+            assert not [e for e in events if isinstance(e, Released)], (amp, phase)
