@@ -40,12 +40,15 @@ MIN_ZETA = 1e-3
 SEARCH_SAMPLES = 1000
 
 
-def physical_start(y: FloatArray, ts: float, n_modes: int) -> tuple[FloatArray, FloatArray] | None:
+def physical_start(y: FloatArray, ts: float, n_modes: int,
+                   peaks: FloatArray | None = None) -> tuple[FloatArray, FloatArray] | None:
     """(σ (m,), ω (m,)) ascending in ω, of the physical model fitted to the free response
     `y` (N, n_out) sampled every `ts` s; None when the record shows fewer than `n_modes`
-    peaks or the modal fit fails."""
+    peaks or the modal fit fails. `peaks` (rad/s): the record's spectral peaks when the
+    caller has them already (`spectral_peaks(y, ts, n_modes, fill=False)`)."""
     y2 = y.reshape(len(y), -1)
-    peaks = spectral_peaks(y2, ts, n_modes, fill=False)
+    if peaks is None:
+        peaks = spectral_peaks(y2, ts, n_modes, fill=False)
     if peaks.size < n_modes:
         return None
     # every k-th sample: the search needs the envelope and the shapes, not every sample

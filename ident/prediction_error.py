@@ -179,7 +179,7 @@ def _start_modes(data: IdData, release0: float, n_modes: int,
             found = subspace.oscillatory_modes(poles, n_modes, 0.8 * np.pi / (q * ts))
             if found is not None:
                 starts.append((np.abs(found[0]), found[1]))
-        physical = physical_start(uniform.y, ts, n_modes)
+        physical = physical_start(uniform.y, ts, n_modes, peaks)
         if physical is not None:
             starts.append(physical)
     if peaks.size == n_modes:
