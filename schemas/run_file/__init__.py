@@ -5,29 +5,14 @@ page's file lookups) goes through this package; nothing else builds an MCAP read
 `layout` (names), `limits` (what a reader accepts), `records` (the record reader),
 `contents` (a run as arrays; its `RunFinished`). Import the names from here.
 
-Layout of a runs directory (names built in `layout` and nowhere else):
+The layout of a runs directory (`.mcap.part`, `.mcap`, `-r<k>.mcap`, `.fit/report.json`,
+`quarantine/`) is tabled in `layout`, where every name is built.
 
-| file | what |
-|---|---|
-| `<run_id>.mcap.part` | a run being written (or left by a crash) |
-| `<run_id>.mcap` | a finished run: never overwritten, never deleted |
-| `<run_id>-r<k>.mcap` | data recovered from a `.part` whose finished name was taken |
-| `<run_id>.fit/report.json` | the fit report (and figures) beside the run file |
-| `quarantine/<name>` | a `.part` nothing could be read from, moved aside (never deleted) |
-
-Reading (`iter_records`): `mcap`'s sequential reader walks the file record by record, so a
-file killed mid-write (no summary, an unfinished chunk) yields every complete record and
-stops at the first damaged one (`ReadOutcome.complete` is then False). Chunks are opened
-here, not by `mcap`, so that every size is checked before anything is allocated:
-
-    file bytes ≤ max_file_bytes, each record ≤ max_record_bytes,
-    each chunk's decompressed size ≤ max_record_bytes and (past 1 MiB) ≤ max_expansion × its
-    compressed size, all chunks ≤ max_decompressed_bytes, messages ≤ max_messages,
-    samples ≤ max_samples.
-
-A limit exceeded is a refusal (`RunFileTooLarge`), never a partial read: a bomb is not data.
-Samples are turned into arrays batch by batch, so memory stays near the arrays' size
-(8 bytes per value), well under the file's decompressed JSON.
+Reading (`records.iter_records`): record by record, so a file killed mid-write yields every
+complete record and stops at the first damaged one; every size is checked against `limits`
+before anything is allocated, and a limit exceeded is a refusal (`RunFileTooLarge`), never a
+partial read. `contents.read_run` turns the samples into arrays batch by batch, so memory
+stays near the arrays' size.
 """
 
 from schemas.run_file.contents import RunContents, read_finished, read_run, run_metadata
