@@ -58,8 +58,13 @@ HAND_FORCE_FRACTION = 0.3
 #: A hand episode that does not move the cart (a still hold) pushes beyond this many kinetic
 #: dry-friction forces (static friction holds a stuck cart with at most ~1.3 of them).
 STILL_HOLD_BANDS = 3.0
+#: A force that stays within this fraction of its level while the cart swings is steady
+#: (a motor's input, `steady_force`), not a hand.
+STEADY_SPREAD = 0.2
 #: A sustained push: the residual's moving average over a quarter period beyond this many scales.
 SUSTAINED_SIGMAS = 2.5
+#: ... and beyond this many times its median over the samples where the cart moves.
+TYPICAL_MISFITS = 3.0
 
 
 def find_releases(t: NDArray[np.float64], y: NDArray[np.float64],
@@ -143,11 +148,15 @@ def sustained_pushes(m: Motion, model: FreeModel) -> list[tuple[int, int]]:
     `SUSTAINED_SIGMAS` scales for at least T/8) that move the cart: a held cart moved by hand pulls this
     one through the spring."""
     width = m.samples(0.25 * m.period_s)
-    # what dry friction may leave near a stop is not a push
-    excess = np.abs(model.residual) if model.allowance is None else \
-        np.maximum(np.abs(model.residual) - model.allowance, 0.0)
+    # dry friction's flips where a swinging cart reverses and the model's error share are not
+    # a push; nor is the record's typical misfit
+    excess = np.abs(model.residual) if model.push_allowance is None else \
+        np.maximum(np.abs(model.residual) - model.push_allowance, 0.0)
     mean = np.convolve(excess, np.ones(width) / width, mode="same")
-    mask = mean > SUSTAINED_SIGMAS * model.scale
+    v = m.v[:, model.column]
+    moving = np.abs(v) > 0.05 * float(np.percentile(np.abs(v), 95))
+    typical = float(np.median(mean[moving])) if np.any(moving) else 0.0
+    mask = mean > max(SUSTAINED_SIGMAS * model.scale, TYPICAL_MISFITS * typical)
     edge = width
     mask[:edge] = False
     mask[-edge:] = False
@@ -184,7 +193,7 @@ def is_release(m: Motion, model: FreeModel, first: int, last: int, nxt: int, fre
     amplitude = 0.5 * float(np.ptp(span))
     if amplitude < max(level, min_amplitude_m):
         return False
-    if nudged_while_ringing(m, j, first, last, amplitude, min_amplitude_m):
+    if nudged_while_ringing(m, j, first, last, amplitude, min_amplitude_m) or steady_force(m, model, first, last):
         return False
     # a hand that lets a cart go held it against the spring: its force was comparable with
     # the spring's at the amplitude that follows (a touch while the cart rings is not)
@@ -213,6 +222,25 @@ def nudged_while_ringing(m: Motion, j: int, first: int, last: int, amplitude: fl
     let_go = float(x[max(last - m.window // 2, first)])
     return (amplitude <= before and amplitude < NUDGE_AMPLITUDE_FACTOR * min_amplitude_m
             and abs(let_go - took) < min_amplitude_m)
+
+
+def steady_force(m: Motion, model: FreeModel, first: int, last: int) -> bool:
+    """Whether the episode [first, last] is a steady force, not a hand: over its interior (a
+    quarter period in from each end, at least a period long) the cart swings on its own
+    (two turning points beyond the noise and the dry-friction band) while the unexplained
+    force stays level (robust spread below `STEADY_SPREAD` of its level): a motor's voltage
+    pulse, or a held cart moved and left. A hand that holds a cart stops it swinging; the
+    cart's ringing when such a force ends is a step response, not a release."""
+    quarter = m.samples(m.period_s / 4)
+    lo, hi = first + quarter, last - quarter
+    if hi - lo < m.samples(m.period_s):
+        return False
+    r = model.residual[lo:hi]
+    level = float(np.median(r))
+    spread = 1.4826 * float(np.median(np.abs(r - level)))
+    band = abs(model.dry) / max(float(model.stiffness[0]), 1e-12)
+    turns = turning_points(m.x[lo:hi, model.column], max(10.0 * float(m.noise_m[model.column]), 2.0 * band))
+    return turns >= 2 and spread <= STEADY_SPREAD * abs(level)
 
 
 def turning_points(x: FloatArray, hysteresis: float) -> int:

@@ -45,7 +45,10 @@ class FreeModel:
     (m/s²); `v_smooth` v_s (m/s); `residual` (N,) m/s²; `scale` its robust std over the
     free samples; `hand` (N,) bool, where |residual - drift| > HAND_SIGMAS·scale + allowance
     (`drift`); `slow` the columns of `others` entering by their period average (held carts);
-    `allowance` (N,) m/s² the dry-friction error allowed near a stop (`near_stop`).
+    `allowance` (N,) m/s² the error allowed: dry friction near a stop (`near_stop`) and
+    `MODEL_FRACTION` of the modelled acceleration; `push_allowance` (N,) the same with dry
+    friction at the reversals of a swinging cart only (`near_reversal`): a push may start a
+    cart from rest.
     """
 
     column: int
@@ -60,6 +63,7 @@ class FreeModel:
     hand: NDArray[np.bool_]
     slow: tuple[int, ...] = ()
     allowance: FloatArray | None = None
+    push_allowance: FloatArray | None = None
 
     @property
     def wn(self) -> float:
@@ -132,12 +136,15 @@ def _fit(m: Motion, column: int, others: tuple[int, ...], slow: tuple[int, ...])
     n_k = 1 + len(others)
     # and a small share of the modelled force: the free model is fitted on the whole record,
     # so its error grows with the swing (a cart swinging further than most of the record)
-    allowance = (STICK_ALLOWANCE * abs(float(coef[n_k + 1])) * near_stop(m, column, v_smooth)
-                 + MODEL_FRACTION * np.abs(basis @ coef))
+    model_error = MODEL_FRACTION * np.abs(basis @ coef)
+    stick = STICK_ALLOWANCE * abs(float(coef[n_k + 1]))
+    allowance = stick * near_stop(m, column, v_smooth) + model_error
+    push_allowance = stick * near_reversal(m, column, v_smooth) + model_error
     limit = HAND_SIGMAS * scale + allowance
     hand = np.abs(resid - drift(resid, np.abs(resid) > limit, m.samples(2.0 * m.period_s))) > limit
     return FreeModel(column, others, np.asarray(coef[:n_k]), float(coef[n_k]), float(coef[n_k + 1]),
-                     float(coef[n_k + 2]), v_smooth, resid, scale, hand, slow, allowance)
+                     float(coef[n_k + 2]), v_smooth, resid, scale, hand, slow, allowance,
+                     push_allowance)
 
 
 def _best_fit(m: Motion, basis: FloatArray, target: FloatArray, moving: NDArray[np.bool_]
@@ -190,13 +197,31 @@ def _irls(basis: FloatArray, target: FloatArray, moving: NDArray[np.bool_], star
 
 
 def near_stop(m: Motion, column: int, v_smooth: float) -> FloatArray:
-    """1.0 (N,) within a smoothing window of where the cart stops (|v| below a few `v_smooth`)
-    or reverses (v changes sign), else 0.0: where dry friction flips or holds the cart."""
+    """1.0 (N,) within a smoothing window of where the cart reverses (v changes sign), stops
+    or starts again (|v| crosses a few `v_smooth`), else 0.0: where dry friction flips and the
+    smoothed sgn(v) places the flip only roughly. Not through a long stop: a stuck cart's
+    friction force is steady there (a constant the drift takes), and a hand or a spring that
+    moves it from rest must still be seen."""
     v = m.v[:, column]
     stop = np.abs(v) < 3.0 * v_smooth
-    stop[1:] |= np.signbit(v[1:]) != np.signbit(v[:-1])
+    change = np.zeros(v.size, dtype=bool)
+    change[1:] = (np.signbit(v[1:]) != np.signbit(v[:-1])) | (stop[1:] != stop[:-1])
     width = 2 * m.window + 1
-    spread = np.convolve(stop.astype(np.float64), np.ones(width), mode="same") > 0.5
+    spread = np.convolve(change.astype(np.float64), np.ones(width), mode="same") > 0.5
+    return np.asarray(spread, dtype=np.float64)
+
+
+def near_reversal(m: Motion, column: int, v_smooth: float) -> FloatArray:
+    """1.0 (N,) within a smoothing window of where a swinging cart reverses: v changes sign
+    with |v| beyond 3 `v_smooth` within a window on both sides (not a resting cart's noise)."""
+    v = m.v[:, column]
+    w = m.window
+    fast = np.abs(v) > 3.0 * v_smooth
+    hits = np.flatnonzero(np.signbit(v[1:]) != np.signbit(v[:-1])) + 1
+    keep = [i for i in hits if np.any(fast[max(0, i - w):i]) and np.any(fast[i:i + w])]
+    mark = np.zeros(v.size, dtype=np.float64)
+    mark[keep] = 1.0
+    spread = np.convolve(mark, np.ones(2 * w + 1), mode="same") > 0.5
     return np.asarray(spread, dtype=np.float64)
 
 

@@ -100,3 +100,25 @@ def test_the_2023_hand_steps_are_one_complete_release_each(realdata_dir: Path, t
     assert leaves - 0.05 <= when < peak
     assert release["pulled_cart"] == 2 and release["moving_carts"] == [2]
     assert release["complete"] is True
+
+
+#: Records driven by the motor (open-loop voltage pulses on cart 1, closed-loop steps): no
+#: hand lets a cart go in them. One of each kind (folder, file).
+MOTOR_RECORDS = [
+    (FOLDER_2025, "07-Feb-2025_11_16_25.txt"),                          # cart 2 held, 0.6 V pulse
+    (FOLDER_2025, "07-Feb-2025_11_21_31.txt"),                          # both carts free, 0.6 V pulse
+    ("ECP210_UCSD_2023_Parker-Knopf/Closed_Loop", "closed_loop_pid.csv"),
+    ("ECP210_UCSD_2023_Parker-Knopf/Open_Loop", "DOF1_en1_input1_test1.csv"),
+    ("ECP210_UCSD_2023_Parker-Knopf/Open_Loop", "DOF2_en12_input1_test1.csv"),
+]
+
+
+@pytest.mark.parametrize(("folder", "name"), MOTOR_RECORDS)
+def test_motor_driven_records_have_no_release(realdata_dir: Path, folder: str, name: str,
+                                              capsys: pytest.CaptureFixture[str]) -> None:
+    # the end of a voltage pulse lets the cart ring, but a steady force held it while it
+    # swung: a step response, not a hand letting go
+    path = realdata_dir / folder / name
+    if not path.exists():
+        pytest.skip(f"{name} not in the real-data folder")
+    assert _releases(path, capsys) == []
