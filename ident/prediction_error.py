@@ -210,7 +210,7 @@ def _best_fit(problem: varpro.Problem, data: IdData, release0: float, n_modes: i
             continue
         if best is None or solution.cost < best.cost:
             best = solution
-        if min(fit_percent(data.y, data.y - solution.residuals)) > 95.0:
+        if min(fit_percent(problem.y, problem.y - solution.residuals)) > 95.0:
             break
     if best is None:
         raise FitFailed(f"no start value led to a converged fit of {2 * n_modes} states")
