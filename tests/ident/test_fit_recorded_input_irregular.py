@@ -16,6 +16,8 @@ import pytest
 from scipy.linalg import expm
 
 from ident.cli import main
+from ident.data import IdData
+from ident.prediction_error import pem
 
 COUNTS_PER_M = 56000.0
 
@@ -82,3 +84,13 @@ def test_fit_and_diagnose_the_real_motor_pulse_record(realdata_dir: Path,
     assert main(["diagnose", str(path), *options]) == 0
     diagnosis = json.loads(capsys.readouterr().out)
     assert np.isfinite(diagnosis["baseline"]["fit_percent"])
+
+
+def test_pem_resamples_an_irregular_record_with_a_recorded_input_itself() -> None:
+    # the same record straight into ident.pem: it fits on its own uniform grid (more samples
+    # than stamps), and judges the fit on that grid
+    t, counts, effort, wn, zeta = _pulse_record(5)
+    model = pem(IdData(t, effort, (counts / COUNTS_PER_M)[:, None]), 2)
+    assert model.success and model.stable
+    assert model.modes[0].wn == pytest.approx(wn, rel=0.01)
+    assert model.modes[0].zeta == pytest.approx(zeta, rel=0.1, abs=0.003)
