@@ -408,19 +408,20 @@ class ReleaseDetector:
     def _date_hold_release(self, t_s: float, a: Turn) -> Released | None:
         """The ringing began from a hold (still before turn A): date it by the onset fit, or None.
 
-        The cart that moved most from the hold is the released one (two carts may both ring).
+        The cart that moved most from the hold is the released one (two carts may both ring); only
+        it must have been still: the other cart, held by a hand, may wander by millimetres.
         """
         history = list(self._history)
         plateau = [pos for t, pos in history if a.t_s - self.settings.still_s <= t <= a.t_s]
         if len(plateau) < self.settings.fit_min_lookback_samples or history[0][0] > a.t_s - self.settings.still_s:
             return None
-        band = self.settings.still_band_m
-        if any(max(column) - min(column) > 2.0 * band for column in zip(*plateau)):
-            return None
         hold = tuple(sum(column) / len(plateau) for column in zip(*plateau))
         after = [(t, pos) for t, pos in history if t > a.t_s]
         swing = [max(abs(pos[c] - hold[c]) for _, pos in after) for c in range(len(hold))]
         channel = max(range(len(hold)), key=swing.__getitem__)
+        column = [pos[channel] for pos in plateau]
+        if max(column) - min(column) > 2.0 * self.settings.still_band_m:
+            return None
         trigger = next((t for t, pos in after if abs(pos[channel] - hold[channel]) > self.settings.fire_m), None)
         if trigger is None:
             return None
