@@ -200,8 +200,8 @@ def reading_noise(lattice: Lattice) -> float:
 
 
 def lattice_likelihood_gain(y: FloatArray, prediction: FloatArray, q: float, offset: float, noise: float) -> float:
-    """2 (log L_lattice - log L_gauss): how much better the readings `y` (N, c) are explained as levels
-    of the lattice `offset + q k` read with noise `noise` than as Gaussian scatter about
+    """2 (log L_lattice - log L_gauss): how much better the readings `y` (N, c) are explained as
+    levels of the lattice `offset + q k` read with noise `noise` than as Gaussian scatter about
     `prediction` (N, c) (variance σ² = mean residual², profiled).
 
     Lattice model: the position is x ~ N(prediction, σ_x²), the encoder reports the level k
@@ -211,27 +211,33 @@ def lattice_likelihood_gain(y: FloatArray, prediction: FloatArray, q: float, off
     the Gaussian, and s is the lattice's or σ if smaller. Unlike an SSE ratio this holds when
     the prediction is off by more than a quantum: readings ON a lattice are still far
     likelier under it (each gains about ln(q/(s√(2π)))), continuous readings are not.
+    Each reading counts by how far the predicted position moved since the last, up to one
+    quantum (w = min(1, |Δp|/q)): a resting cart's readings sit at one place relative to the
+    lattice, one observation however many samples, and must not vote a lattice in.
     """
     import scipy.special  # deferred: keeps `import ident` fast
+
+    step = np.abs(np.diff(prediction, axis=0, prepend=prediction[:1]))
+    w = np.minimum(step / q, 1.0).ravel()
     p, yy = prediction.ravel(), y.ravel()
-    n = yy.size
-    sigma2 = max(float(np.mean((yy - p) ** 2)), 1e-30)
-    ell0 = -0.5 * n * (np.log(2 * np.pi * sigma2) + 1.0)
+    total = float(np.sum(w))
+    if total <= 0:
+        return 0.0
+    sigma2 = max(float(np.sum(w * (yy - p) ** 2) / total), 1e-30)
+    ell0 = -0.5 * total * (np.log(2 * np.pi * sigma2) + 1.0)
     k = np.round((yy - offset) / q)
     best = -np.inf
-    # s: the lattice's own, or the Gaussian's σ when smaller (a resting cart's readings are
-    # one level whatever the lattice: they must cost the lattice nothing, not favour it)
+    # s: the lattice's own, or the Gaussian's σ when smaller
     for s in {max(noise, 1e-12), max(min(noise, np.sqrt(sigma2)), 1e-12)}:
         reading = [(offset + q * (k + j), np.exp(-0.5 * ((yy - offset - q * (k + j)) / s) ** 2)
                     / (s * np.sqrt(2 * np.pi))) for j in (-1, 0, 1)]
         for sx in np.geomspace(0.05 * q, max(3.0 * np.sqrt(sigma2), 0.1 * q), 16):
-            mix = np.zeros(n)
+            mix = np.zeros(yy.size)
             for level, density in reading:
                 prob = scipy.special.ndtr((level + q / 2 - p) / sx) - scipy.special.ndtr((level - q / 2 - p) / sx)
                 mix += prob * density
-            best = max(best, float(np.sum(np.log(np.maximum(mix, 1e-300)))))
+            best = max(best, float(np.sum(w * np.log(np.maximum(mix, 1e-300)))))
     return 2.0 * (best - float(ell0))
-
 
 def lattice_worth_points(y: FloatArray, q: float) -> float:
     """What a lattice of quantum `q` costs a perfect model of `y` (N, c), in fit-% points:
