@@ -27,6 +27,11 @@ from schemas.fit import FitReport
 from testkit.repo import REPO
 from testkit.waiting import wait_until
 
+#: Bound on a worker coming up (s): it is declared alive only once its fit process is ready,
+#: a spawned interpreter importing numpy, scipy, zenoh and the fitter (about 6 s on a 2-core
+#: machine at load 5, several times that in a full run on a loaded one).
+STARTUP_S = 120.0
+
 
 def open_session(bus: BusConfig) -> zenoh.Session:
     return zenoh.open(zenoh.Config.from_json5(bus.zenoh_json5()))

@@ -84,7 +84,7 @@ def worker(tmp_path: Path, request: pytest.FixtureRequest) -> Iterator[Setup]:
         session, keys.ALL_FITS, lambda s: fits.put(FitReport.from_json_bytes(s.payload.to_bytes())),
         history=zenoh.ext.HistoryConfig(detect_late_publishers=True, max_samples=16))
     try:
-        deadline = time.monotonic() + WAIT_S
+        deadline = time.monotonic() + STARTUP_S   # declared alive once its fit process is ready
         while not list(session.liveliness().get(keys.ident_alive("w-abuse"), timeout=1.0)):
             assert time.monotonic() < deadline and thread.is_alive(), f"worker did not come up: {errors}"
         setup = Setup(tmp_path, runs_dir, session, fits, thread, errors, endpoint)

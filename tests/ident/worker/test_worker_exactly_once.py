@@ -20,6 +20,7 @@ from schemas.bus import BusConfig
 from testkit import ports
 from testkit.waiting import wait_until
 from testkit.worker_harness import (
+    STARTUP_S,
     FakeDaq,
     FitCollector,
     alive_workers,
@@ -58,7 +59,7 @@ def test_two_workers_fit_each_run_exactly_once(router, tmp_path: Path) -> None: 
     workers = [start_worker(n, _client(endpoint), runs_dir, tmp_path, "testkit.fake_fitters:instant_fit", env)
                for n in ("wa", "wb")]
     try:
-        wait_until(lambda: alive_workers(session) == {"wa", "wb"}, 20, "both workers alive")
+        wait_until(lambda: alive_workers(session) == {"wa", "wb"}, STARTUP_S, "both workers alive")
         late = [daq.announce(f"r{i:02d}") for i in range(4, 12)]
         finals = collector.wait_finals(early + late, timeout_s=30)
     finally:
@@ -86,7 +87,7 @@ def test_kill_9_mid_fit_the_other_worker_takes_over(router, tmp_path: Path) -> N
     workers = {n: start_worker(n, _client(endpoint), runs_dir, tmp_path, "testkit.fake_fitters:gated_fit", env)
                for n in ("wa", "wb")}
     try:
-        wait_until(lambda: alive_workers(session) == {"wa", "wb"}, 20, "both workers alive")
+        wait_until(lambda: alive_workers(session) == {"wa", "wb"}, STARTUP_S, "both workers alive")
         runs = [daq.announce(f"r{i:02d}") for i in range(8)]
         wait_until(lambda: len(fit_log_counts(log)["start"]) == 2, 20, "each worker mid-fit")
         started = fit_log_counts(log)["start"]
@@ -199,7 +200,7 @@ def test_kill_9_during_the_diagnosis_the_other_worker_completes_the_run(router, 
     collector = FitCollector(session)
     workers = {n: start_worker(n, _client(endpoint), runs_dir, tmp_path) for n in ("wa", "wb")}
     try:
-        wait_until(lambda: alive_workers(session) == {"wa", "wb"}, 30, "both workers alive")
+        wait_until(lambda: alive_workers(session) == {"wa", "wb"}, STARTUP_S, "both workers alive")
         runs = [daq.announce("r0", content=run_bytes)]
         early = collector.wait_results(runs, timeout_s=30)[runs[0]][0]
         assert early.pending and not early.final
@@ -236,7 +237,7 @@ def test_a_new_worker_learns_from_a_survivor_what_a_dead_worker_fitted(router, t
     workers = {n: start_worker(n, _client(endpoint), dirs[n], tmp_path, "testkit.fake_fitters:instant_fit", env)
                for n in ("wa", "wb")}
     try:
-        wait_until(lambda: alive_workers(session) == {"wa", "wb"}, 20, "wa and wb alive")
+        wait_until(lambda: alive_workers(session) == {"wa", "wb"}, STARTUP_S, "wa and wb alive")
         runs = []
         for i in ids_a + ids_b:
             copies = [daq.announce(i) for daq in daqs]   # announced to every runs directory
@@ -249,7 +250,7 @@ def test_a_new_worker_learns_from_a_survivor_what_a_dead_worker_fitted(router, t
         late = FitCollector(session)
         workers["wc"] = start_worker("wc", _client(endpoint), dirs["wc"], tmp_path,
                                      "testkit.fake_fitters:instant_fit", env)
-        wait_until(lambda: alive_workers(session) == {"wb", "wc"}, 20, "wc alive")
+        wait_until(lambda: alive_workers(session) == {"wb", "wc"}, STARTUP_S, "wc alive")
         # a new run that wc owns: wc fits pending runs oldest first, so once this one is
         # fitted, wc has had its chance to (wrongly) refit wa's older runs
         new_id = next(f"r-new{i}" for i in range(200)
@@ -270,7 +271,7 @@ def test_a_second_worker_with_a_name_in_use_refuses_to_start(router, tmp_path: P
     endpoint, session = router
     first = start_worker("wa", _client(endpoint), tmp_path / "runs", tmp_path, "testkit.fake_fitters:instant_fit")
     try:
-        wait_until(lambda: alive_workers(session) == {"wa"}, 20, "wa alive")
+        wait_until(lambda: alive_workers(session) == {"wa"}, STARTUP_S, "wa alive")
         (tmp_path / "dup").mkdir()
         twin = start_worker("wa", _client(endpoint), tmp_path / "runs2", tmp_path / "dup",
                             "testkit.fake_fitters:instant_fit")
@@ -308,7 +309,7 @@ def test_a_worker_paused_past_the_lease_is_fenced_and_every_run_is_reported_once
     workers = {n: start_worker(n, _short_lease_config(tmp_path / f"{n}.json5", endpoint), runs_dir, tmp_path,
                                "testkit.fake_fitters:gated_fit", env) for n in ("wa", "wb")}
     try:
-        wait_until(lambda: alive_workers(session) == {"wa", "wb"}, 30, "both workers alive", workers.values())
+        wait_until(lambda: alive_workers(session) == {"wa", "wb"}, STARTUP_S, "both workers alive", workers.values())
         runs = [daq.announce(f"r{i:02d}") for i in range(8)]
         wait_until(lambda: len(fit_log_counts(log)["start"]) == 2, 30, "each worker mid-fit", workers.values())
         victim_run = next(run for run, ws in fit_log_counts(log)["start"].items() if ws == ["wa"])

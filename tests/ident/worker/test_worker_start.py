@@ -18,7 +18,15 @@ import zenoh
 from schemas import keys
 from schemas.bus import BusConfig
 from testkit.waiting import wait_until
-from testkit.worker_harness import FakeDaq, FitCollector, alive_workers, open_session, start_worker, stop
+from testkit.worker_harness import (
+    STARTUP_S,
+    FakeDaq,
+    FitCollector,
+    alive_workers,
+    open_session,
+    start_worker,
+    stop,
+)
 
 pytestmark = pytest.mark.timeout(120)
 
@@ -48,12 +56,12 @@ def test_the_worker_is_alive_only_once_its_fit_process_is_ready(router: tuple[st
     collector = FitCollector(session)
     worker = start_worker("ws", _client(endpoint), runs_dir, tmp_path, "testkit.fake_fitters:instant_fit", env)
     try:
-        wait_until(lambda: Path(f"{gate}.loading").exists(), 60, "the fit process loading its fitter", worker)
+        wait_until(lambda: Path(f"{gate}.loading").exists(), STARTUP_S, "the fit process loading its fitter", worker)
         # the session is open and the fit process is loading: not alive yet
         assert "ws" not in alive_workers(session)
         run = daq.announce("r1")   # announced meanwhile: fitted once the worker is up
         gate.touch()
-        wait_until(lambda: "ws" in alive_workers(session), 60, "the worker alive once its fit process is ready",
+        wait_until(lambda: "ws" in alive_workers(session), STARTUP_S, "the worker alive once its fit process is ready",
                    worker)
         finals = collector.wait_finals([run], timeout_s=60)
     finally:
