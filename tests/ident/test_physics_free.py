@@ -17,7 +17,7 @@ def _extrema(x: np.ndarray) -> np.ndarray:
 def test_two_cart_chain_with_zero_forces_is_the_exact_linear_response() -> None:
     lin = np.array([[200.0, 80.0, 60.0, 150.0, 0.2, 0.1]])
     z0 = np.array([[0.03, -0.01, 0.1, 0.0]])
-    tau = 0.005 * np.arange(1200)
+    tau = 0.005 * np.arange(1200, dtype=np.float64)
     z = simulate_free(lin, z0, 0.005, tau.size, 2, NonlinearTerms(friction_m_s2=np.zeros((1, 2))))
     assert np.max(np.abs(z - linear_free_response(lin, z0, tau, 2))) < 1e-12
 
@@ -81,7 +81,7 @@ def test_a_constant_force_input_moves_the_rest_by_g_u_over_wn2() -> None:
                       NonlinearTerms(input_gain=np.array([[[g]]])), u)[0, :, 0]
     assert z[-1] == pytest.approx(g / wn ** 2, rel=1e-6)
     # the step response of wn²/(s² + 2ζwn s + wn²) scaled by g/wn², exactly (ZOH of a step)
-    tau = 0.002 * np.arange(n)
+    tau = 0.002 * np.arange(n, dtype=np.float64)
     free = linear_free_response(np.array([[wn, zeta]]), np.array([[-g / wn ** 2, 0.0]]), tau, 1)[0, :, 0]
     assert np.max(np.abs(z - (g / wn ** 2 + free))) < 1e-9
 
