@@ -1,0 +1,74 @@
+"""The linear baseline of a diagnosis: its model spec, and its fit from a modal start
+(`starts`) or, with a force input, from the ringing's frequencies. No I/O here."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ident.diagnose import starts
+from ident.diagnose.fitting import FitResult, fit
+from ident.diagnose.models import ModelSpec
+from ident.diagnose.problem import FloatArray, Problem
+from ident.modal import fit_modes
+from ident.physics.measures import spectral_peaks
+
+
+def base_spec(prob: Problem, fixed: dict[str, float]) -> ModelSpec:
+    if prob.y.shape[1] < prob.carts:   # cart 2 unseen: its rest only shifts its start, fix it
+        fixed = {**fixed, "rest_2_m": 0.0}
+    return ModelSpec((), prob.carts, fixed, prob.inputs, prob.held, prob.y.shape[1])
+
+
+def fit_baseline(prob: Problem, fixed: dict[str, float]) -> FitResult:
+    spec = base_spec(prob, fixed)
+    n_in = spec.n_inputs * prob.carts
+    best: FitResult | None = None
+    for theta0 in _linear_starts(prob):
+        lower, upper = starts.linear_bounds(theta0, prob.carts)
+        typical = starts.linear_typical(theta0, prob.carts, prob.amplitude)
+        if n_in:
+            gain = _input_gain_start(prob, theta0)
+            theta0 = np.concatenate([theta0, gain])
+            lower = np.concatenate([lower, np.full(n_in, -np.inf)])
+            upper = np.concatenate([upper, np.full(n_in, np.inf)])
+            typical = np.concatenate([typical, np.maximum(np.abs(gain), 1e-6)])
+        result = fit(spec, theta0, lower, upper, typical, prob.dt, prob.y, prob.train, max_nfev=50,
+                     cross_validate=True)
+        if best is None or result.sse_train < best.sse_train:
+            best = result
+    assert best is not None
+    return best
+
+
+def _linear_starts(prob: Problem) -> list[FloatArray]:
+    """Linear | x0 | v0 | rest start vectors: from a modal fit of the free response, or, with
+    a force input, from the ringing's frequencies (spectral peaks of the sample differences,
+    where the input's slow shape no longer dominates) with the carts at rest at the start."""
+    if prob.inputs is None:
+        modal = fit_modes(prob.tau, prob.y, spectral_peaks(prob.y, prob.dt, prob.carts))
+        return starts.linear_starts(modal, prob.carts)
+    wn = spectral_peaks(np.diff(prob.y, axis=0), prob.dt, prob.carts, min_rad_s=1.0)
+    c = prob.carts
+    state = np.concatenate([prob.y[0], np.zeros(c), prob.y[0]])
+    if c == 1:
+        return [np.concatenate([[wn[0], 0.05], state])]
+    coupling = max(0.5 * (wn[1] ** 2 - wn[0] ** 2), 0.05 * wn[0] ** 2)
+    lin = np.array([wn[0] ** 2, coupling, coupling, wn[0] ** 2, 0.1 * wn[0], 0.1 * wn[0]])
+    return [np.concatenate([lin, state])]
+
+
+def _input_gain_start(prob: Problem, theta0: FloatArray) -> FloatArray:
+    """Input gains (m/s² per unit, input-major) from the quasi-static response K x ≈ G u:
+    the least-squares slope of each output against each input, times the stiffness."""
+    assert prob.inputs is not None
+    u = prob.inputs.reshape(prob.inputs.shape[0], -1)
+    wn2 = theta0[0] ** 2 if prob.carts == 1 else float(np.max(theta0[:4]))
+    du = u - u[0]
+    dy = prob.y - prob.y[0]
+    slope = np.linalg.lstsq(du, dy, rcond=None)[0]             # (m, outputs)
+    gains = np.zeros((u.shape[1], prob.carts))
+    gains[:, :slope.shape[1]] = wn2 * slope
+    return gains.ravel()
+
+
+__all__ = ["base_spec", "fit_baseline"]

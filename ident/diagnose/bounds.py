@@ -1,0 +1,121 @@
+"""Starts and bounds of an effect added to the current model: each effect's start from
+the evidence (envelope step -> friction, envelope curvature -> drag, frequency drift ->
+cubic, residual peak -> coupled mode, the measured lattice -> quantization) within
+physically sensible bounds, and the whole parameter vector of an extension. No I/O here."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ident.diagnose import starts
+from ident.diagnose.evidence import EvidenceResult
+from ident.diagnose.fitting import FitResult
+from ident.diagnose.models import ModelSpec
+from ident.diagnose.problem import Bounds, FloatArray, Problem
+from ident.modal import project
+from ident.physics.measures import spectral_peaks
+
+#: Largest breakaway (static) friction level, in kinetic levels.
+STATIC_RATIO_MAX = 3.0
+
+
+def assemble(prob: Problem, current: FitResult, spec: ModelSpec, effect: str, ev: EvidenceResult,
+             wn_modes: FloatArray, res: FloatArray) -> Bounds:
+    """Parameter vector and bounds of `spec`: the current values, the new effect's start."""
+    n_base = spec.n_base
+    lower0, upper0 = starts.linear_bounds(current.theta, prob.carts)
+    typical0 = starts.linear_typical(current.theta, prob.carts, prob.amplitude)
+    extra = n_base - lower0.size
+    parts = [[current.theta[:n_base]],
+             [np.concatenate([lower0, np.full(extra, -np.inf)])],
+             [np.concatenate([upper0, np.full(extra, np.inf)])],
+             [np.concatenate([typical0, np.maximum(np.abs(current.theta[lower0.size:n_base]), 1e-6)])]]
+    for e in spec.effects:
+        start, lo, hi, typ = _bounds_of(e, prob, ev, wn_modes, current.theta, res)
+        if e != effect:
+            start = current.theta[current.spec.block(e)]
+        for part, value in zip(parts, (start, lo, hi, typ)):
+            part.append(value)
+    out = tuple(np.concatenate(p) for p in parts)
+    return out[0], out[1], out[2], out[3]
+
+
+def _bounds_of(effect: str, prob: Problem, ev: EvidenceResult, wn_modes: FloatArray, theta: FloatArray,
+               res: FloatArray) -> Bounds:
+    """(start, lower, upper, typical) of one effect's parameters."""
+    c, amp, wn = prob.carts, prob.amplitude, float(wn_modes[0])
+    # bounds: effects no larger than stopping the cart within a cycle or shifting the
+    # frequency by ~25 % at the largest amplitude (beyond that the model is not linear-ish)
+    if effect == "coulomb_friction":
+        f_max = wn * wn * amp
+        f0 = float(np.clip(0.5 * ev.envelope_step_m * wn * wn, 1e-3 * f_max, 0.5 * f_max))
+        return (np.full(c, f0), np.zeros(c), np.full(c, f_max), np.full(c, 0.01 * f_max))
+    if effect == "presliding":
+        return (np.array([wn * wn]), np.zeros(1), np.array([50.0 * wn * wn]), np.array([wn * wn]))
+    if effect == "static_friction":
+        return np.array([1.2]), np.ones(1), np.array([STATIC_RATIO_MAX]), np.array([0.1])
+    if effect == "quadratic_drag":
+        d_max = 10.0 / amp
+        d0 = float(np.clip(0.75 * ev.drag_beta_per_m, 0.01 / amp, 0.5 * d_max))
+        return np.array([d0]), np.zeros(1), np.array([d_max]), np.array([0.1 / amp])
+    if effect == "cubic_stiffness":
+        k_max = 0.7 * wn * wn / (amp * amp)
+        k0 = float(np.clip(ev.cubic_start_per_m2_s2, -0.5 * k_max, 0.5 * k_max))
+        return (np.array([k0]), np.array([-k_max]), np.array([k_max]), np.array([0.01 * k_max]))
+    if effect == "held_cart_motion":
+        return (np.array([0.1 * wn * wn]), np.array([-0.2 * wn * wn]), np.array([1.5 * wn * wn]),
+                np.array([0.1 * wn * wn]))
+    if effect == "quantization":
+        q, off = (ev.lattice.quantum_m, ev.lattice.offset_m) if ev.lattice is not None else (1e-3 * amp, 0.0)
+        return (np.array([q, off, 0.15]), np.array([-np.inf, -np.inf, 0.005]),
+                np.array([np.inf, np.inf, 0.5]), np.array([q, q, 0.1]))
+    return _mode_bounds(prob, wn_modes, res)
+
+
+#: A searched mode is kept this far (relative) from the main (lowest) baseline mode, so that it
+#: cannot turn into a beat with it that mimics an amplitude-dependent envelope, and this far
+#: from the other baseline modes (a chain's second mode: a beat with it is a record's worth of
+#: periods long, and an extra mass on a chain often rings just beside it).
+MAIN_MODE_GAP = 0.25
+OTHER_MODE_GAP = 0.08
+
+
+def _mode_bounds(prob: Problem, wn_modes: FloatArray, res: FloatArray) -> Bounds:
+    """A further resonance from the residual's strongest peak away from the baseline modes.
+
+    Its frequency is bounded to the gap between the baseline modes' exclusion zones
+    (`MAIN_MODE_GAP`, `OTHER_MODE_GAP`) in which that peak lies, within 0.33× the main mode
+    (slower drifts are no mode of the rig) and 0.98× Nyquist; damping ratio ≤ 0.3.
+    """
+    c, amp = prob.y.shape[1], prob.amplitude
+    nyq_hz = 0.5 / prob.dt
+    modes_hz = np.sort(np.asarray(wn_modes, dtype=np.float64)) / (2 * np.pi)
+    zones = [((1 - MAIN_MODE_GAP) * modes_hz[0], modes_hz[0] / (1 - MAIN_MODE_GAP))]
+    zones += [(f * (1 - OTHER_MODE_GAP), f / (1 - OTHER_MODE_GAP)) for f in modes_hz[1:]]
+    edges = [0.33 * modes_hz[0]] + [v for z in sorted(zones) for v in z] + [0.98 * nyq_hz]
+    gaps = [(lo, hi) for lo, hi in zip(edges[::2], edges[1::2]) if hi > lo * 1.02]
+    # starts: the residual's peaks in a gap, and just outside each other mode's zone (a mode
+    # beside a chain's second mode leaves a beat centred inside the zone, not a peak outside)
+    peaks = spectral_peaks(res, prob.dt, 4, exclude=wn_modes, exclude_rel=OTHER_MODE_GAP, fill=False)
+    tries = [float(w) / (2 * np.pi) for w in peaks]
+    tries += [v for lo, hi in zones[1:] for v in (lo / 1.03, hi * 1.03)]
+    tries = [f for f in tries if any(lo <= f <= hi for lo, hi in gaps)]
+    if not tries:
+        tries = [float(np.clip(spectral_peaks(res, prob.dt, 1, exclude=wn_modes, exclude_rel=0.3)[0] / (2 * np.pi),
+                               gaps[-1][0], gaps[-1][1]))]
+    cost = [float(np.sum(project(prob.tau, res, np.array([2 * np.pi * f]), np.array([0.02 * np.pi * f]))[1] ** 2))
+            for f in tries]
+    f3 = tries[int(np.argmin(cost))]
+    band = next(g for g in gaps if g[0] <= f3 <= g[1])
+    w3 = 2 * np.pi * f3
+    s3 = 0.01 * w3
+    coef, _ = project(prob.tau, res, np.array([w3]), np.array([s3]))
+    a3, b3 = coef[1], coef[2]
+    start = np.concatenate([[w3 / (2 * np.pi), min(s3, 0.15 * 2 * np.pi * band[0])], a3, b3])
+    lower = np.concatenate([[band[0], 0.0], np.full(2 * c, -np.inf)])
+    upper = np.concatenate([[band[1], 0.3 * 2 * np.pi * band[0]], np.full(2 * c, np.inf)])
+    typical = np.concatenate([[w3 / (2 * np.pi), 0.1 * w3], np.full(2 * c, 0.01 * amp)])
+    return start, lower, upper, typical
+
+
+__all__ = ["MAIN_MODE_GAP", "OTHER_MODE_GAP", "STATIC_RATIO_MAX", "assemble"]

@@ -1,0 +1,60 @@
+"""The work samples a diagnosis fits (`Problem`), and batched grid searches over one
+parameter block of a model on them. No I/O here."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ident.diagnose.models import ModelSpec
+
+FloatArray = NDArray[np.float64]
+#: (start, lower, upper, typical) of a parameter vector.
+Bounds = tuple[FloatArray, FloatArray, FloatArray, FloatArray]
+
+
+@dataclass(frozen=True)
+class Problem:
+    """Work samples of the window: `tau` (N,) s, `y` (N, carts) m, `dt` s, `train` (N,) the
+    samples every fit uses (all of them), the largest swing `amplitude` (m), `held` (N,) the
+    held cart's motion from its first sample (m) or None, `inputs` (N, m) or None."""
+
+    tau: FloatArray
+    y: FloatArray
+    dt: float
+    train: NDArray[np.bool_]
+    carts: int
+    amplitude: float
+    held: FloatArray | None = None
+    inputs: FloatArray | None = None
+
+
+def best_rows(spec: ModelSpec, prob: Problem, theta: FloatArray, where: slice,
+              values: list[FloatArray]) -> FloatArray:
+    """`theta` with the block `where` set to the candidate of least cost (one batch)."""
+    rows = np.repeat(theta[None, :], len(values), axis=0)
+    for k, v in enumerate(values):
+        rows[k, where] = v
+    with np.errstate(all="ignore"):
+        pred = spec.predict(rows, prob.dt, prob.y.shape[0])
+    cost = np.nan_to_num(np.sum((pred - prob.y[None]) ** 2, axis=(1, 2)), nan=np.inf)
+    return np.asarray(rows[int(np.argmin(cost))], dtype=np.float64)
+
+
+def best_on_grid(spec: ModelSpec, prob: Problem, theta: FloatArray, index: int,
+                 values: tuple[float, ...]) -> FloatArray:
+    """`theta` with parameter `index` set to the grid value of least cost (one batch)."""
+    rows = np.repeat(theta[None, :], len(values), axis=0)
+    rows[:, index] = values
+    for i, name in enumerate(spec.names):
+        if name in spec.fixed:
+            rows[:, i] = spec.fixed[name]
+    with np.errstate(all="ignore"):
+        pred = spec.predict(rows, prob.dt, prob.y.shape[0])
+    cost = np.nan_to_num(np.sum((pred - prob.y[None]) ** 2, axis=(1, 2)), nan=np.inf)
+    return np.asarray(rows[int(np.argmin(cost))], dtype=np.float64)
+
+
+__all__ = ["Bounds", "FloatArray", "Problem", "best_on_grid", "best_rows"]
