@@ -88,8 +88,10 @@ def find_window(t: FloatArray, y: FloatArray, carts: int) -> Window:
     if t.shape[0] - onset < 40:
         raise IdentValueError("run", "at least 40 samples after the motion starts",
                               f"{t.shape[0] - onset}")
-    after = y[onset:]
-    peaks = spectral_peaks(after - after.mean(axis=0), dt, carts)
+    # the modes from the velocity's spectrum: a cart that sticks away from its hold level
+    # leaves a step in the position whose 1/ω² spectrum can outweigh the ring itself
+    vel = np.diff(y[onset:], axis=0)
+    peaks = spectral_peaks(vel - vel.mean(axis=0), dt, carts)
     period = 2 * np.pi / float(peaks[0])
     span = round(2.5 * period / dt)
     head = max(2, round(0.25 * period / dt))
@@ -101,7 +103,7 @@ def find_window(t: FloatArray, y: FloatArray, carts: int) -> Window:
     for j in range(SCAN_STEPS):
         a = onset + j * step
         b = min(a + span, t.shape[0])
-        if b - a - head < 20:
+        if (b - a - head) // dec < 20:   # too few samples left for a modal fit
             break
         fit = fit_modes(t[a + head:b:dec] - t[a], y[a + head:b:dec], peaks)
         rms_fit = float(np.sqrt(fit.sse / fit.residual.size))
@@ -110,6 +112,9 @@ def find_window(t: FloatArray, y: FloatArray, carts: int) -> Window:
         fits.append((a, fit))
         heads.append(rms_head)
         scores.append(rms_head / (2.0 * rms_fit + 2.0 * noise + 1e-15))
+    if not fits:
+        raise IdentValueError("run", f"a free response long enough for a modal fit (a few periods of "
+                              f"{period:.3g} s after the motion starts)", f"{t[-1] - t[onset]:.3g} s")
     floor = 3.0 * min(heads) + 2.0 * noise
     ok = [j for j, score in enumerate(scores) if score <= 1.0 and heads[j] <= floor]
     start, fit = fits[ok[0] if ok else int(np.argmin(scores))]
