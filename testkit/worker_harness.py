@@ -37,6 +37,15 @@ def open_session(bus: BusConfig) -> zenoh.Session:
     return zenoh.open(zenoh.Config.from_json5(bus.zenoh_json5()))
 
 
+#: the `router` fixture of the worker tests: its endpoint and its session
+Router = tuple[str, zenoh.Session]
+
+
+def client_args(endpoint: str) -> list[str]:
+    """A worker's command-line options to join the bus as a client of the router at `endpoint`."""
+    return ["--mode", "client", "--connect", endpoint]
+
+
 def alive_workers(session: zenoh.Session) -> set[str]:
     return {str(r.ok.key_expr).rsplit("/", 1)[-1]
             for r in session.liveliness().get(keys.ALL_IDENT_ALIVE, timeout=1.0) if r.ok}

@@ -23,9 +23,10 @@ from testkit.worker_harness import (
     STARTUP_S,
     FakeDaq,
     FitCollector,
+    Router,
     alive_workers,
+    client_args,
     fit_log_counts,
-    open_session,
     record_sim_run,
     start_worker,
     stop,
@@ -34,21 +35,7 @@ from testkit.worker_harness import (
 pytestmark = pytest.mark.timeout(90)
 
 
-@pytest.fixture
-def router(free_port: int):  # type: ignore[no-untyped-def]
-    endpoint = f"tcp/127.0.0.1:{free_port}"
-    session = open_session(BusConfig(mode="router", listen=[endpoint]))
-    try:
-        yield endpoint, session
-    finally:
-        session.close()
-
-
-def _client(endpoint: str) -> list[str]:
-    return ["--mode", "client", "--connect", endpoint]
-
-
-def test_two_workers_fit_each_run_exactly_once(router, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
+def test_two_workers_fit_each_run_exactly_once(router: Router, tmp_path: Path) -> None:
     endpoint, session = router
     runs_dir = tmp_path / "runs"
     runs_dir.mkdir()
@@ -56,7 +43,7 @@ def test_two_workers_fit_each_run_exactly_once(router, tmp_path: Path) -> None: 
     daq = FakeDaq(session, "bench1", runs_dir)
     collector = FitCollector(session)
     early = [daq.announce(f"r{i:02d}") for i in range(4)]     # before any worker runs
-    workers = [start_worker(n, _client(endpoint), runs_dir, tmp_path, "testkit.fake_fitters:instant_fit", env)
+    workers = [start_worker(n, client_args(endpoint), runs_dir, tmp_path, "testkit.fake_fitters:instant_fit", env)
                for n in ("wa", "wb")]
     try:
         wait_until(lambda: alive_workers(session) == {"wa", "wb"}, STARTUP_S, "both workers alive")
@@ -76,7 +63,7 @@ def test_two_workers_fit_each_run_exactly_once(router, tmp_path: Path) -> None: 
         assert (runs_dir / f"{run.run_id}.fit" / "report.json").is_file()
 
 
-def test_kill_9_mid_fit_the_other_worker_takes_over(router, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
+def test_kill_9_mid_fit_the_other_worker_takes_over(router: Router, tmp_path: Path) -> None:
     endpoint, session = router
     runs_dir = tmp_path / "runs"
     runs_dir.mkdir()
@@ -84,7 +71,7 @@ def test_kill_9_mid_fit_the_other_worker_takes_over(router, tmp_path: Path) -> N
     env = {"FAKE_FIT_LOG": str(log), "FAKE_FIT_GATE": str(gate)}
     daq = FakeDaq(session, "bench1", runs_dir)
     collector = FitCollector(session)
-    workers = {n: start_worker(n, _client(endpoint), runs_dir, tmp_path, "testkit.fake_fitters:gated_fit", env)
+    workers = {n: start_worker(n, client_args(endpoint), runs_dir, tmp_path, "testkit.fake_fitters:gated_fit", env)
                for n in ("wa", "wb")}
     try:
         wait_until(lambda: alive_workers(session) == {"wa", "wb"}, STARTUP_S, "both workers alive")
@@ -110,14 +97,14 @@ def test_kill_9_mid_fit_the_other_worker_takes_over(router, tmp_path: Path) -> N
     assert {r[0].worker for r in finals.values()} == {"wb"}
 
 
-def test_a_run_whose_file_cannot_be_had_is_retried_when_its_daq_comes_back(router, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
+def test_a_run_whose_file_cannot_be_had_is_retried_when_its_daq_comes_back(router: Router, tmp_path: Path) -> None:
     endpoint, session = router
     runs_dir = tmp_path / "runs"
     runs_dir.mkdir()
     env = {"FAKE_FIT_LOG": str(tmp_path / "fits.log")}
     daq = FakeDaq(session, "bench1", runs_dir)
     collector = FitCollector(session)
-    worker = start_worker("wa", _client(endpoint), runs_dir, tmp_path, "testkit.fake_fitters:instant_fit", env)
+    worker = start_worker("wa", client_args(endpoint), runs_dir, tmp_path, "testkit.fake_fitters:instant_fit", env)
     try:
         missing = daq.announce("gone", content=None)   # no file, and no `run` queryable answers
         good = daq.announce("fine")
@@ -137,14 +124,14 @@ def test_a_run_whose_file_cannot_be_had_is_retried_when_its_daq_comes_back(route
     assert (runs_dir / "bench1" / "gone.mcap").read_bytes().startswith(b"fake-run gone")
 
 
-def test_real_pipeline_reports_corrupted_and_truncated_runs_and_goes_on(router, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
+def test_real_pipeline_reports_corrupted_and_truncated_runs_and_goes_on(router: Router, tmp_path: Path) -> None:
     endpoint, session = router
     good_bytes = record_sim_run(tmp_path / "recorded")
     runs_dir = tmp_path / "runs"
     runs_dir.mkdir()
     daq = FakeDaq(session, "bench1", runs_dir)
     collector = FitCollector(session)
-    worker = start_worker("wa", _client(endpoint), runs_dir, tmp_path)
+    worker = start_worker("wa", client_args(endpoint), runs_dir, tmp_path)
     try:
         bad = daq.announce("garbage", content=b"\x89MCAP0\r\n" + bytes(range(256)) * 4)
         cut = daq.announce("truncated", content=good_bytes[:300])
@@ -164,7 +151,7 @@ def test_real_pipeline_reports_corrupted_and_truncated_runs_and_goes_on(router, 
     assert ok.pending == ["diagnosis", "figures"] and ok.simple
 
 
-def test_a_restarted_worker_republishes_stored_fits_without_refitting(router, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
+def test_a_restarted_worker_republishes_stored_fits_without_refitting(router: Router, tmp_path: Path) -> None:
     endpoint, session = router
     runs_dir = tmp_path / "runs"
     runs_dir.mkdir()
@@ -172,7 +159,7 @@ def test_a_restarted_worker_republishes_stored_fits_without_refitting(router, tm
     env = {"FAKE_FIT_LOG": str(log)}
     daq = FakeDaq(session, "bench1", runs_dir)
     runs = [daq.announce(f"r{i}") for i in range(3)]
-    first = start_worker("wa", _client(endpoint), runs_dir, tmp_path, "testkit.fake_fitters:instant_fit", env)
+    first = start_worker("wa", client_args(endpoint), runs_dir, tmp_path, "testkit.fake_fitters:instant_fit", env)
     try:
         FitCollector(session).wait_finals(runs, timeout_s=30)
     finally:
@@ -180,7 +167,7 @@ def test_a_restarted_worker_republishes_stored_fits_without_refitting(router, tm
     # The worker's publishers (and their caches) are gone; a new worker and a new listener.
     wait_until(lambda: alive_workers(session) == set(), 20, "the first worker gone")
     late = FitCollector(session)
-    second = start_worker("wb", _client(endpoint), runs_dir, tmp_path, "testkit.fake_fitters:instant_fit", env)
+    second = start_worker("wb", client_args(endpoint), runs_dir, tmp_path, "testkit.fake_fitters:instant_fit", env)
     try:
         finals = late.wait_finals(runs, timeout_s=30)
     finally:
@@ -189,7 +176,7 @@ def test_a_restarted_worker_republishes_stored_fits_without_refitting(router, tm
     assert all(ws == ["wa"] for ws in fit_log_counts(log)["done"].values())
 
 
-def test_kill_9_during_the_diagnosis_the_other_worker_completes_the_run(router, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
+def test_kill_9_during_the_diagnosis_the_other_worker_completes_the_run(router: Router, tmp_path: Path) -> None:
     """The real two-stage pipeline: a worker dies after its early report (transfer functions
     published, diagnosis running); the other one fits the run again and completes it, once."""
     endpoint, session = router
@@ -198,7 +185,7 @@ def test_kill_9_during_the_diagnosis_the_other_worker_completes_the_run(router, 
     runs_dir.mkdir()
     daq = FakeDaq(session, "bench1", runs_dir)
     collector = FitCollector(session)
-    workers = {n: start_worker(n, _client(endpoint), runs_dir, tmp_path) for n in ("wa", "wb")}
+    workers = {n: start_worker(n, client_args(endpoint), runs_dir, tmp_path) for n in ("wa", "wb")}
     try:
         wait_until(lambda: alive_workers(session) == {"wa", "wb"}, STARTUP_S, "both workers alive")
         runs = [daq.announce("r0", content=run_bytes)]
@@ -218,7 +205,7 @@ def test_kill_9_during_the_diagnosis_the_other_worker_completes_the_run(router, 
     assert (runs_dir / f"{runs[0].run_id}.fit" / "report.json").is_file()
 
 
-def test_a_new_worker_learns_from_a_survivor_what_a_dead_worker_fitted(router, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
+def test_a_new_worker_learns_from_a_survivor_what_a_dead_worker_fitted(router: Router, tmp_path: Path) -> None:
     """Separate runs directories (nothing shared on disk): wa and wb fit, wa is killed, then
     wc starts with an empty history of wa's publications and must refit nothing."""
     endpoint, session = router
@@ -234,7 +221,7 @@ def test_a_new_worker_learns_from_a_survivor_what_a_dead_worker_fitted(router, t
     ids_a = [i for i in ids if owner(RunRef("bench1", i), {"wa", "wb"}) == "wa"
              and owner(RunRef("bench1", i), {"wb", "wc"}) == "wc"][:4]
     ids_b = [i for i in ids if owner(RunRef("bench1", i), {"wa", "wb"}) == "wb"][:4]
-    workers = {n: start_worker(n, _client(endpoint), dirs[n], tmp_path, "testkit.fake_fitters:instant_fit", env)
+    workers = {n: start_worker(n, client_args(endpoint), dirs[n], tmp_path, "testkit.fake_fitters:instant_fit", env)
                for n in ("wa", "wb")}
     try:
         wait_until(lambda: alive_workers(session) == {"wa", "wb"}, STARTUP_S, "wa and wb alive")
@@ -248,7 +235,7 @@ def test_a_new_worker_learns_from_a_survivor_what_a_dead_worker_fitted(router, t
         workers["wa"].wait(timeout=10)
         wait_until(lambda: alive_workers(session) == {"wb"}, 20, "wa gone")
         late = FitCollector(session)
-        workers["wc"] = start_worker("wc", _client(endpoint), dirs["wc"], tmp_path,
+        workers["wc"] = start_worker("wc", client_args(endpoint), dirs["wc"], tmp_path,
                                      "testkit.fake_fitters:instant_fit", env)
         wait_until(lambda: alive_workers(session) == {"wb", "wc"}, STARTUP_S, "wc alive")
         # a new run that wc owns: wc fits pending runs oldest first, so once this one is
@@ -267,13 +254,13 @@ def test_a_new_worker_learns_from_a_survivor_what_a_dead_worker_fitted(router, t
     assert all(len(ws) == 1 for ws in done.values()), done   # wa's runs were not fitted again
 
 
-def test_a_second_worker_with_a_name_in_use_refuses_to_start(router, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
+def test_a_second_worker_with_a_name_in_use_refuses_to_start(router: Router, tmp_path: Path) -> None:
     endpoint, session = router
-    first = start_worker("wa", _client(endpoint), tmp_path / "runs", tmp_path, "testkit.fake_fitters:instant_fit")
+    first = start_worker("wa", client_args(endpoint), tmp_path / "runs", tmp_path, "testkit.fake_fitters:instant_fit")
     try:
         wait_until(lambda: alive_workers(session) == {"wa"}, STARTUP_S, "wa alive")
         (tmp_path / "dup").mkdir()
-        twin = start_worker("wa", _client(endpoint), tmp_path / "runs2", tmp_path / "dup",
+        twin = start_worker("wa", client_args(endpoint), tmp_path / "runs2", tmp_path / "dup",
                             "testkit.fake_fitters:instant_fit")
         assert twin.wait(timeout=30) == 2
         assert "expected a name no alive worker uses, got 'wa', already alive" in \

@@ -9,21 +9,19 @@ at a gate the test opens (`testkit.fake_fitters`), so "before ready" is a state,
 
 from __future__ import annotations
 
-from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
-import zenoh
 
 from schemas import keys
-from schemas.bus import BusConfig
 from testkit.waiting import wait_until
 from testkit.worker_harness import (
     STARTUP_S,
     FakeDaq,
     FitCollector,
+    Router,
     alive_workers,
-    open_session,
+    client_args,
     start_worker,
     stop,
 )
@@ -31,21 +29,7 @@ from testkit.worker_harness import (
 pytestmark = pytest.mark.timeout(120)
 
 
-@pytest.fixture
-def router(free_port: int) -> Iterator[tuple[str, zenoh.Session]]:
-    endpoint = f"tcp/127.0.0.1:{free_port}"
-    session = open_session(BusConfig(mode="router", listen=[endpoint]))
-    try:
-        yield endpoint, session
-    finally:
-        session.close()
-
-
-def _client(endpoint: str) -> list[str]:
-    return ["--mode", "client", "--connect", endpoint]
-
-
-def test_the_worker_is_alive_only_once_its_fit_process_is_ready(router: tuple[str, zenoh.Session],
+def test_the_worker_is_alive_only_once_its_fit_process_is_ready(router: Router,
                                                                  tmp_path: Path) -> None:
     endpoint, session = router
     runs_dir = tmp_path / "runs"
@@ -54,7 +38,7 @@ def test_the_worker_is_alive_only_once_its_fit_process_is_ready(router: tuple[st
     env = {"FAKE_FIT_LOG": str(tmp_path / "fits.log"), "FAKE_FIT_START_GATE": str(gate)}
     daq = FakeDaq(session, "bench1", runs_dir)
     collector = FitCollector(session)
-    worker = start_worker("ws", _client(endpoint), runs_dir, tmp_path, "testkit.fake_fitters:instant_fit", env)
+    worker = start_worker("ws", client_args(endpoint), runs_dir, tmp_path, "testkit.fake_fitters:instant_fit", env)
     try:
         wait_until(lambda: Path(f"{gate}.loading").exists(), STARTUP_S, "the fit process loading its fitter", worker)
         # the session is open and the fit process is loading: not alive yet
@@ -72,12 +56,12 @@ def test_the_worker_is_alive_only_once_its_fit_process_is_ready(router: tuple[st
 
 
 def test_a_fit_process_that_cannot_load_its_fitter_ends_the_worker_never_alive(
-        router: tuple[str, zenoh.Session], tmp_path: Path) -> None:
+        router: Router, tmp_path: Path) -> None:
     endpoint, session = router
     seen: list[str] = []   # every liveliness change of the worker's token, as the router sees it
     tokens = session.liveliness().declare_subscriber(keys.ident_alive("wf"), lambda s: seen.append(str(s.kind)))
     env = {"FAKE_FIT_LOG": str(tmp_path / "fits.log"), "FAKE_FIT_START_FAIL": "1"}
-    worker = start_worker("wf", _client(endpoint), tmp_path / "runs", tmp_path, "testkit.fake_fitters:instant_fit",
+    worker = start_worker("wf", client_args(endpoint), tmp_path / "runs", tmp_path, "testkit.fake_fitters:instant_fit",
                           env)
     try:
         code = worker.wait(timeout=60)
