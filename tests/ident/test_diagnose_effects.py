@@ -22,10 +22,7 @@ SET_SEED = 20261124
 PER_FAMILY = 3
 #: targets main did not meet when this test landed (strict: a pass fails the run, so the mark
 #: is removed as soon as the diagnosis meets them); tools/bench_diagnose.py gives the rates
-NOT_YET = {
-    "coulomb+held_cart": "seed 1568247562 (flick): a 0.5 Hz coupled mode fits the held cart's wander before the "
-                         "held-cart coupling does; friction 39 % off",
-}
+NOT_YET: dict[str, str] = {}
 
 
 def _seeds(family: str, n: int = PER_FAMILY) -> list[int]:
