@@ -42,6 +42,8 @@ FloatArray = NDArray[np.float64]
 
 MAX_WORK_SAMPLES = 500
 SCAN_STEPS = 17
+#: periods of the dominant mode in each window the scan fits
+SCAN_PERIODS = 2.5
 #: a hold level this fraction of the swing away from the middle of the swings is a pull-hold
 HOLD_AWAY = 0.3
 
@@ -88,12 +90,14 @@ def find_window(t: FloatArray, y: FloatArray, carts: int) -> Window:
     if t.shape[0] - onset < 40:
         raise IdentValueError("run", "at least 40 samples after the motion starts",
                               f"{t.shape[0] - onset}")
-    # the modes from the velocity's spectrum: a cart that sticks away from its hold level
-    # leaves a step in the position whose 1/ω² spectrum can outweigh the ring itself
-    vel = np.diff(y[onset:], axis=0)
-    peaks = spectral_peaks(vel - vel.mean(axis=0), dt, carts)
+    # the modes the scan can fit: at least SCAN_PERIODS periods in the record after the onset
+    # (a heavily damped ring released far from rest, then stuck, spreads the power of its
+    # hold-to-rest step over the lowest frequencies, where no such mode could be fitted)
+    after = y[onset:]
+    lowest = max(0.5, 2.0 * np.pi * SCAN_PERIODS / float(t[-1] - t[onset]))
+    peaks = spectral_peaks(after - after.mean(axis=0), dt, carts, min_rad_s=lowest)
     period = 2 * np.pi / float(peaks[0])
-    span = round(2.5 * period / dt)
+    span = round(SCAN_PERIODS * period / dt)
     head = max(2, round(0.25 * period / dt))
     step = max(1, round(period / 24 / dt))
     dec = max(1, int(np.ceil(span / 150)))

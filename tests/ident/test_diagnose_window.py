@@ -5,7 +5,8 @@ friction rings out within two seconds and then sits at its rest for the remainin
 the position is mostly a step from the hold to the rest, whose 1/ω² spectrum outweighs the
 short ring. The window took its modes from that step (0.9 rad/s for a 17 rad/s ring), its
 scan then ran out of samples and the modal fit crashed ("Initial guess is outside of provided
-bounds"). The records come from a plain fine-step integration in this test, not from `ident`.
+bounds"). Its first fix, the velocity's spectrum, then lost noisy rings to the differenced
+reading noise. The records come from a plain fine-step integration in this test, not from `ident`.
 """
 
 from __future__ import annotations
@@ -41,15 +42,19 @@ def ring(wn: float, zeta: float, kinetic: float, static: float, start_m: float,
     return np.arange(n) * FINE_S, x
 
 
-@pytest.mark.parametrize(("wn", "zeta", "rate_hz"), [(17.0, 0.08, 686.0), (12.0, 0.1, 200.0), (25.0, 0.06, 1000.0)])
+@pytest.mark.parametrize(("wn", "zeta", "rate_hz", "noise_m", "pull_m"), [
+    (17.0, 0.08, 686.0, 1e-5, 0.082), (12.0, 0.1, 200.0, 1e-5, 0.082), (25.0, 0.06, 1000.0, 1e-5, 0.082),
+    # a 2 cm pull read with 0.1 mm noise at 555 Hz: a velocity spectrum peaks at the differenced noise
+    (14.7, 0.03, 555.0, 1e-4, 0.02)])
 def test_a_damped_ring_released_far_from_rest_is_fitted_at_its_own_frequency(wn: float, zeta: float,
-                                                                             rate_hz: float) -> None:
+                                                                             rate_hz: float, noise_m: float,
+                                                                             pull_m: float) -> None:
     kinetic = 1.0
-    tf, xf = ring(wn, zeta, kinetic, 1.4 * kinetic, -0.082, 4.3)
+    tf, xf = ring(wn, zeta, kinetic, 1.4 * kinetic, -pull_m, 4.3)
     release = 0.5
     t = np.arange(0.0, 4.8, 1.0 / rate_hz, dtype=np.float64)
-    x = np.where(t < release, -0.082, np.interp(t - release, tf, xf))
-    y = x + 0.082 + np.random.default_rng(int(rate_hz)).normal(0.0, 1e-5, t.size)
+    x = np.where(t < release, -pull_m, np.interp(t - release, tf, xf))
+    y = x + pull_m + np.random.default_rng(int(rate_hz)).normal(0.0, noise_m, t.size)
     report = diagnose(t, y[:, None], carts=1).report
     assert report.extended.parameters["wn_rad_s"] == pytest.approx(wn, rel=0.05)
     assert abs(report.release_time_s - release) < 2.0 / rate_hz
