@@ -2,10 +2,11 @@
 
 A free cart obeys (per unit mass, the other free carts' positions entering through springs)
 
-    a_j = -Σ_i k_ji x_i - c_j v_j - f_j·sgn(v_j) + b_j,
+    a_j = -Σ_i k_ji x_i - c_j v_j - f_j·sgn(v_j) + b_j - d_j·w|w|,
 
 with stiffness `k`, viscous `c` and dry friction `f` (m/s²; sgn smoothed as the derivatives
-are, `friction_sign`, so that the regression stays linear) and an offset `b` (the rest position). The coefficients
+are, `friction_sign`, so that the regression stays linear), an offset `b` (the rest position)
+and quadratic drag, which a linear model lacks (`state_terms`, w = v/speed). The coefficients
 come from a robust regression (Tukey bisquare, iteratively reweighted) of the smoothed
 acceleration on those terms over the samples where the cart moves: hand phases are short
 and get weight zero. The residual `r_j` is then the hand's force per unit mass: large while
@@ -34,6 +35,13 @@ STICK_ALLOWANCE = 2.5
 #: ... and this fraction of the modelled acceleration |a| is model error, not a hand (a hand
 #: that lets a cart go held it with a force comparable with the spring's: far above it).
 MODEL_FRACTION = 0.02
+#: A free response's own misfit (`state_misfit`): this many times the record's median share
+#: of the swing's acceleration, at most this share (a hand that lets a cart go held it with
+#: at least `finder.HAND_FORCE_FRACTION` of the spring's force).
+STATE_MISFIT_FACTOR = 2.0
+STATE_MISFIT_CAP = 0.25
+#: ... counting only what |r| exceeds this many residual scales by (the noise is not a force).
+NOISE_SHARE = 1.0
 
 
 @dataclass(frozen=True)
@@ -48,7 +56,8 @@ class FreeModel:
     `allowance` (N,) m/s² the error allowed: dry friction near a stop (`near_stop`) and
     `MODEL_FRACTION` of the modelled acceleration; `push_allowance` (N,) the same with dry
     friction at the reversals of a swinging cart only (`near_reversal`): a push may start a
-    cart from rest.
+    cart from rest. Both include the free response's own misfit (`state_misfit`). `extra`
+    (1,) the state term's coefficient (m/s²) with its `speed` (m/s).
     """
 
     column: int
@@ -64,6 +73,8 @@ class FreeModel:
     slow: tuple[int, ...] = ()
     allowance: FloatArray | None = None
     push_allowance: FloatArray | None = None
+    extra: FloatArray | None = None
+    speed: float = 1.0
 
     @property
     def wn(self) -> float:
@@ -77,7 +88,7 @@ class FreeModel:
 
 
 def regressors(m: Motion, column: int, others: tuple[int, ...], v_smooth: float,
-               slow: tuple[int, ...] = ()) -> FloatArray:
+               slow: tuple[int, ...] = (), speed: float | None = None) -> FloatArray:
     """The regression matrix (N, 4 + len(others)): -x_j, -x_others, -v_j, -tanh(v_j/v_s), 1.
 
     A column in `slow` (a held cart) enters by its average over one period: where the hand
@@ -85,7 +96,19 @@ def regressors(m: Motion, column: int, others: tuple[int, ...], v_smooth: float,
     which is nearly proportional to x_j and would make the regression ill-posed."""
     cols = [-m.x[:, column]] + [-(period_average(m, m.x[:, i]) if i in slow else m.x[:, i]) for i in others]
     cols += [-m.v[:, column], -friction_sign(m, column, v_smooth), np.ones(m.n_samples)]
+    if speed is not None:
+        cols += state_terms(m, column, speed)
     return np.column_stack(cols)
+
+
+def state_terms(m: Motion, column: int, speed: float) -> list[FloatArray]:
+    """The smooth force of the state a linear free model lacks, as a regressor (N,): quadratic
+    drag -w|w| (w = v/`speed`, order one): an effect present all along a free response and
+    decaying with it, which a hand's force (not a function of the state) is not. (A spring
+    curved in x, x² and x³ terms, also took a real cart's sub-millimetre creep near a stop
+    for a push.)"""
+    w = m.v[:, column] / speed
+    return [-w * np.abs(w)]
 
 
 def friction_sign(m: Motion, column: int, v_smooth: float) -> FloatArray:
@@ -126,7 +149,7 @@ def _fit(m: Motion, column: int, others: tuple[int, ...], slow: tuple[int, ...])
     v = m.v[:, column]
     speed = float(np.percentile(np.abs(v), 95))
     v_smooth = max(0.02 * speed, 3.0 * float(m.noise_m[column]) / m.dt / 10.0, 1e-9)
-    basis = regressors(m, column, others, v_smooth, slow)
+    basis = regressors(m, column, others, v_smooth, slow, max(speed, 1e-9))
     target = m.a[:, column]
     moving = np.abs(v) > 0.05 * speed
     if np.count_nonzero(moving) < basis.shape[1] * 4:
@@ -138,13 +161,44 @@ def _fit(m: Motion, column: int, others: tuple[int, ...], slow: tuple[int, ...])
     # so its error grows with the swing (a cart swinging further than most of the record)
     model_error = MODEL_FRACTION * np.abs(basis @ coef)
     stick = STICK_ALLOWANCE * abs(float(coef[n_k + 1]))
-    allowance = stick * near_stop(m, column, v_smooth) + model_error
-    push_allowance = stick * near_reversal(m, column, v_smooth) + model_error
-    limit = HAND_SIGMAS * scale + allowance
-    hand = np.abs(resid - drift(resid, np.abs(resid) > limit, m.samples(2.0 * m.period_s))) > limit
+    stops = stick * near_stop(m, column, v_smooth)
+    hand = _hand(m, resid, HAND_SIGMAS * scale + stops + model_error)
+    # the free response's own misfit, from the samples the first pass leaves free: beyond the
+    # noise for single samples (the hand's limit has the noise already), all of it for the
+    # sustained pushes' moving average (which averages the noise out)
+    spring = basis[:, :n_k] @ coef[:n_k] + coef[n_k + 2]
+    free = moving & ~hand
+    allowance = stops + np.maximum(model_error, state_misfit(m, column, spring, float(coef[0]), resid, free,
+                                                             NOISE_SHARE * scale))
+    hand = _hand(m, resid, HAND_SIGMAS * scale + allowance)
+    push_allowance = stick * near_reversal(m, column, v_smooth) + np.maximum(
+        model_error, state_misfit(m, column, spring, float(coef[0]), resid, free, 0.0))
     return FreeModel(column, others, np.asarray(coef[:n_k]), float(coef[n_k]), float(coef[n_k + 1]),
                      float(coef[n_k + 2]), v_smooth, resid, scale, hand, slow, allowance,
-                     push_allowance)
+                     push_allowance, np.asarray(coef[n_k + 3:]), max(speed, 1e-9))
+
+
+def _hand(m: Motion, resid: FloatArray, limit: FloatArray) -> NDArray[np.bool_]:
+    """Where |residual - drift| exceeds `limit` (N,)."""
+    return np.asarray(np.abs(resid - drift(resid, np.abs(resid) > limit, m.samples(2.0 * m.period_s))) > limit)
+
+
+def state_misfit(m: Motion, column: int, spring: FloatArray, k: float, resid: FloatArray,
+                 free: NDArray[np.bool_], noise: float) -> FloatArray:
+    """The misfit (N,) m/s² a free response carries along, in proportion to its swing: the
+    record's typical share q of the swing's acceleration e = √(a_s² + k·v²) (a_s the spring's
+    acceleration, k = ω², so e = ω²·A for a swing of amplitude A), q the median of
+    max(|r| - noise, 0)/e over the `free` samples where e is at least a quarter of its 95th
+    percentile, times `STATE_MISFIT_FACTOR`, at most `STATE_MISFIT_CAP`: an effect the
+    free model lacks (a second mode, a force curved in x or v) is a function of the state,
+    present all along a free response and decaying with it; a hand's force is not."""
+    env = np.sqrt(spring ** 2 + max(k, 0.0) * m.v[:, column] ** 2)
+    big = free & (env > 0.25 * float(np.percentile(env, 95)))
+    if np.count_nonzero(big) < 10:
+        return np.zeros_like(resid)
+    # beyond the noise (scale): a coarse encoder's noise is not a force of the state
+    share = float(np.median(np.maximum(np.abs(resid[big]) - noise, 0.0) / env[big]))
+    return np.asarray(min(STATE_MISFIT_CAP, STATE_MISFIT_FACTOR * share) * env, dtype=np.float64)
 
 
 def _best_fit(m: Motion, basis: FloatArray, target: FloatArray, moving: NDArray[np.bool_]

@@ -21,7 +21,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from ident.releases.hand import FreeModel, regressors
+from ident.releases.hand import HAND_SIGMAS, FreeModel, regressors
 from ident.releases.motion import Motion
 
 FINE_FRACTION = 1.0 / 25.0
@@ -29,6 +29,8 @@ FRACTION_OF_PEAK = 0.02
 NOISE_SIGMAS = 4.0
 #: The force has ended when the residual stays below the limit this fraction of a period.
 QUIET_FRACTION = 1.0 / 12.0
+#: Noise stds a residual sample exceeds when it is a hand's force (`_change_point`).
+CHANGE_SIGMAS = 2.0
 
 
 def release_instant(m: Motion, model: FreeModel, first: int, last: int) -> float:
@@ -45,8 +47,11 @@ def release_instant(m: Motion, model: FreeModel, first: int, last: int) -> float
                   savgol_filter(part, window, 3, deriv=1, delta=m.dt, axis=0),
                   savgol_filter(part, window, 3, deriv=2, delta=m.dt, axis=0),
                   m.dt, m.period_s, m.noise_m, window)
-    coef = np.concatenate([model.stiffness, [model.viscous, model.dry, model.offset]])
-    resid = fine.a[:, model.column] - regressors(fine, model.column, model.others, model.v_smooth, model.slow) @ coef
+    extra = model.extra if model.extra is not None else np.zeros(0)
+    coef = np.concatenate([model.stiffness, [model.viscous, model.dry, model.offset], extra])
+    basis = regressors(fine, model.column, model.others, model.v_smooth, model.slow,
+                       model.speed if extra.size else None)
+    resid = fine.a[:, model.column] - basis @ coef
     after = resid[last + m.samples(m.period_s / 4) - lo:last + period_n - lo]
     # about its median: a held cart moved elsewhere offsets the residual for good
     level = float(np.median(after)) if after.size else 0.0
@@ -76,9 +81,28 @@ def release_instant(m: Motion, model: FreeModel, first: int, last: int) -> float
     # where |r| crosses the limit, between samples, less the smoothing's delay for a force
     # that drops at once from the level it had just before
     before = float(np.max(seg[max(0, k - window):k + 1]))
-    crossing = k + (seg[k] - limit) / max(seg[k] - seg[k + 1], 1e-300)
+    # (within the sample step: the next sample may be loud again beyond the searched span)
+    crossing = k + min(1.0, (seg[k] - limit) / max(seg[k] - seg[k + 1], 1e-300))
     release = first + crossing - smoothing_delay(window, limit / before)
+    if release < last - m.window:
+        # the coarse residual saw the hand a window later: its last force was below the fine
+        # residual's limit (a force that passed through zero and came back weak, or a free
+        # response whose unmodelled effects make the fine residual noisy)
+        release = _coarse_end(m, model, last)
     return float(m.t[0] + np.clip(release, first, m.n_samples - 1) * m.dt)
+
+
+def _coarse_end(m: Motion, model: FreeModel, last: int) -> float:
+    """The release (samples) where the coarse residual |r| crosses the hand's limit after
+    the episode's last sample `last`, less the coarse smoothing's delay."""
+    r = np.abs(model.residual - float(np.median(model.residual[~model.hand])))
+    allowance = model.allowance if model.allowance is not None else np.zeros_like(r)
+    limit = float(HAND_SIGMAS * model.scale + allowance[last])
+    if last + 1 >= m.n_samples or r[last] <= limit:
+        return float(last)
+    before = float(np.max(r[max(0, last - m.window):last + 1]))
+    crossing = last + min(1.0, (r[last] - limit) / max(r[last] - r[last + 1], 1e-300))
+    return crossing - smoothing_delay(m.window, limit / before)
 
 
 def _loud(seg: NDArray[np.float64], limit: float, lo: int, hi: int) -> NDArray[np.intp]:

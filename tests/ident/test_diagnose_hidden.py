@@ -58,10 +58,6 @@ def _csv_report(case: Case, path: Path) -> DiagnosisReport:
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=True, reason="the loader finds the release with ident.releases, which finds none in two "
-                   "of these independent cases: seed 2035121339 (quadratic drag, 19 cm hold, 641 Hz) and "
-                   "1249319127 (coupled mode, flick, 202 Hz); its free model (viscous + Coulomb) takes the "
-                   "unmodelled force for a hand throughout")
 def test_hidden_effects_are_found_through_a_csv_file(tmp_path: Path) -> None:
     results = [(case, _csv_report(case, tmp_path / f"run_{seed}.csv"))
                for seed, family in _plan(API_CASES, 0) for case in [make_case(seed, family)]]
