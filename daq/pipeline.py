@@ -43,6 +43,7 @@ from daq.detector import (
     Settled,
 )
 from daq.frames import DataFrame, Dialect, InfoFrame
+from daq.held import lab_case, moving_carts
 from daq.run_ids import new_run_id
 from daq.timeline import Timeline
 from schemas.daq import (
@@ -59,11 +60,9 @@ from schemas.daq import (
 
 DEFAULT_COUNTS_PER_M: dict[str, float] = {"cartlab": 20000.0, "csv": 1.0, "ecp": 56000.0}
 BATCH_NS = 20_000_000
-PINNED_SPAN_M = 0.002
 MAX_BATCH = 500
-MAX_LIVE_GAPS = 100
-HELD_RATIO = 0.2      # a cart whose span is below this fraction of the pulled cart's is held
-log = logging.getLogger(__name__)   # gap intervals kept for the live status (a run keeps all of its own)
+MAX_LIVE_GAPS = 100   # gap intervals kept for the live status (a run keeps all of its own)
+log = logging.getLogger(__name__)
 
 
 class Outputs(Protocol):
@@ -363,9 +362,11 @@ class Acquisition:
         assert run is not None
         self._flush_run(run)
         counters = _delta(self.counters(), run.counters_at_start, run.gaps)
+        pulled, spans = run.metadata.pulled_cart, _spans(run)
         meta = run.metadata.model_copy(update={
             "counters": counters, "ended_utc": self._wall_clock().isoformat(timespec="milliseconds"),
-            "lab_case": self.config.lab_case or _lab_case(run), "moving_carts": _moving_carts(run)})
+            "lab_case": self.config.lab_case or (lab_case(pulled, spans) if spans else None),
+            "moving_carts": moving_carts(pulled, spans) if spans else None})
         finished = RunFinished(
             bench=meta.bench, run_id=meta.run_id, status="complete" if status == "complete" else "aborted",
             file=f"{meta.run_id}.mcap", n_samples=run.n_samples, release_time_s=meta.release_time_s,
@@ -415,35 +416,12 @@ def _utc_ns(moment: datetime) -> int:
     return (delta.days * 86_400 + delta.seconds) * 1_000_000_000 + delta.microseconds * 1000
 
 
-def _lab_case(run: _Run) -> str | None:
-    """The lab case from the carts' amplitudes: `cart1`/`cart2` (the other cart held) or `both`.
-
-    The other cart is held (pinned, or loosely held by a hand that wanders and lets it follow
-    the pulled cart a little through the spring) when its span in the first `SPAN_S` after the
-    release is below `PINNED_SPAN_M` or below `HELD_RATIO` times the pulled cart's span: held or
-    free is told by the amplitude, not by whether it moved at all (nor by a later touch).
-    """
-    pulled = run.metadata.pulled_cart
-    if run.calibration.n_channels != 2 or pulled not in (1, 2) or run.n_samples == 0:
+def _spans(run: _Run) -> list[float] | None:
+    """Each cart's span (m) in the first `SPAN_S` after the release (`daq.held` tells held or
+    free from them); None before the run's first sample."""
+    if run.n_samples == 0:
         return None
-    other = 2 - pulled   # index of the other channel
-    span_other = run.high_m[other] - run.low_m[other]
-    span_pulled = run.high_m[pulled - 1] - run.low_m[pulled - 1]
-    if span_other < PINNED_SPAN_M or span_other < HELD_RATIO * span_pulled:
-        return f"cart{pulled}"
-    return "both" if pulled == 1 else "both_cart2_pulled"
-
-
-def _moving_carts(run: _Run) -> list[int] | None:
-    """The carts that swung freely, the pulled one first (the others held: see `_lab_case`)."""
-    pulled = run.metadata.pulled_cart
-    n = run.calibration.n_channels
-    if pulled not in (1, 2) or pulled > n or run.n_samples == 0:
-        return None
-    span_pulled = run.high_m[pulled - 1] - run.low_m[pulled - 1]
-    others = [c + 1 for c in range(n) if c + 1 != pulled
-              and run.high_m[c] - run.low_m[c] >= max(PINNED_SPAN_M, HELD_RATIO * span_pulled)]
-    return [pulled, *others]
+    return [run.high_m[c] - run.low_m[c] for c in range(run.calibration.n_channels)]
 
 
 def _delta(now: DaqCounters, start: DaqCounters, gaps: list[GapInterval]) -> DaqCounters:
