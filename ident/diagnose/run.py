@@ -35,6 +35,7 @@ from ident.diagnose import explain
 from ident.diagnose.candidates import Problem, fit_baseline
 from ident.diagnose.evidence import EvidenceResult, collect
 from ident.diagnose.fitting import FitResult
+from ident.diagnose.identifiable import identifiable_friction, one_encoder, typical_scale
 from ident.diagnose.lattice import find_lattice, find_noisy_lattice, lattice_candidates, lattice_worth_points
 from ident.diagnose.models import EFFECTS, effect_names
 from ident.diagnose.select import Judgement, Step, forward, is_material, threshold
@@ -278,6 +279,8 @@ def _ranked(prob: Problem, steps: list[Step], record: FloatArray) -> list[Effect
         gain = _fit_points(prob, j.result) - _fit_points(prob, step.before)
         assert final is not None
         params, std = cands.effect_parameters(final, j.effect)
+        if j.effect == "coulomb_friction" and one_encoder(prob):   # cart 2's friction as identifiable
+            params, std = identifiable_friction(prob, final, typical_scale(prob, final), params, std)
         # an encoder lattice matters by what it costs a perfect reading of the record (the
         # sensor reads all of it), not by what the staircase happened to gain on a model
         # that is itself off by some quanta

@@ -12,7 +12,8 @@ Amplitudes below: A = √(x_r² + (v_r/wn)²) at the release (x_r from rest), wn
 Families (an effect, `none`, or a pair):
 - coulomb_friction: kinetic f = r wn² A / 4, r ∈ [0.02, 0.2] (a cycle loses 2–20 % of A),
   static = f·[1, 1.5]; two carts: on cart 1, cart 2 or both, seen through both encoders or
-  (`encoders=1`) cart 1's only;
+  (`encoders=1`) cart 1's only (then cart 2's friction is scored as f2 / k2 in metres, the only
+  form cart 1's reading fixes: `coulomb_cart2_per_coupling_m`);
 - quadratic_drag: q = r·3/(4A), r ∈ [0.03, 0.15], the same per mass on every cart;
 - cubic_stiffness: γ = ±r·8/(3A²), r ∈ [0.005, 0.05] (hardening and softening: the
   frequency moves by about ±r at A); one cart: its spring pulls k (e + γ e³), reported as
@@ -166,6 +167,19 @@ def add_coulomb(rng: np.random.Generator, spec: Spec, on: tuple[int, ...]) -> No
     spec.present += ("coulomb_friction",)
 
 
+def one_encoder_friction(spec: Spec) -> None:
+    """Cart 2's friction seen through cart 1's encoder only: its force over the coupling
+    spring's stiffness, f2 / k2 (m), replaces its m/s² (scaling cart 2's coordinate changes that
+    and leaves cart 1's reading unchanged; f2 / k2 is the same in any scale). Cart 1's friction
+    in the same terms, f1 / k2, and cart 2's m/s² are kept as details: the scales a zero friction
+    is scored against."""
+    k2 = spec.layout.springs[1][2]
+    kinetic = spec.effects["kinetic"]
+    spec.details["coulomb_accel_m_s2_cart2"] = spec.parameters.pop("coulomb_accel_m_s2_cart2")
+    spec.parameters["coulomb_cart2_per_coupling_m"] = float(kinetic[1] * spec.layout.masses[1] / k2)
+    spec.details["coulomb_cart1_per_coupling_m"] = float(kinetic[0] * spec.layout.masses[0] / k2)
+
+
 def add_drag(rng: np.random.Generator, spec: Spec) -> None:
     q = rng.uniform(0.03, 0.15) * 3 / (4 * spec.amplitude)
     spec.effects["drag"] = np.full(len(spec.layout.masses), q)
@@ -285,6 +299,7 @@ def draw_spec(rng: np.random.Generator, family: str, carts: int | None, kind: st
         if encoders == 1 and spec.carts == 2:
             spec.layout = Layout(spec.layout.masses, spec.layout.springs, spec.layout.dampers,
                                  0, (0,), spec.layout.still)
+            one_encoder_friction(spec)
     elif family == "quadratic_drag":
         add_drag(rng, spec)
     elif family == "cubic_stiffness":

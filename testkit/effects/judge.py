@@ -7,7 +7,8 @@ The report is read as `ident diagnose` writes it (`schemas.diagnosis.DiagnosisRe
 
 Parameter errors are relative, |estimate - truth| / |truth|; a friction that is zero on one
 of two carts is scored against the larger one (a cart without friction should come out
-near 0, not within 5 % of 0). A parameter the report does not give counts as infinitely wrong.
+near 0, not within 5 % of 0; cart 2's friction through cart 1's encoder, a length f2 / k2,
+against cart 1's f1 / k2). A parameter the report does not give counts as infinitely wrong.
 """
 
 from __future__ import annotations
@@ -20,6 +21,7 @@ from testkit.effects.case import Case
 PARAMETER_TOL = 0.05
 #: effect whose parameter block holds a parameter of the truth
 OWNER = {"coulomb_accel_m_s2": "coulomb_friction", "coulomb_accel_m_s2_cart2": "coulomb_friction",
+         "coulomb_cart2_per_coupling_m": "coulomb_friction",
          "drag_per_m": "quadratic_drag", "cubic_per_m2_s2": "cubic_stiffness",
          "cubic_rel_per_m2": "cubic_stiffness", "quantum_m": "quantization", "mode_hz": "coupled_mode",
          "held_cart_gain_per_s2": "held_cart_motion"}
@@ -72,11 +74,13 @@ def _estimate(report: Any, name: str) -> float | None:
 
 def parameter_errors(case: Case, report: Any) -> dict[str, float]:
     truth = case.truth.parameters
-    frictions = [abs(v) for k, v in truth.items() if k.startswith("coulomb_accel")]
+    frictions = [abs(v) for k, v in {**case.truth.details, **truth}.items() if k.startswith("coulomb_accel")]
     errors = {}
     for name, value in truth.items():
         got = _estimate(report, name)
         scale = abs(value) if value != 0.0 else max(frictions, default=1.0)
+        if name == "coulomb_cart2_per_coupling_m" and value == 0.0:   # a length: against cart 1's
+            scale = case.truth.details["coulomb_cart1_per_coupling_m"]
         errors[name] = float("inf") if got is None else abs(got - value) / scale
     return errors
 
