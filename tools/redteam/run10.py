@@ -1,0 +1,201 @@
+"""Run issue-10 red-team records through `daq run` (ECP replay) and `ident releases` and score them.
+
+    .venv/bin/python tools/redteam/run10.py --records 20 [--first-seed 0] [--seed S] [--handling N] [--out DIR] [-v]
+
+Each record is written twice: the Teensy's ECP stream (`cart1pos:cart2pos:target:duty:time_ms`)
+streamed by `daq run --port 'replay://FILE?speed=max' --dialect ecp --until-eof --no-zenoh`,
+and a CSV (`time_s,pos1_m,pos2_m`) given to `ident releases FILE --json`. A simulated release
+is found when a run's (or a listed) release lies within 0.3 s of it; anything else is a false
+run. Handling-only records (`--handling N`, 60 s each) must give no run at all.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from cases10 import Record, csv_text, ecp_lines, make_record
+
+REPO = Path(__file__).resolve().parents[2]
+MATCH_S = 0.3
+
+
+def _py(code: str, args: list[str]) -> subprocess.CompletedProcess[str]:
+    env = dict(os.environ, OPENBLAS_NUM_THREADS="1", PYTHONPATH=str(REPO))
+    return subprocess.run([sys.executable, "-c", code, *args], capture_output=True, text=True, env=env,
+                          timeout=900)
+
+
+DAQ = "import sys; from daq.cli import main; sys.argv[0] = 'daq'; sys.exit(main())"
+IDENT = "import sys; from ident.cli import main; sys.argv[0] = 'ident'; sys.exit(main())"
+
+
+def daq_releases(ecp: Path, runs: Path) -> tuple[list[dict[str, Any]], str]:
+    proc = _py(DAQ, ["run", "--port", f"replay://{ecp}?speed=max", "--dialect", "ecp", "--until-eof",
+                     "--no-zenoh", "--runs-dir", str(runs)])
+    if proc.returncode != 0:
+        return [], (proc.stderr.strip().splitlines() or [f"exit {proc.returncode}"])[-1]
+    out = []
+    for f in sorted(runs.glob("*.mcap")):
+        info = _py(DAQ, ["info", str(f), "--json"])
+        meta = json.loads(info.stdout)["metadata"]
+        out.append({"t": meta["release_t_ns"] / 1e9, "pulled_cart": meta.get("pulled_cart"),
+                    "moving_carts": meta.get("moving_carts"), "lab_case": meta.get("lab_case")})
+    return out, ""
+
+
+def ident_releases(csv: Path) -> tuple[list[dict[str, Any]], str]:
+    proc = _py(IDENT, ["releases", str(csv), "--json"])
+    if proc.returncode != 0:
+        return [], (proc.stderr.strip().splitlines() or [f"exit {proc.returncode}"])[-1]
+    return [{"t": r["release_time_s"], "pulled_cart": r["pulled_cart"], "moving_carts": r["moving_carts"],
+             "complete": r["complete"]} for r in json.loads(proc.stdout)], ""
+
+
+def sample_period(rec: Record, t: float) -> float:
+    """The sample step at t (the ECP clock is irregular: the step around the instant)."""
+    i = int(np.clip(np.searchsorted(rec.t, t), 1, len(rec.t) - 1))
+    return float(rec.t[i] - rec.t[i - 1])
+
+
+def match(rec: Record, found: list[dict[str, Any]], who: str) -> dict[str, Any]:
+    res: dict[str, Any] = {"found": 0, "one_sample": 0, "ms20": 0, "false": 0, "carts_ok": 0,
+                           "errors_ms": [], "problems": []}
+    used = set()
+    for i, r in enumerate(rec.releases):
+        cands = [(abs(f["t"] - r["t_r"]), j) for j, f in enumerate(found) if j not in used]
+        best = min(cands) if cands else (np.inf, -1)
+        if best[0] > MATCH_S:
+            res["problems"].append(f"{who}: release {i + 1} ({r['kind']}, t={r['t_r']:.3f} s, jump "
+                                   f"{r['accel_jump_m_s2']:.1f} m/s²) not found")
+            continue
+        used.add(best[1])
+        f = found[best[1]]
+        err = f["t"] - r["t_r"]
+        ts = sample_period(rec, r["t_r"])
+        res["found"] += 1
+        res["errors_ms"].append(err * 1e3)
+        res["one_sample"] += abs(err) <= ts
+        res["ms20"] += abs(err) <= 0.020
+        pulled = rec.info["pulled_cart"]
+        carts_ok = f["pulled_cart"] == pulled and list(f["moving_carts"] or []) == [pulled]
+        res["carts_ok"] += carts_ok
+        if abs(err) > ts:
+            res["problems"].append(f"{who}: release {i + 1} ({r['kind']}, jump {r['accel_jump_m_s2']:.1f} m/s²) "
+                                   f"at {f['t']:.4f} s, truth {r['t_r']:.4f} s ({err * 1e3:+.1f} ms, "
+                                   f"sample {ts * 1e3:.1f} ms)")
+        if not carts_ok:
+            res["problems"].append(f"{who}: release {i + 1}: pulled {f['pulled_cart']}, moving "
+                                   f"{f['moving_carts']}; truth cart {pulled} pulled, the other held")
+    for j, f in enumerate(found):
+        if j not in used:
+            res["false"] += 1
+            res["problems"].append(f"{who}: false release at {f['t']:.3f} s")
+    return res
+
+
+def run_record(seed: int, handling: bool, tmp: Path) -> dict[str, Any]:
+    rec = make_record(seed, handling=handling)
+    stem = tmp / f"rec{'h' if handling else ''}{seed}"
+    ecp, csv = stem.with_suffix(".ecp"), stem.with_suffix(".csv")
+    ecp.write_text(ecp_lines(rec))
+    csv.write_text(csv_text(rec))
+    runs = tmp / f"runs{'h' if handling else ''}{seed}"
+    d, derr = daq_releases(ecp, runs)
+    i, ierr = ident_releases(csv)
+    flag = " --handling-only" if handling else ""
+    out = {"seed": seed, "handling": handling, "rate": rec.info["rate"], "n": len(rec.releases),
+           "events": rec.info["events"], "kinds": [r["kind"] for r in rec.releases],
+           "daq": match(rec, d, "daq"), "ident": match(rec, i, "ident releases"),
+           "repro": f".venv/bin/python tools/redteam/run10.py --seed {seed}{flag} -v"}
+    for who, err in (("daq", derr), ("ident", ierr)):
+        if err:
+            out[who]["problems"].insert(0, f"{who} failed: {err}")
+    return out
+
+
+def summarize(results: list[dict[str, Any]]) -> str:
+    lines = ["| tool | rate | records | releases | found | ≤ 1 sample | ≤ 20 ms | pulled+held right | false runs |",
+             "|---|---|---|---|---|---|---|---|---|"]
+    for who in ("daq", "ident"):
+        for rate in ("50", "100", "200", "1000", "ecp", "all"):
+            rs = [r for r in results if not r["handling"] and (rate == "all" or r["rate"] == rate)]
+            if not rs:
+                continue
+            n = sum(r["n"] for r in rs)
+            s = {k: sum(r[who][k] for r in rs) for k in ("found", "one_sample", "ms20", "carts_ok", "false")}
+            lines.append(f"| {who} | {rate} | {len(rs)} | {n} | {s['found']} | {s['one_sample']} | {s['ms20']} | "
+                         f"{s['carts_ok']} | {s['false']} |")
+    hs = [r for r in results if r["handling"]]
+    if hs:
+        lines.append("")
+        lines.append(f"Handling only ({len(hs)} records of 60 s): daq false runs "
+                     f"{sum(r['daq']['false'] for r in hs)}, ident releases false "
+                     f"{sum(r['ident']['false'] for r in hs)}")
+    errs = [e for r in results for e in r["daq"]["errors_ms"]]
+    ierrs = [e for r in results for e in r["ident"]["errors_ms"]]
+    if errs:
+        lines.append(f"daq instant error (found releases): median {np.median(errs):+.1f} ms, "
+                     f"95th pct |err| {np.percentile(np.abs(errs), 95):.1f} ms")
+    if ierrs:
+        lines.append(f"ident releases instant error: median {np.median(ierrs):+.1f} ms, "
+                     f"95th pct |err| {np.percentile(np.abs(ierrs), 95):.1f} ms")
+    lines.append("")
+    lines.append("Failures (reproduction, then what went wrong):")
+    for r in results:
+        probs = r["daq"]["problems"] + r["ident"]["problems"]
+        if probs:
+            lines.append(f"- `{r['repro']}` [{r['rate']}, {r['n']} releases {r['kinds']}; {r['events']}]: "
+                         + "; ".join(probs))
+    return "\n".join(lines)
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--records", type=int, default=10)
+    ap.add_argument("--first-seed", type=int, default=0)
+    ap.add_argument("--seed", type=int, help="only this record")
+    ap.add_argument("--handling-only", action="store_true", help="with --seed: the handling record")
+    ap.add_argument("--handling", type=int, default=0, help="handling-only records (60 s each)")
+    ap.add_argument("--jobs", type=int, default=1)
+    ap.add_argument("--out", type=Path)
+    ap.add_argument("--keep", type=Path, help="keep the written records here")
+    ap.add_argument("-v", "--verbose", action="store_true")
+    args = ap.parse_args(argv)
+    if args.seed is not None:
+        jobs = [(args.seed, args.handling_only)]
+    else:
+        jobs = [(s, False) for s in range(args.first_seed, args.first_seed + args.records)]
+        jobs += [(s, True) for s in range(args.first_seed, args.first_seed + args.handling)]
+    with tempfile.TemporaryDirectory() as tmpd, ThreadPoolExecutor(args.jobs) as pool:
+        tmp = args.keep or Path(tmpd)
+        tmp.mkdir(parents=True, exist_ok=True)
+        results = []
+        for res in pool.map(lambda j: run_record(j[0], j[1], tmp), jobs):
+            results.append(res)
+            bad = res["daq"]["problems"] + res["ident"]["problems"]
+            print(f"record {res['seed']}{' (handling)' if res['handling'] else ''}: "
+                  f"{'ok' if not bad else 'FAIL'}", file=sys.stderr)
+            if args.verbose:
+                print(json.dumps(res, indent=1, default=float))
+    text = summarize(results)
+    print(text)
+    if args.out:
+        args.out.mkdir(parents=True, exist_ok=True)
+        (args.out / "results.jsonl").write_text("".join(json.dumps(r, default=float) + "\n" for r in results))
+        (args.out / "summary.md").write_text(text + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
