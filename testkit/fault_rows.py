@@ -11,6 +11,9 @@ and a worker declared alive only once it can fit.
 
 from __future__ import annotations
 
+import sys
+import time
+from collections.abc import Callable
 from pathlib import Path
 
 from testkit.fault_rows_files import (
@@ -21,16 +24,38 @@ from testkit.fault_rows_files import (
     row6_recover,
     row7_odd_entries,
 )
-from testkit.fault_rows_resources import row8_memory, row10_load
+from testkit.fault_rows_resources import LOAD_TESTS, row8_memory, row10_load
 from testkit.fault_rows_worker import row2_daq_gone, row3_pause, row4_abuse, row11_worker_start
-from testkit.fault_table import Row, print_table
+from testkit.fault_table import Row, failed_row, print_table
 
 
-def all_rows(work: Path, csv_mb: float = 224.0, load_repeat: int = 3) -> list[Row]:
-    rows = [row1_diagnosis(work), row1b_simple_start(work), row2_daq_gone(work), row3_pause(work),
-            *row4_abuse(work), row5_full_disk(work), row5b_backlog_overflow(work), row6_recover(work),
-            row7_odd_entries(work), *row8_memory(work, csv_mb), row10_load(work, load_repeat),
-            row11_worker_start(work)]
+def all_rows(work: Path, csv_mb: float = 224.0, load_repeat: int = 3,
+             load_tests: tuple[str, ...] = LOAD_TESTS) -> list[Row]:
+    """Every row, in the issue's order; a trial that raises is scored as a crash (`failed_row`)
+    and the others still run. Prints one progress line per trial to stderr."""
+    trials: list[tuple[str, Callable[[], Row | list[Row]]]] = [
+        ("1 diagnosis crash", lambda: row1_diagnosis(work)),
+        ("1b simple start", lambda: row1b_simple_start(work)),
+        ("2 stopped daq", lambda: row2_daq_gone(work)),
+        ("3 paused worker", lambda: row3_pause(work)),
+        ("4 abuse", lambda: row4_abuse(work)),
+        ("5 full disk", lambda: row5_full_disk(work)),
+        ("5b full disk past the backlog", lambda: row5b_backlog_overflow(work)),
+        ("6 daq recover", lambda: row6_recover(work)),
+        ("7 odd entries", lambda: row7_odd_entries(work)),
+        ("8 memory", lambda: row8_memory(work, csv_mb)),
+        ("10 suite under load", lambda: row10_load(work, load_repeat, load_tests)),
+        ("11 worker start", lambda: row11_worker_start(work)),
+    ]
+    rows: list[Row] = []
+    for fault, trial in trials:
+        started = time.monotonic()
+        try:
+            result = trial()
+        except Exception as exc:  # noqa: BLE001 - a trial that raises is a crash in its row
+            result = failed_row(fault, exc)
+        rows += result if isinstance(result, list) else [result]
+        print(f"  row {fault}: {time.monotonic() - started:.0f} s", file=sys.stderr, flush=True)
     return rows
 
 

@@ -149,10 +149,11 @@ def row7_odd_entries(work: Path) -> Row:
     done = run_python(["-m", "daq.cli", "recover", str(runs)])
     started = run_python(["-m", "daq.cli", "run", "--port", "sim://?cases=cart1&rate_hz=200&seed=2&realtime=0",
                     "--bench", BENCH, "--runs-dir", str(runs), "--no-zenoh", "--until-eof"])
+    recorded = len(list(runs.glob("*.mcap")))
     return Row("7 odd entries", "a directory and a symlink loop named *.mcap.part in the runs directory",
                f"daq recover exit {done.returncode} (skipped, named), daq run exit {started.returncode}, "
-               f"{len(list(runs.glob('*.mcap')))} run recorded", crashes=int(done.returncode != 0)
-               + int(started.returncode != 0))
+               f"{recorded} run recorded", data_lost="0" if recorded else "the run not recorded",
+               crashes=int(done.returncode != 0) + int(started.returncode != 0))
 
 
 

@@ -12,22 +12,26 @@ import json
 import os
 import signal
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
 import zenoh
 
+from ident.worker.bus import FETCH_TIMEOUT_S, MAX_QUEUED_BYTES
 from schemas import keys
 from schemas.bus import BusConfig
 from schemas.fit import FitReport
 from testkit import ports
-from testkit.fault_table import BENCH, Row, record_sim
+from testkit.fault_table import BENCH, Row, failed_row, record_sim
+from testkit.peak_memory import reset_peak, status_bytes
 from testkit.waiting import wait_until
-from testkit.worker_harness import FakeDaq, FitCollector, alive_workers, start_worker, stop
+from testkit.worker_harness import STARTUP_S, FakeDaq, FitCollector, alive_workers, start_worker, stop
 
 LEASE_MS = 3000
+#: What a forged run may stall the worker beyond the fetch bound: its claim and withdrawal (s).
+CLAIM_SLACK_S = 3.0
 
 
 def client_config(path: Path, endpoint: str) -> list[str]:
@@ -49,16 +53,12 @@ def router() -> Iterator[tuple[str, zenoh.Session]]:
         session.close()
 
 
-def _rss_bytes(pid: int) -> int:
-    for line in Path(f"/proc/{pid}/status").read_text().splitlines():
-        if line.startswith("VmRSS:"):
-            return int(line.split()[1]) * 1024
-    return 0
-
-
 def _finals_score(collector: FitCollector, runs: list[Any]) -> tuple[int, int]:
+    """(final reports beyond one per run, runs without an `ok` final): a run whose only final
+    says `failed` was left unfitted (the stopped daq's fault before its fix)."""
     finals = collector.finals()
-    return sum(max(0, len(finals.get(r, [])) - 1) for r in runs), sum(1 for r in runs if not finals.get(r))
+    doubles = sum(max(0, len(finals.get(r, [])) - 1) for r in runs)
+    return doubles, sum(1 for r in runs if not any(f.status == "ok" for f in finals.get(r, [])))
 
 
 # --- row 2: transient failures retried ----------------------------------------------------------------
@@ -72,7 +72,7 @@ def row2_daq_gone(work: Path) -> Row:
         worker = start_worker("w2", client_config(work / "w2.json5", endpoint), runs_dir / "worker", work,
                               "testkit.fake_fitters:instant_fit", {"FAKE_FIT_LOG": str(work / "r2.log")})
         try:
-            wait_until(lambda: "w2" in alive_workers(session), 60, "worker up", worker)
+            wait_until(lambda: "w2" in alive_workers(session), STARTUP_S, "worker up", worker)
             run = daq.announce("aborted", content=None)   # the daq is stopped: no file, no reply
             wait_until(lambda: _withdrawn(collector, "aborted"), 60, "the fetch given up for now", worker)
             early_final = bool(collector.finals().get(run))
@@ -100,7 +100,7 @@ def row11_worker_start(work: Path) -> Row:
         started = time.monotonic()
         worker = start_worker("w11", client_config(work / "w11.json5", endpoint), runs_dir, work)
         try:
-            wait_until(lambda: "w11" in alive_workers(session), 120, "worker up", worker)
+            wait_until(lambda: "w11" in alive_workers(session), STARTUP_S, "worker up", worker)
             alive = time.monotonic()
             run = daq.announce("first", content=run_bytes)
             collector.wait_results([run], timeout_s=120)
@@ -135,7 +135,7 @@ def row3_pause(work: Path, n_runs: int = 18, pause_s: float = 15.0) -> Row:
         workers = {n: start_worker(n, client_config(work / f"{n}.json5", endpoint), runs_dir, work,
                                    "testkit.fake_fitters:gated_fit", env) for n in ("wa", "wb")}
         try:
-            wait_until(lambda: alive_workers(session) == {"wa", "wb"}, 60, "both workers up", workers.values())
+            wait_until(lambda: alive_workers(session) == {"wa", "wb"}, STARTUP_S, "both workers up", workers.values())
             runs = [daq.announce(f"p{i:02d}") for i in range(n_runs)]
             wait_until(lambda: (work / "r3.log").exists() and
                        (work / "r3.log").read_text().count("start") >= 2, 60, "both mid-fit", workers.values())
@@ -172,11 +172,17 @@ def row4_abuse(work: Path) -> list[Row]:
         worker = start_worker("w4", client_config(work / "w4.json5", endpoint), runs_dir, work,
                               "testkit.fake_fitters:instant_fit", {"FAKE_FIT_LOG": str(work / "r4.log")})
         try:
-            wait_until(lambda: "w4" in alive_workers(session), 60, "worker up", worker)
-            rows.append(_forged_final(session, daq, collector, worker))
-            rows.append(_rogue_replier(session, daq, worker, runs_dir, work / "w4.log"))
-            rows.append(_silent_replier(session, daq, collector, worker))
-            rows.append(_flood(session, daq, collector, worker))
+            wait_until(lambda: "w4" in alive_workers(session), STARTUP_S, "worker up", worker)
+            trials: list[tuple[str, Callable[[], Row]]] = [
+                ("4a forged final report", lambda: _forged_final(session, daq, collector, worker)),
+                ("4b rogue run replier", lambda: _rogue_replier(session, daq, worker, runs_dir, work / "w4.log")),
+                ("4c silent replier", lambda: _silent_replier(session, daq, collector, worker)),
+                ("4d flood", lambda: _flood(session, daq, collector, worker))]
+            for fault, trial in trials:   # one trial that raises is scored, the others still run
+                try:
+                    rows.append(trial())
+                except Exception as exc:  # noqa: BLE001 - scored as a crash of its row
+                    rows.append(failed_row(fault, exc))
         finally:
             code = stop(worker)
             collector.close()
@@ -192,23 +198,26 @@ def _forged_final(session: zenoh.Session, daq: FakeDaq, collector: FitCollector,
     wait_until(lambda: any(r.worker == "w4" for r in collector.finals().get(run, [])), 60, "the real fit", worker)
     real = [r for r in collector.finals()[run] if r.worker == "w4"]
     return Row("4a forged final report", "a final 'ok' report for a run put before the run is announced",
-               f"the run fitted anyway by the worker ({len(real)} real report)", double_fits=len(real) - 1)
+               f"the run fitted anyway by the worker ({len(real)} real report, {real[0].status})",
+               double_fits=len(real) - 1, unfitted=int(real[0].status != "ok"))
 
 
 def _rogue_replier(session: zenoh.Session, daq: FakeDaq, worker: Any, runs_dir: Path, log: Path) -> Row:
     blob = os.urandom(60 << 20)
     rogue = session.declare_queryable(keys.daq_query(BENCH, "run"), lambda q: q.reply(q.key_expr, blob))
     try:
-        before = _rss_bytes(worker.pid)
+        before = status_bytes(worker.pid, "VmRSS")
+        reset_peak(worker.pid)
         daq.announce("rogue", content=None)   # claims 100 samples: at most 1.2 MB may be fetched
         wait_until(lambda: f"{BENCH}/rogue:" in log.read_text(), 60, "the fetch refused", worker)
         written = sum(p.stat().st_size for p in runs_dir.rglob("rogue*"))
-        grown = _rss_bytes(worker.pid) - before
+        grown = status_bytes(worker.pid, "VmHWM") - before
     finally:
         rogue.undeclare()
     return Row("4b rogue run replier", "a `daq/run` replier answering 60 MB for a run that claims 100 samples",
-               f"refused before writing ({written} bytes on disk), worker RSS +{grown / 1e6:.0f} MB",
-               data_lost="0")
+               f"refused before writing ({written} bytes on disk); worker peak RSS +{grown / 1e6:.0f} MB over "
+               f"{before / 1e6:.0f} MB (the reply Zenoh delivered)",
+               over_bound="0" if written == 0 else f"{written} bytes of a refused reply on disk")
 
 
 def _silent_replier(session: zenoh.Session, daq: FakeDaq, collector: FitCollector, worker: Any) -> Row:
@@ -222,26 +231,32 @@ def _silent_replier(session: zenoh.Session, daq: FakeDaq, collector: FitCollecto
         stalled = time.monotonic() - started
         real = daq.announce("after-silent")
         collector.wait_finals([real], timeout_s=60)
+        _, unfitted = _finals_score(collector, [real])
     finally:
         held.clear()
         silent.undeclare()
+    bound = FETCH_TIMEOUT_S + CLAIM_SLACK_S
     return Row("4c silent replier", "a `daq/run` replier that never answers, then a real run",
-               f"the forged run given up after {stalled:.1f} s (bound 5 s + claim) and deferred; the real run fitted")
+               f"the forged run given up after {stalled:.1f} s (fetch bound {FETCH_TIMEOUT_S:g} s, plus the "
+               "claim) and deferred; the real run fitted", unfitted=unfitted,
+               over_bound="0" if stalled <= bound else f"stalled {stalled:.1f} s > {bound:g} s")
 
 
 def _flood(session: zenoh.Session, daq: FakeDaq, collector: FitCollector, worker: Any) -> Row:
-    before = _rss_bytes(worker.pid)
+    before = status_bytes(worker.pid, "VmRSS")
+    reset_peak(worker.pid)   # its peak from here on is the flood's (the kernel's high-water mark)
     blob = os.urandom(3 << 20)
-    peak = before
     for i in range(600):
         session.put(keys.run_fit(BENCH, f"flood{i % 50}"), blob)
-        if i % 50 == 0:
-            peak = max(peak, _rss_bytes(worker.pid))
     real = daq.announce("after-flood")
     collector.wait_finals([real], timeout_s=90)
-    peak = max(peak, _rss_bytes(worker.pid))
+    peak = status_bytes(worker.pid, "VmHWM")
+    _, unfitted = _finals_score(collector, [real])
+    grown, bound = peak - before, 2 * MAX_QUEUED_BYTES
     return Row("4d flood", "600 puts of 3 MB on the fit keys, then a real run",
-               f"worker RSS {before / 1e6:.0f} -> peak {peak / 1e6:.0f} MB; the real run fitted")
+               f"worker RSS {before / 1e6:.0f} MB -> peak {peak / 1e6:.0f} MB (kernel high-water mark); the real "
+               "run fitted", unfitted=unfitted,
+               over_bound="0" if grown <= bound else f"+{grown / 1e6:.0f} MB > {bound / 1e6:.0f} MB")
 
 
 

@@ -21,7 +21,13 @@ BENCH = "bench1"
 
 @dataclass
 class Row:
-    """One fault and its scores (the targets are all zero)."""
+    """One fault and its scores (the targets are all zero).
+
+    `data_lost`: "0" or what was lost; `over_bound`: "0" or which bound (memory per input,
+    bytes written, time per request) was exceeded and by how much; `crashes`: processes that
+    ended badly, tests that failed, or the row itself raising; `double_fits`: final reports
+    beyond one per run; `unfitted`: runs left without an `ok` final report.
+    """
 
     fault: str
     tried: str
@@ -30,19 +36,28 @@ class Row:
     crashes: int = 0
     double_fits: int = 0
     unfitted: int = 0
+    over_bound: str = "0"
 
     @property
     def ok(self) -> bool:
-        return self.data_lost == "0" and not (self.crashes or self.double_fits or self.unfitted)
+        return self.data_lost == "0" and self.over_bound == "0" and not (
+            self.crashes or self.double_fits or self.unfitted)
 
 
 def print_table(rows: list[Row]) -> None:
-    head = ("fault", "what was tried", "outcome", "data lost", "crashes", "double fits", "unfitted")
+    head = ("fault", "what was tried", "outcome", "data lost", "over a bound", "crashes", "double fits",
+            "unfitted")
     print("| " + " | ".join(head) + " |")
     print("|" + "---|" * len(head))
     for r in rows:
-        print(f"| {r.fault} | {r.tried} | {r.outcome} | {r.data_lost} | {r.crashes} | {r.double_fits} | "
-              f"{r.unfitted} |", flush=True)
+        print(f"| {r.fault} | {r.tried} | {r.outcome} | {r.data_lost} | {r.over_bound} | {r.crashes} | "
+              f"{r.double_fits} | {r.unfitted} |", flush=True)
+
+
+def failed_row(fault: str, exc: BaseException) -> Row:
+    """The row of a fault whose trial itself raised (a wait that timed out, a process that died):
+    scored as a crash, with the error, so the table still comes out whole."""
+    return Row(fault, "(the trial raised)", f"{type(exc).__name__}: {str(exc)[:300]}", crashes=1)
 
 
 
@@ -59,4 +74,4 @@ def record_sim(directory: Path, url: str) -> Path:
     return next(directory.glob("*.mcap"))
 
 
-__all__ = ["BENCH", "REPO", "Row", "print_table", "record_sim", "run_python"]
+__all__ = ["BENCH", "REPO", "Row", "failed_row", "print_table", "record_sim", "run_python"]

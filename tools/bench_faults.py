@@ -1,13 +1,16 @@
 """Faults survived, bad input refused, and a soak: the figures of issues 6 and 14.
 
     .venv/bin/python tools/bench_faults.py [--kill-trials 20] [--soak-s 3600] [--skip-soak] [--json FILE]
-    .venv/bin/python tools/bench_faults.py --issue14 [--csv-mb 224] [--load-repeat 3] [--json FILE]
+    .venv/bin/python tools/bench_faults.py --issue14 [--csv-mb 224] [--load-repeat 3] [--load-tests all|FILE...]
+                                          [--json FILE]
 
 `--issue14` runs only the rows of issue 14 (`testkit/fault_rows.py`: every row tried for
 real, loopback only) and prints their table: fault, what was tried, outcome, data lost,
 crashes, double fits, runs left unfitted (the targets are all zero). Rows 1b, 5b and 11 are
 its leftovers: the simple fit's start on carts stuck between two encoder counts, a full disk
 for longer than the backlog holds, a worker handed a run the moment it is declared alive.
+Row 8 measures each load's peak memory in a fresh child (`testkit/peak_memory.py`); row 10 runs
+`--load-tests` `--load-repeat` times beside two CPU burners (`tools/suite_under_load.py`).
 
 Sections (each prints its figures; `--json` writes them all):
 1. serial corruption — a 1 kHz two-encoder `sim://` capture with 1 % of its lines corrupted
@@ -43,7 +46,7 @@ from typing import Any
 
 import numpy as np
 
-from testkit import faultkit
+from testkit import faultkit, ports
 from testkit import serialfaults as sf
 
 SIM_1KHZ = ("sim://?realtime=0&rate_hz=1000&cases=both&seed=11&rest_s=1&pull_s=0.8&hold_s=1.2&c1=2&c2=2"
@@ -251,7 +254,7 @@ def soak(work: Path, duration_s: float) -> dict[str, Any]:
     from schemas import keys
     from schemas.bus import BusConfig
 
-    endpoint = faultkit.free_endpoint()
+    endpoint = ports.endpoint()
     runs_dir = work / "soak"
     url = SOAK_SIM.format(duration=duration_s)
     proc = faultkit.daq_process(["run", "--port", url, "--bench", "soak", "--runs-dir", str(runs_dir),
@@ -310,14 +313,14 @@ def soak(work: Path, duration_s: float) -> dict[str, Any]:
     return out
 
 
-def issue14(csv_mb: float, load_repeat: int, json_path: Path | None) -> int:
+def issue14(csv_mb: float, load_repeat: int, load_tests: tuple[str, ...], json_path: Path | None) -> int:
     from dataclasses import asdict
 
     from testkit import fault_rows
 
     logging.basicConfig(level=logging.ERROR)
     with tempfile.TemporaryDirectory(prefix="bench_faults14_") as tmp:
-        rows = fault_rows.all_rows(Path(tmp), csv_mb, load_repeat)
+        rows = fault_rows.all_rows(Path(tmp), csv_mb, load_repeat, load_tests)
     section("issue 14: every row")
     fault_rows.print_table(rows)
     bad = [r.fault for r in rows if not r.ok]
@@ -336,10 +339,15 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--json", type=Path, default=None, help="write every figure to this file")
     parser.add_argument("--issue14", action="store_true", help="only the rows of issue 14, as a table")
     parser.add_argument("--csv-mb", type=float, default=224.0, help="size of the CSV of row 8 (MB)")
-    parser.add_argument("--load-repeat", type=int, default=3, help="runs of the abuse tests under load (row 10)")
+    parser.add_argument("--load-repeat", type=int, default=3, help="runs of the tests under load (row 10)")
+    parser.add_argument("--load-tests", nargs="+", default=None,
+                        help="test files row 10 runs under load ('all': the whole suite; default: "
+                             "the worker and browser tests, testkit.fault_rows_resources.LOAD_TESTS)")
     args = parser.parse_args(argv)
     if args.issue14:
-        return issue14(args.csv_mb, args.load_repeat, args.json)
+        from testkit.fault_rows_resources import LOAD_TESTS
+
+        return issue14(args.csv_mb, args.load_repeat, tuple(args.load_tests or LOAD_TESTS), args.json)
     logging.getLogger("daq").setLevel(logging.ERROR)   # the faults below are expected: no warning per fault
     figures: dict[str, Any] = {}
     with tempfile.TemporaryDirectory(prefix="bench_faults_") as tmp:

@@ -32,7 +32,8 @@ from testkit.worker_harness import (
     stop,
 )
 
-pytestmark = pytest.mark.timeout(90)
+#: each test waits up to STARTUP_S for its workers, then up to about a minute for what it is about
+pytestmark = pytest.mark.timeout(STARTUP_S + 90)
 
 
 def test_two_workers_fit_each_run_exactly_once(router: Router, tmp_path: Path) -> None:
@@ -46,7 +47,7 @@ def test_two_workers_fit_each_run_exactly_once(router: Router, tmp_path: Path) -
     workers = [start_worker(n, client_args(endpoint), runs_dir, tmp_path, "testkit.fake_fitters:instant_fit", env)
                for n in ("wa", "wb")]
     try:
-        wait_until(lambda: alive_workers(session) == {"wa", "wb"}, STARTUP_S, "both workers alive")
+        wait_until(lambda: alive_workers(session) == {"wa", "wb"}, STARTUP_S, "both workers alive", workers)
         late = [daq.announce(f"r{i:02d}") for i in range(4, 12)]
         finals = collector.wait_finals(early + late, timeout_s=30)
     finally:
@@ -74,14 +75,14 @@ def test_kill_9_mid_fit_the_other_worker_takes_over(router: Router, tmp_path: Pa
     workers = {n: start_worker(n, client_args(endpoint), runs_dir, tmp_path, "testkit.fake_fitters:gated_fit", env)
                for n in ("wa", "wb")}
     try:
-        wait_until(lambda: alive_workers(session) == {"wa", "wb"}, STARTUP_S, "both workers alive")
+        wait_until(lambda: alive_workers(session) == {"wa", "wb"}, STARTUP_S, "both workers alive", workers.values())
         runs = [daq.announce(f"r{i:02d}") for i in range(8)]
-        wait_until(lambda: len(fit_log_counts(log)["start"]) == 2, 20, "each worker mid-fit")
+        wait_until(lambda: len(fit_log_counts(log)["start"]) == 2, 20, "each worker mid-fit", workers.values())
         started = fit_log_counts(log)["start"]
         victim_run = next(run for run, ws in started.items() if ws == ["wa"])
         workers["wa"].send_signal(signal.SIGKILL)
         workers["wa"].wait(timeout=10)
-        wait_until(lambda: alive_workers(session) == {"wb"}, 20, "the killed worker's token gone")
+        wait_until(lambda: alive_workers(session) == {"wb"}, 20, "the killed worker's token gone", workers["wb"])
         gate.touch()
         finals = collector.wait_finals(runs, timeout_s=40)
     finally:
@@ -108,6 +109,7 @@ def test_a_run_whose_file_cannot_be_had_is_retried_when_its_daq_comes_back(route
     try:
         missing = daq.announce("gone", content=None)   # no file, and no `run` queryable answers
         good = daq.announce("fine")
+        wait_until(lambda: "wa" in alive_workers(session), STARTUP_S, "the worker alive", worker)
         finals = collector.wait_finals([good], timeout_s=30)
         def withdrawn() -> bool:
             collector.drain()
@@ -136,6 +138,7 @@ def test_real_pipeline_reports_corrupted_and_truncated_runs_and_goes_on(router: 
         bad = daq.announce("garbage", content=b"\x89MCAP0\r\n" + bytes(range(256)) * 4)
         cut = daq.announce("truncated", content=good_bytes[:300])
         good = daq.announce("good", content=good_bytes)
+        wait_until(lambda: "wa" in alive_workers(session), STARTUP_S, "the worker alive", worker)
         finals = collector.wait_finals([bad, cut], timeout_s=60)
         results = collector.wait_results([good], timeout_s=60)   # not waiting for its diagnosis
         assert worker.poll() is None
@@ -161,6 +164,7 @@ def test_a_restarted_worker_republishes_stored_fits_without_refitting(router: Ro
     runs = [daq.announce(f"r{i}") for i in range(3)]
     first = start_worker("wa", client_args(endpoint), runs_dir, tmp_path, "testkit.fake_fitters:instant_fit", env)
     try:
+        wait_until(lambda: "wa" in alive_workers(session), STARTUP_S, "the first worker alive", first)
         FitCollector(session).wait_finals(runs, timeout_s=30)
     finally:
         assert stop(first) == 0
@@ -169,6 +173,7 @@ def test_a_restarted_worker_republishes_stored_fits_without_refitting(router: Ro
     late = FitCollector(session)
     second = start_worker("wb", client_args(endpoint), runs_dir, tmp_path, "testkit.fake_fitters:instant_fit", env)
     try:
+        wait_until(lambda: "wb" in alive_workers(session), STARTUP_S, "the second worker alive", second)
         finals = late.wait_finals(runs, timeout_s=30)
     finally:
         assert stop(second) == 0
@@ -187,7 +192,7 @@ def test_kill_9_during_the_diagnosis_the_other_worker_completes_the_run(router: 
     collector = FitCollector(session)
     workers = {n: start_worker(n, client_args(endpoint), runs_dir, tmp_path) for n in ("wa", "wb")}
     try:
-        wait_until(lambda: alive_workers(session) == {"wa", "wb"}, STARTUP_S, "both workers alive")
+        wait_until(lambda: alive_workers(session) == {"wa", "wb"}, STARTUP_S, "both workers alive", workers.values())
         runs = [daq.announce("r0", content=run_bytes)]
         early = collector.wait_results(runs, timeout_s=30)[runs[0]][0]
         assert early.pending and not early.final
@@ -224,7 +229,7 @@ def test_a_new_worker_learns_from_a_survivor_what_a_dead_worker_fitted(router: R
     workers = {n: start_worker(n, client_args(endpoint), dirs[n], tmp_path, "testkit.fake_fitters:instant_fit", env)
                for n in ("wa", "wb")}
     try:
-        wait_until(lambda: alive_workers(session) == {"wa", "wb"}, STARTUP_S, "wa and wb alive")
+        wait_until(lambda: alive_workers(session) == {"wa", "wb"}, STARTUP_S, "wa and wb alive", workers.values())
         runs = []
         for i in ids_a + ids_b:
             copies = [daq.announce(i) for daq in daqs]   # announced to every runs directory
@@ -233,11 +238,12 @@ def test_a_new_worker_learns_from_a_survivor_what_a_dead_worker_fitted(router: R
         assert all(fit_log_counts(log)["done"][f"bench1/{i}"] == ["wa"] for i in ids_a)
         workers["wa"].send_signal(signal.SIGKILL)
         workers["wa"].wait(timeout=10)
-        wait_until(lambda: alive_workers(session) == {"wb"}, 20, "wa gone")
+        wait_until(lambda: alive_workers(session) == {"wb"}, 20, "wa gone", workers["wb"])
         late = FitCollector(session)
         workers["wc"] = start_worker("wc", client_args(endpoint), dirs["wc"], tmp_path,
                                      "testkit.fake_fitters:instant_fit", env)
-        wait_until(lambda: alive_workers(session) == {"wb", "wc"}, STARTUP_S, "wc alive")
+        wait_until(lambda: alive_workers(session) == {"wb", "wc"}, STARTUP_S, "wc alive",
+                   [workers["wb"], workers["wc"]])
         # a new run that wc owns: wc fits pending runs oldest first, so once this one is
         # fitted, wc has had its chance to (wrongly) refit wa's older runs
         new_id = next(f"r-new{i}" for i in range(200)
@@ -258,11 +264,11 @@ def test_a_second_worker_with_a_name_in_use_refuses_to_start(router: Router, tmp
     endpoint, session = router
     first = start_worker("wa", client_args(endpoint), tmp_path / "runs", tmp_path, "testkit.fake_fitters:instant_fit")
     try:
-        wait_until(lambda: alive_workers(session) == {"wa"}, STARTUP_S, "wa alive")
+        wait_until(lambda: alive_workers(session) == {"wa"}, STARTUP_S, "wa alive", first)
         (tmp_path / "dup").mkdir()
         twin = start_worker("wa", client_args(endpoint), tmp_path / "runs2", tmp_path / "dup",
                             "testkit.fake_fitters:instant_fit")
-        assert twin.wait(timeout=30) == 2
+        assert twin.wait(timeout=STARTUP_S) == 2   # it ends once its session sees wa's token
         assert "expected a name no alive worker uses, got 'wa', already alive" in \
             (tmp_path / "dup" / "wa.log").read_text()
         assert first.poll() is None and alive_workers(session) == {"wa"}
@@ -281,7 +287,7 @@ def _short_lease_config(path: Path, endpoint: str) -> list[str]:
     return ["--zenoh-config", str(path)]
 
 
-@pytest.mark.timeout(150)
+@pytest.mark.timeout(STARTUP_S + 150)
 def test_a_worker_paused_past_the_lease_is_fenced_and_every_run_is_reported_once(tmp_path: Path) -> None:
     endpoint = f"tcp/127.0.0.1:{ports.free_port()}"
     router_config = BusConfig(mode="router", listen=[endpoint]).zenoh_dict()
@@ -301,10 +307,10 @@ def test_a_worker_paused_past_the_lease_is_fenced_and_every_run_is_reported_once
         wait_until(lambda: len(fit_log_counts(log)["start"]) == 2, 30, "each worker mid-fit", workers.values())
         victim_run = next(run for run, ws in fit_log_counts(log)["start"].items() if ws == ["wa"])
         workers["wa"].send_signal(signal.SIGSTOP)       # paused mid-fit, past the lease
-        wait_until(lambda: alive_workers(session) == {"wb"}, 30, "the paused worker's token gone")
+        wait_until(lambda: alive_workers(session) == {"wb"}, 30, "the paused worker's token gone", workers.values())
         gate.touch()                                    # wb finishes, takes over the victim's run
         wait_until(lambda: "wb" in fit_log_counts(log)["start"].get(victim_run, []), 40,
-                   "the take-over of the paused worker's run")
+                   "the take-over of the paused worker's run", workers.values())
         workers["wa"].send_signal(signal.SIGCONT)       # wa finishes its stale fit: fenced
         wait_until(lambda: "(fenced)" in (tmp_path / "wa.log").read_text(), 40, "wa fenced", workers.values())
         finals = collector.wait_finals(runs, timeout_s=60)

@@ -26,7 +26,8 @@ from testkit.worker_harness import (
     stop,
 )
 
-pytestmark = pytest.mark.timeout(120)
+#: two start-up waits (the fit process loading, then the token) and a fit
+pytestmark = pytest.mark.timeout(2 * STARTUP_S + 60)
 
 
 def test_the_worker_is_alive_only_once_its_fit_process_is_ready(router: Router,
@@ -64,7 +65,7 @@ def test_a_fit_process_that_cannot_load_its_fitter_ends_the_worker_never_alive(
     worker = start_worker("wf", client_args(endpoint), tmp_path / "runs", tmp_path, "testkit.fake_fitters:instant_fit",
                           env)
     try:
-        code = worker.wait(timeout=60)
+        code = worker.wait(timeout=STARTUP_S)   # it ends once its fit process failed to start
     finally:
         stop(worker)
         tokens.undeclare()
