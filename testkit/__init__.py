@@ -16,7 +16,8 @@ submodules directly (`from testkit.waiting import wait_until`), never each other
 - the faults of issue 14 (`tools/bench_faults.py --issue14`): `fault_rows` (all rows),
   `fault_table` (the `Row` and its table), `fault_rows_files`, `fault_rows_worker`,
   `fault_rows_resources` (the rows by concept), `full_disk` (a disk that fills up, behind
-  the daq's file opener).
+  the daq's file opener), `peak_memory` (the peak memory of one call in a fresh child, or
+  of another process, from the kernel's high-water mark).
 - generators: `effects` (runs with a hidden effect, written from the physics, for the
   diagnosis tests and `tools/bench_diagnose.py`).
 - data writers and readers: `mcap_runs` (daq-style MCAP runs), `ident_synth` (synthetic
