@@ -13,8 +13,9 @@ missing samples: the still window and the onset fit use the samples' own times, 
 keeps the state. A longer hole (an unplugged port) may hide a release or a move of the
 hand, so it forgets the hold (`reset()`); a run in progress is always left alone.
 
-Release instant. The threshold crossing comes 10-40 ms late, so t0 is back-dated by the
-onset fit of `daq.onset` on the samples around the crossing (only the channel that moved most).
+Release instant (`daq.release_dating`). The threshold crossing comes 10-40 ms late, so t0 is
+back-dated by the onset fit of `daq.onset` on the samples around the crossing (only the
+channel that moved most).
 Settings and events live in `daq.detector_events`.
 
 A release is told from slow hand motion by the fitted initial acceleration `a = 2 c_2`
@@ -33,7 +34,7 @@ rings (a swing that grows ends that run: `Settled(reason="handled")`). It is con
 one period after the release (at most `first_release_confirm_s`, so the pipeline's ring of
 samples still holds the pre-trigger part) and dated from the data: from a still hold by the
 onset fit above, unless a free response (fitted one period on) clearly begins later (a hand
-that lets go gradually); otherwise where the free response begins (`daq.ringing.date_release`).
+that lets go gradually); otherwise where a hand's force ends and the free response begins.
 Ringing that was going on when the stream began has no release in the data and is turned
 down ("in motion since the stream started"); each ringing is judged once (a hold or a new
 handling lets it be judged again). Springs slower than `ring_max_half_s` per half-period are
@@ -48,12 +49,9 @@ no I/O; time comes with the samples (float seconds, continuous).
 
 from __future__ import annotations
 
-import math
 from collections import deque
 from collections.abc import Sequence
 from typing import Literal
-
-import numpy as np
 
 from daq.detector_events import (
     Armed,
@@ -65,16 +63,8 @@ from daq.detector_events import (
     Settled,
 )
 from daq.onset import OnsetFit, fit_onset
-from daq.ringing import (
-    RingingLimits,
-    Turn,
-    Zigzag,
-    date_release,
-    fit_free,
-    is_ringing,
-    motion_sign,
-    slide_back,
-)
+from daq.release_dating import Samples, date_ringing_release, fit_onset_at
+from daq.ringing import RingingLimits, Turn, Zigzag, is_ringing
 
 __all__ = ["METHOD", "SPAN_S", "Armed", "DetectorSettings", "Disarmed", "Event", "OnsetFit", "Rejected",
            "ReleaseDetector", "Released", "Settled", "State", "fit_onset"]
@@ -247,7 +237,7 @@ class ReleaseDetector:
         channel = self._channel_moved_most(sample)
         hold = self._hold
         still_away = abs(sample[channel] - hold[channel]) > self.settings.fire_m
-        fit = self._fit_onset(channel, trigger_t)
+        fit = fit_onset_at(Samples.of(list(self._history)), channel, hold, trigger_t, self.settings)
         direction = 1.0 if sample[channel] > hold[channel] else -1.0
         accel = fit.accel_m_s2 * direction if fit is not None else 0.0
         reason = ("fit failed" if fit is None else "came back" if not still_away
@@ -386,106 +376,9 @@ class ReleaseDetector:
         return [event]
 
     def _date(self, t_s: float, channel: int, a: Turn, b: Turn, c: Turn) -> Released | Rejected:
-        """Date a ringing: from a hold by the onset fit unless the free response clearly began later."""
-        free = self._date_ringing(t_s, channel, a, b, c)
-        hold = self._date_hold_release(t_s, a)
-        if hold is None:
-            return free
-        if not isinstance(free, Released) or free.channel != hold.channel or self._others_swing(hold):
-            return hold     # two carts ring together: one damped sinusoid does not describe them
-        step = float(np.median(np.diff([h[0] for h in list(self._history)[-20:]])))
-        # a hand that lets go gradually: the motion starts before the free response does
-        return free if free.t_release_s - hold.t_release_s > max(2.0 * step, 0.005) else hold
-
-    def _others_swing(self, release: Released) -> bool:
-        """True when a channel other than the released one swung like it since the release."""
-        after = [pos for t, pos in self._history if t >= release.t_release_s]
-        hold = release.hold_pos
-        swing = [max(abs(pos[c] - hold[c]) for pos in after) for c in range(len(hold))]
-        pulled = swing[release.channel]
-        return any(c != release.channel and s >= self.settings.held_ratio * pulled for c, s in enumerate(swing))
-
-    def _date_hold_release(self, t_s: float, a: Turn) -> Released | None:
-        """The ringing began from a hold (still before turn A): date it by the onset fit, or None.
-
-        The cart that moved most from the hold is the released one (two carts may both ring); only
-        it must have been still: the other cart, held by a hand, may wander by millimetres.
-        """
-        history = list(self._history)
-        plateau = [pos for t, pos in history if a.t_s - self.settings.still_s <= t <= a.t_s]
-        if len(plateau) < self.settings.fit_min_lookback_samples or history[0][0] > a.t_s - self.settings.still_s:
-            return None
-        hold = tuple(sum(column) / len(plateau) for column in zip(*plateau))
-        after = [(t, pos) for t, pos in history if t > a.t_s]
-        swing = [max(abs(pos[c] - hold[c]) for _, pos in after) for c in range(len(hold))]
-        channel = max(range(len(hold)), key=swing.__getitem__)
-        column = [pos[channel] for pos in plateau]
-        if max(column) - min(column) > 2.0 * self.settings.still_band_m:
-            return None
-        trigger = next((t for t, pos in after if abs(pos[channel] - hold[channel]) > self.settings.fire_m), None)
-        if trigger is None:
-            return None
-        self._hold = hold
-        fit = self._fit_onset(channel, trigger)
-        if fit is None:
-            return None
-        return Released(fit.t0_s, trigger, t_s, channel, abs(fit.accel_m_s2), hold)
-
-    def _date_ringing(self, t_s: float, channel: int, a: Turn, b: Turn, c: Turn) -> Released | Rejected:
-        """Fit the free response after B, slide the fit back while it holds; date where it began."""
-        half = 0.5 * (c.t_s - a.t_s)
-        s1, s2 = abs(b.x_m - a.x_m), abs(c.x_m - b.x_m)
-        sigma0 = max(0.0, math.log(max(s1, 1e-12) / max(s2, 1e-12)) / half) if s2 < s1 else 0.0
-        t = np.fromiter((h[0] for h in self._history), dtype=float, count=len(self._history))
-        y = np.fromiter((h[1][channel] for h in self._history), dtype=float, count=len(self._history))
-        t_from = b.t_s + 0.25 * half
-        span = 1.5 * half
-        window = (t >= t_from) & (t <= t_from + span)
-        vs = motion_sign(t, y)
-        free = fit_free(t[window], y[window], vs[window], sigma0, math.pi / half)
-        linear = fit_free(t[window], y[window], 0.0 * vs[window], sigma0, math.pi / half)
-        if linear is not None and (free is None or free.rms_m > 0.7 * linear.rms_m):
-            free, vs = linear, 0.0 * vs     # no dry friction to speak of: keep the model lean
-        if free is None:
-            return Rejected(t_s, 0.0, "ringing: fit failed")
-        if free.rms_m > self.settings.ring_fit_max_rel * s2:
-            return Rejected(t_s, 0.0, f"ringing: not a free response (fit rms {free.rms_m:.2g} m "
-                                      f"for a swing of {s2:.2g} m)")
-        limit = max(float(t[0]), a.t_s - 4.0 * half)
-        t_coarse, free = slide_back(t, y, vs, t_from, span, half, free, limit, 0.0003 * s2)
-        started = self._first_t if self._first_t is not None else t[0]
-        # a release shows the hand before it: within a half-period of the stream's start the data
-        # cannot tell a release from a swing that was going on (a record that starts in motion)
-        if t_coarse - half / 8.0 < limit or t_coarse - started < max(half, 2.0 * self.settings.fit_post_s):
-            return Rejected(t_s, 0.0, "ringing: in motion since the stream started (no release seen)"
-                            if t[0] <= started else "ringing: no release in view (it rang before)")
-        date = date_release(t, y, vs, free, t_coarse, half)
-        if date is None:
-            return Rejected(t_s, 0.0, "ringing: release fit failed")
-        k0 = int(np.searchsorted(t, date.t0_s))
-        x0 = y[min(k0, y.size - 1)]
-        away = np.flatnonzero(np.abs(y[k0:] - x0) > self.settings.fire_m)
-        trigger = float(t[k0 + int(away[0])]) if away.size else t_s
-        hold = self._history[max(0, k0 - 1)][1]
-        return Released(date.t0_s, trigger, t_s, channel, date.accel_m_s2, hold)
-
-
-    # --- back-dating --------------------------------------------------------------------------
-    def _fit_onset(self, channel: int, trigger_t: float) -> OnsetFit | None:
-        settings = self.settings
-        times = np.fromiter((h[0] for h in self._history), dtype=float, count=len(self._history))
-        before = np.flatnonzero(times < trigger_t)
-        if before.size < 2:
-            return None
-        n_back = max(settings.fit_min_lookback_samples,
-                     int(np.count_nonzero(times[before] >= trigger_t - settings.fit_lookback_s)))
-        first = int(before[max(0, before.size - n_back)])
-        after = np.flatnonzero(times >= trigger_t)
-        # the window the live decision saw: fit_post_s and fit_min_post_samples past the trigger
-        n_post = max(settings.fit_min_post_samples + 1,
-                     int(np.count_nonzero(times[after] <= trigger_t + settings.fit_post_s)))
-        last = int(after[min(after.size, n_post) - 1]) + 1 if after.size else len(times)
-        window = list(self._history)[first:last]
-        t = np.array([w[0] for w in window]) - trigger_t
-        y = np.array([w[1][channel] for w in window]) - self._hold[channel]
-        return fit_onset(t, y, settings.fit_powers, trigger_offset_s=trigger_t)
+        """Date a confirmed ringing (`daq.release_dating`)."""
+        first_t = self._first_t if self._first_t is not None else self._history[0][0]
+        event = date_ringing_release(Samples.of(list(self._history)), t_s, channel, (a, b, c), self.settings, first_t)
+        if isinstance(event, Released):
+            self._hold = event.hold_pos
+        return event

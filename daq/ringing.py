@@ -17,20 +17,11 @@ half-periods `B - A` and `C - B` within `[min_half_s, max_half_s]` and within a 
 `|C - B| <= grow |B - A| + 2 band_m`. A flick from rest gives A = the rest, B near the
 release, and its first swing is partial (so the test passes one turn later, on B, C, D).
 
-Where the ringing began (`date_release`), two steps:
-
-1. coarse: a damped sinusoid about a drifting centre `x(t) = c + d τ + e^{-στ} (A cos ωτ +
-   B sin ωτ)`, τ = t - t_ref, is fitted (variable projection: σ, ω by least squares, c, d,
-   A, B linear) on three quarters of a period from a quarter half-period after the middle
-   turn B (after any release near B) on; going back in time from there, the
-   first two samples in a row further than `tol` from the model end the free response
-   (`tol` = 5 × the fit RMS, at least 1 % of the swing);
-2. fine: around that point, a piecewise model whose pieces join with the same position
-   and velocity (the hand lets go: only the force jumps):
-       t >= t0:  x = f(t)                              (the free response, σ, ω fixed)
-       t <  t0:  x = f(t0) + f'(t0)(t - t0) + p2 (t - t0)² + p3 (t - t0)³ + p4 (t - t0)⁴  (the hand)
-   linear in (c, d, f, A, B, p2, p3, p4) for a given t0; t0 by a grid at the sample spacing, then
-   50× finer around the best point.
+Where the ringing began: a damped sinusoid about a drifting centre `x(t) = c + d τ - f sgn(v)
++ e^{-στ} (A cos ωτ + B sin ωτ)`, τ = t - t_ref (`fit_free`: σ, ω by least squares, c, d, f,
+A, B linear), is fitted on three quarters of a period from a quarter half-period after the
+middle turn B (after any release near B) on, and slid back in time while the data keep
+following it (`slide_back`). The fine instant is `daq.release_dating`'s.
 """
 
 from __future__ import annotations
@@ -157,7 +148,7 @@ class FreeFit:
     rms_m: float
 
     def __call__(self, t: Array, vsign: Array) -> Array:
-        g1, g2, _, _ = _basis(t, self.t_ref, self.sigma, self.omega)
+        g1, g2, _, _ = basis(t, self.t_ref, self.sigma, self.omega)
         c, d, f, a, b = self.coef
         out: Array = c + d * (t - self.t_ref) - f * vsign + a * g1 + b * g2
         return out
@@ -175,16 +166,7 @@ def motion_sign(t: Array, y: Array) -> Array:
     return out
 
 
-@dataclass(frozen=True, slots=True)
-class ReleaseDate:
-    """Where the free response begins: `t0_s`, the spring's acceleration there, the fit."""
-
-    t0_s: float
-    accel_m_s2: float
-    free: FreeFit
-
-
-def _basis(t: Array, t_ref: float, sigma: float, omega: float) -> tuple[Array, Array, Array, Array]:
+def basis(t: Array, t_ref: float, sigma: float, omega: float) -> tuple[Array, Array, Array, Array]:
     """e^{-στ} cos ωτ, e^{-στ} sin ωτ and their time derivatives, τ = t - t_ref."""
     tau = t - t_ref
     env = np.exp(-sigma * tau)
@@ -200,7 +182,7 @@ def fit_free(t: Array, y: Array, vs: Array, sigma0: float, omega0: float, spread
     t_ref = float(t[0])
 
     def linear(params: Array) -> tuple[Array, Array]:
-        g1, g2, _, _ = _basis(t, t_ref, float(params[0]), float(params[1]))
+        g1, g2, _, _ = basis(t, t_ref, float(params[0]), float(params[1]))
         design = np.stack([np.ones_like(t), t - t_ref, -vs, g1, g2], axis=1)
         coef = np.asarray(np.linalg.lstsq(design, y, rcond=None)[0], dtype=np.float64)
         residual: Array = y - design @ coef
@@ -224,7 +206,7 @@ def refit_linear(t: Array, y: Array, vs: Array, sigma: float, omega: float) -> F
     if t.size < 6:
         return None
     t_ref = float(t[0])
-    g1, g2, _, _ = _basis(t, t_ref, sigma, omega)
+    g1, g2, _, _ = basis(t, t_ref, sigma, omega)
     design = np.stack([np.ones_like(t), t - t_ref, -vs, g1, g2], axis=1)
     coef = np.linalg.lstsq(design, y, rcond=None)[0]
     rms = float(np.sqrt(np.mean((y - design @ coef) ** 2)))
@@ -255,57 +237,3 @@ def slide_back(t: Array, y: Array, vs: Array, t_from: float, span_s: float, half
             break
         start, fit = ts, trial
     return start, fit
-
-
-def date_release(t: Array, y: Array, vs: Array, free: FreeFit, t_coarse: float,
-                 half_s: float) -> ReleaseDate | None:
-    """Fine release instant near `t_coarse` by the joined hand/free model (see module)."""
-    step = float(np.median(np.diff(t)))
-    back = max(0.06, 5 * step)
-    lo, hi = t_coarse - back, t_coarse + back + 0.5 * half_s
-    keep = (t >= lo) & (t <= hi)
-    tw, yw, vw = t[keep], y[keep], vs[keep]
-    if tw.size < 10:
-        return None
-    # the RSS has a local minimum between every two samples: the coarse grid must be finer
-    # than the sample spacing, or it lands in the wrong interval
-    candidates = np.arange(t_coarse - 0.5 * back, t_coarse + 0.75 * back, step / 8.0)
-    candidates = candidates[(candidates > tw[2]) & (candidates < tw[-4])]
-    if candidates.size == 0:
-        return None
-    best = _best_joint(tw, yw, vw, free, candidates)
-    best = _best_joint(tw, yw, vw, free, np.linspace(best - step / 8.0, best + step / 8.0, 25))
-    coef, _ = _joint_solve(tw, yw, vw, free, best)
-    _, _, d1, d2 = _basis(np.array([best]), free.t_ref, free.sigma, free.omega)
-    # f'' of the free part at t0: (σ² - ω²) g + 2σω h-terms; from the ODE x'' = -2σ x' - (σ²+ω²)(x - c)
-    g1, g2, _, _ = _basis(np.array([best]), free.t_ref, free.sigma, free.omega)
-    x_rel = coef[3] * g1[0] + coef[4] * g2[0]
-    v = coef[3] * d1[0] + coef[4] * d2[0]
-    accel = -2.0 * free.sigma * v - (free.sigma ** 2 + free.omega ** 2) * x_rel
-    refit = FreeFit(free.t_ref, free.sigma, free.omega,
-                    (float(coef[0]), float(coef[1]), float(coef[2]), float(coef[3]), float(coef[4])), free.rms_m)
-    return ReleaseDate(float(best), abs(float(accel)), refit)
-
-
-def _joint_solve(t: Array, y: Array, vs: Array, free: FreeFit, t0: float) -> tuple[Array, float]:
-    """Coefficients (c, d, f, A, B, p2, p3, p4) and RSS of the joined model for one `t0`."""
-    g1, g2, _, _ = _basis(t, free.t_ref, free.sigma, free.omega)
-    h1, h2, d1, d2 = _basis(np.array([t0]), free.t_ref, free.sigma, free.omega)
-    before = t < t0
-    dt = np.where(before, t - t0, 0.0)
-    col_a = np.where(before, h1[0] + d1[0] * dt, g1)
-    col_b = np.where(before, h2[0] + d2[0] * dt, g2)
-    col_d = t - free.t_ref        # the drift is linear: continuous in value and slope at t0
-    k0 = min(int(np.searchsorted(t, t0)), t.size - 1)
-    col_f = np.where(before, -vs[k0], -vs)    # friction's shift of the centre, held by the hand before t0
-    scale = max(float(np.max(np.abs(dt))), 1e-9)
-    u = dt / scale
-    design = np.stack([np.ones_like(t), col_d, col_f, col_a, col_b, u ** 2, u ** 3, u ** 4], axis=1)
-    coef, *_ = np.linalg.lstsq(design, y, rcond=None)
-    residual = y - design @ coef
-    return coef, float(residual @ residual)
-
-
-def _best_joint(t: Array, y: Array, vs: Array, free: FreeFit, candidates: Array) -> float:
-    rss = [_joint_solve(t, y, vs, free, float(c))[1] for c in candidates]
-    return float(candidates[int(np.argmin(rss))])

@@ -3,14 +3,22 @@
 `sim://?student=releases` replaces the case script by one record of a student, drawn from
 `seed`; `student=handling` by handling only (no release, for false-run tests). The ranges
 below were measured on the shared ECP-210 hand-release records (cart 2 flicked, cart 1
-held by hand) and the 2023 hand steps; lengths in metres, so they hold on any rig:
+held by hand) and the 2023 hand steps; lengths in metres, times in seconds or in periods of
+the pulled cart (with the other one held), so they hold on any rig:
 
+- the hand is a force, not a path: it grips the cart (`ident.physics.rig.Grip`, a spring
+  and damper per unit mass towards where the hand means the cart to be, ω_g U(30, 70) rad/s,
+  ζ_g U(0.6, 1.0), drawn per record) and lets go at once (the force ends: on the real
+  records the hand's force per unit mass goes from 3-9 m/s² to ~0 within ~10 ms);
 - flick from rest: the hand takes the cart (catching it if it still rings), holds it a
-  moment (0-0.4 s: often little or no quiet time), swings it out along a half cosine to an
-  extreme of `flick_m` × U(0.6, 1.6) (3-8 cm at the default) in U(0.10, 0.20) s and lets go
-  at U(0.6, 1.15) of that time: mostly still moving outward near the extreme, sometimes just
-  past it (measured: 0.11-0.19 s from the start of the motion, at 63-100 % of the extreme,
-  two of seven after it);
+  moment (0-0.4 s: often little or no quiet time), swings it out along a half cosine
+  towards `flick_m` × U(0.6, 1.6) (3-8 cm at the default) in U(0.3, 0.45) periods (≈ 0.15 s
+  on the ECP-210) and lets go at U(0.5, 0.9) of that time, while the cart still moves out
+  and the hand still pushes it. Measured on the seven real flicks: at let-go the hand's
+  force is 0.2-1.2 times the spring's pull (median 0.8), the cart 6-53° of phase before
+  its first free extreme (median 42°), the force rose over 60-150 ms to a peak of 10-19 m/s²
+  30-100 ms before (ω_n 15.5 rad/s); these draws give 0.1-1.0 (10-90 %, median 0.5) and
+  12-62° (median 37°);
 - otherwise (30 %) a pull-hold-release: a minimum-jerk pull to 0.05-0.15 m in 0.5-1.5 s, a
   hold of 0.3-2 s, let go still;
 - 1 to `student_releases` releases, U(2.5, 7) s apart (measured 3.6-7.2 s), each new one
@@ -18,7 +26,8 @@ held by hand) and the 2023 hand steps; lengths in metres, so they hold on any ri
 - the other cart held loosely by a hand (80 %, else pinned): a soft spring seen as its
   hold point, plus a wander of a few sines (0.2-1.5 Hz) of amplitude `wander_m` × U(0.25, 1)
   (100-400 counts measured), plus `follow` × U(0.4, 1.6) times the pulled cart's position
-  (it follows weakly through the spring: quasi-static `k2 / (k2 + k3 + k_hand)`);
+  (it follows weakly through the spring: quasi-static `k2 / (k2 + k3 + k_hand)`); it is a
+  position constraint (`ident.physics.rig.PositionPath`);
 - with probability `p_nudge` a nudge 0.4-1.2 s before a release: the cart pushed 3-10 mm
   out and brought back by the hand in 0.2-0.5 s, let go at rest (measured: ~1 cm, 0.8 s
   before);
@@ -31,8 +40,7 @@ held by hand) and the 2023 hand steps; lengths in metres, so they hold on any ri
 U(2, 8) s a nudge of the free cart, a move of the held cart, or a slow pull of the free cart
 (0.05-0.15 m over 1-2 s), held 0.5-2 s and brought back to rest over 1-2 s, let go there.
 
-Hand paths are position constraints per cart (`ident.physics.rig.PositionPath`); truth is
-in `events` (`release` at the instant the hand lets go, `letgo` for handling).
+Truth is in `events` (`release` at the instant the hand lets go, `letgo` for handling).
 """
 
 from __future__ import annotations
@@ -44,7 +52,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from daq.sim.hand import ScriptEvent, tremor_terms
-from ident.physics.rig import ChainState, PositionPath
+from ident.physics.rig import ChainState, Grip, Hand, PositionPath
 
 Sines = tuple[tuple[float, float, float], ...]   # (amplitude m, omega rad/s, phase)
 Moves = tuple[tuple[float, float, float], ...]   # (start s, displacement m, duration s)
@@ -154,6 +162,7 @@ class StudentKnobs:
     tremor_m: float
     carts: int
     duration_s: float
+    period_s: tuple[float, float] = (0.56, 0.56)   # of cart 1 and cart 2 alone (the other held)
 
 
 @dataclass(frozen=True, slots=True)
@@ -175,11 +184,12 @@ class StudentHand:
         self.state = state
         self.cases = ("student",)
         self.events: list[ScriptEvent] = []
-        self.path1: PositionPath | None = None
-        self.path2: PositionPath | None = None
+        self.path1: Hand | None = None
+        self.path2: Hand | None = None
         self.phase = "script"
         self.ring_max_s = math.inf
         self.pulled = 1 if knobs.carts == 1 else int(rng.integers(1, 3))
+        self.grip = (float(rng.uniform(30.0, 70.0)), float(rng.uniform(0.6, 1.0)))   # ω_g rad/s, ζ_g
         self._acts: list[_Act] = []
         self._held: LooseHold | None = None
         self._draw()
@@ -238,8 +248,9 @@ class StudentHand:
         """One grab at `t`, the release act after it; returns the release time."""
         if self.rng.random() < 0.7:
             amp = self.knobs.flick_m * self._u(0.6, 1.6) * (1.0 if self.rng.random() < 0.5 else -1.0)
-            catch, hold, dur = self._u(0.15, 0.4), self._u(0.0, 0.4), self._u(0.10, 0.20)
-            t_release = t + catch + hold + self._u(0.6, 1.15) * dur
+            period = self.knobs.period_s[self.pulled - 1]
+            catch, hold, dur = self._u(0.15, 0.4), self._u(0.0, 0.4), self._u(0.3, 0.45) * period
+            t_release = t + catch + hold + self._u(0.5, 0.9) * dur
             self._acts.append(_Act(t, "flick", self.pulled, Swing(t, 0.0, 0.0, catch, hold, amp, dur)))
         else:
             pull = self._u(0.05, 0.15) * (1.0 if self.rng.random() < 0.5 else -1.0)
@@ -296,11 +307,21 @@ class StudentHand:
             s.x2, s.v2 = x, v
 
     # --- running it -------------------------------------------------------------------------
-    def _set_path(self, cart: int, path: PositionPath | None) -> None:
+    def _set_path(self, cart: int, path: Hand | None) -> None:
         if cart == 1:
             self.path1 = path
         else:
             self.path2 = path
+
+    def _grip(self, cart: int, path: PositionPath) -> None:
+        """The hand takes the pulled cart: a force towards `path` (it ends when the hand lets go)."""
+        self._set_path(cart, Grip(path, *self.grip))
+
+    def _hand_x(self, cart: int, t: float) -> float:
+        """Where a new move of the hand starts: where the hand is if it grips the cart (its grip
+        does not slacken when it starts to move), else where the cart is (a new grab)."""
+        hand = self.path1 if cart == 1 else self.path2
+        return hand.path(t) if isinstance(hand, Grip) else self._x(cart)
 
     def _x(self, cart: int) -> float:
         return self.state.x1 if cart == 1 else self.state.x2
@@ -310,22 +331,22 @@ class StudentHand:
 
     def _apply(self, act: _Act, t: float) -> None:
         tremor = tremor_terms(self.rng, self.knobs.tremor_m)
-        x = self._x(act.cart) if act.cart else 0.0
+        x = self._hand_x(act.cart, t) if act.cart else 0.0
         if act.kind == "flick":
             assert isinstance(act.path, Swing)
             p = act.path
-            self._set_path(act.cart, Swing(t, x, self.rest_of(act.cart), p.catch_s, p.hold_s, p.amp, p.dur, tremor))
+            self._grip(act.cart, Swing(t, x, self.rest_of(act.cart), p.catch_s, p.hold_s, p.amp, p.dur, tremor))
             self._event("grab", t)
         elif act.kind in ("pull", "slow", "back"):
             assert isinstance(act.path, PullHold)
             target = self.rest_of(act.cart) + act.path.x1      # pulls are drawn from the rest
-            self._set_path(act.cart, PullHold(t, x, target, act.path.dur, tremor))
+            self._grip(act.cart, PullHold(t, x, target, act.path.dur, tremor))
             if act.kind != "back":
                 self._event("grab", t)
         elif act.kind == "nudge":
             dur = self._u(0.2, 0.5)
             dx = self._u(0.003, 0.010) * (1.0 if self.rng.random() < 0.5 else -1.0)
-            self._set_path(act.cart, Bump(t, x, self.rest_of(act.cart), dx, dur, tremor))
+            self._grip(act.cart, Bump(t, x, self.rest_of(act.cart), dx, dur, tremor))
             self._acts.insert(self._next, _Act(t + dur, "letgo", act.cart))
             self._event("nudge", t)
         elif act.kind in ("release", "letgo"):

@@ -21,9 +21,18 @@ and the fitter share one physics:
   from second differences of the path on half steps (error O(dt²) times the path's fourth
   derivative), and the held cart's end state is set to the path's (its position, and a
   second-order backward difference for p'), so it cannot drift from the hand;
-- every moving cart held: the positions are the paths, nothing to integrate.
+- every moving cart held: the positions are the paths, nothing to integrate;
+- a hand that grips a cart (`Grip`) is a force, not a constraint: a stiff, damped spring
+  (per unit mass) towards the hand's path, `a_hand = ω_g² (p - x) + 2 ζ_g ω_g (p' - v)`. Its
+  linear part joins the cart's own (`ω_g²` to the spring to its wall, `2 ζ_g ω_g` to its
+  damper) and `ω_g² p + 2 ζ_g ω_g p'` is an input (p' from centred differences on half
+  steps). The cart keeps its friction and inertia, so the hand's force, not the cart's
+  position, is what ends when the hand lets go (the real hand releases of the shared records
+  show that force ending within ~10 ms). With a cubic spring (`cubic` ≠ 0) the grip's spring
+  takes the cubic part of the cart's wall spring too (only while gripped).
 
-A cart let go leaves with the hand's speed (that backward difference).
+A cart let go from a path leaves with the hand's speed (that backward difference); from a
+grip with the speed it has.
 """
 
 from __future__ import annotations
@@ -39,6 +48,22 @@ from ident.physics.free import NonlinearTerms, StepMaps, run_maps, step_maps
 
 PositionPath = Callable[[float], float]
 FloatArray = NDArray[np.float64]
+
+
+@dataclass(frozen=True, slots=True)
+class Grip:
+    """A hand's grip on a cart: spring `omega` (rad/s) and damping ratio `zeta` per unit mass
+    towards `path` (m): `a_hand = omega² (path(t) - x) + 2 zeta omega (path'(t) - v)` (m/s²)."""
+
+    path: PositionPath
+    omega: float
+    zeta: float
+
+    def __call__(self, t: float) -> float:
+        return self.path(t)
+
+
+Hand = PositionPath | Grip
 
 
 @dataclass(frozen=True, slots=True)
@@ -70,42 +95,60 @@ class ChainState:
 
 
 def advance(p: ChainParams, s: ChainState, dt: float, steps: int,
-            path1: PositionPath | None, path2: PositionPath | None) -> None:
-    """Advance `s` in place by `steps` steps of `dt`; a cart with a path follows it."""
+            path1: Hand | None, path2: Hand | None) -> None:
+    """Advance `s` in place by `steps` steps of `dt`; a cart with a path follows it, a cart
+    with a `Grip` is pulled towards its path."""
     if p.carts == 1:
         path2 = None
-    if path1 is None and path2 is None:
-        _free(p, s, dt, steps)
-    elif p.carts == 1 or (path1 is not None and path2 is not None):
+    grips = tuple((c, h) for c, h in ((0, path1), (1, path2)) if isinstance(h, Grip))
+    held = [(c, h) for c, h in ((0, path1), (1, path2)) if h is not None and not isinstance(h, Grip)]
+    if p.carts == 1 and held:
+        _follow(s, dt, steps, held[0][1], None)
+    elif len(held) == 2:
         _follow(s, dt, steps, path1, path2)
-    elif path1 is not None:
-        _one_held(p, s, dt, steps, 0, path1)
-    elif path2 is not None:
-        _one_held(p, s, dt, steps, 1, path2)
+    elif held:
+        _driven(p, s, dt, steps, held[0], grips)
+    elif grips:
+        _driven(p, s, dt, steps, None, grips)
+    else:
+        _free(p, s, dt, steps)
 
 
 @functools.lru_cache(maxsize=16)
-def _maps(p: ChainParams, dt: float, held: int | None = None) -> StepMaps:
+def _maps(p: ChainParams, dt: float, held: int | None = None,
+          grips: tuple[tuple[int, float, float], ...] = ()) -> StepMaps:
     """The carts' step maps (mass-normalised chain, friction, cubic springs) on `dt`; with
-    `held` (0 or 1) that cart has infinite mass and takes its acceleration as input 0."""
+    `held` (0 or 1) that cart has infinite mass and takes its acceleration as input 0; each
+    grip (cart, ω_g, ζ_g) adds its spring and damper to the cart and takes the next input."""
+    n_in = (held is not None) + len(grips)
+    gain = np.zeros((1, p.carts, n_in)) if n_in else None
     if p.carts == 1:   # cart 2 clamped at 0: k1 and k2 both tie cart 1 to the wall
-        k = p.k1 + p.k2
-        lin = np.array([[np.sqrt(k / p.m1), p.c1 / (2.0 * np.sqrt(k * p.m1))]])
+        k, c = (p.k1 + p.k2) / p.m1, p.c1 / p.m1
+        for _, omega, zeta in grips:
+            k, c = k + omega ** 2, c + 2.0 * zeta * omega
+        if gain is not None:
+            gain[0, 0, 0] = 1.0
+        lin = np.array([[np.sqrt(k), c / (2.0 * np.sqrt(k))]])
         friction = np.array([[p.fc1 / p.m1]])
-        return step_maps(lin, dt, 1, NonlinearTerms(friction_m_s2=friction, cubic_per_m2=np.array([p.cubic])))
+        return step_maps(lin, dt, 1, NonlinearTerms(friction_m_s2=friction, cubic_per_m2=np.array([p.cubic]),
+                                                    input_gain=gain), n_inputs=n_in)
     # per cart: (spring to its wall, coupling spring, damper, dry friction) per mass
     rows = np.array([[p.k1 / p.m1, p.k2 / p.m1, p.c1 / p.m1, p.fc1 / p.m1],
                      [p.k3 / p.m2, p.k2 / p.m2, p.c2 / p.m2, p.fc2 / p.m2]])
-    gain = None
     if held is not None:
         rows[held] = 0.0                      # m → ∞: only the input moves the held cart
-        gain = np.zeros((1, 2, 1))
+        assert gain is not None
         gain[0, held, 0] = 1.0
+    for q, (cart, omega, zeta) in enumerate(grips, start=int(held is not None)):
+        rows[cart, 0] += omega ** 2
+        rows[cart, 2] += 2.0 * zeta * omega
+        assert gain is not None
+        gain[0, cart, q] = 1.0
     (a1, b1, g1, f1), (a2, b2, g2, f2) = rows
     lin = np.array([[a1, b1, b2, a2, g1, g2]])
     terms = NonlinearTerms(friction_m_s2=np.array([[f1, f2]]), cubic_per_m2=np.array([p.cubic]),
                            input_gain=gain)
-    return step_maps(lin, dt, 2, terms, n_inputs=0 if held is None else 1)
+    return step_maps(lin, dt, 2, terms, n_inputs=n_in)
 
 
 def _free(p: ChainParams, s: ChainState, dt: float, steps: int) -> None:
@@ -154,15 +197,40 @@ def _path_acceleration(q: FloatArray, dt: float) -> FloatArray:
     return accel
 
 
-def _one_held(p: ChainParams, s: ChainState, dt: float, steps: int, held: int, path: PositionPath) -> None:
-    """Two carts, cart `held` (0 or 1) on the hand's path, the other free (module docstring)."""
-    q = _half_steps(path, s.t, dt, steps)
+def _path_velocity(q: FloatArray, dt: float) -> FloatArray:
+    """p' (steps + 1,) at t0 + k·dt from the half-step samples `q` (2·steps + 1,): centred
+    differences over ±dt/2; at the two ends second-order one-sided ones."""
+    vel = np.empty((q.size + 1) // 2)
+    vel[1:-1] = (q[3::2] - q[1:-2:2]) / dt
+    vel[0] = (-3.0 * q[0] + 4.0 * q[1] - q[2]) / dt
+    vel[-1] = (3.0 * q[-1] - 4.0 * q[-2] + q[-3]) / dt
+    return vel
+
+
+def _driven(p: ChainParams, s: ChainState, dt: float, steps: int, held: tuple[int, Hand] | None,
+            grips: tuple[tuple[int, Grip], ...]) -> None:
+    """Carts held on a path (`held`: cart 0 or 1 and its path) and/or gripped (module docstring)."""
     x, v = [s.x1, s.x2], [s.v1, s.v2]
-    x[held], v[held] = float(q[0]), float((-3.0 * q[0] + 4.0 * q[1] - q[2]) / dt)
-    z0 = np.array([[x[0], x[1], v[0], v[1]]])
-    _, end = run_maps(_maps(p, dt, held), z0, steps + 1, _path_acceleration(q, dt)[:, None])
+    columns = []
+    q_held = None
+    if held is not None:
+        q_held = _half_steps(held[1], s.t, dt, steps)
+        x[held[0]], v[held[0]] = float(q_held[0]), float((-3.0 * q_held[0] + 4.0 * q_held[1] - q_held[2]) / dt)
+        columns.append(_path_acceleration(q_held, dt))
+    for _, grip in grips:
+        q = _half_steps(grip.path, s.t, dt, steps)
+        columns.append(grip.omega ** 2 * q[::2] + 2.0 * grip.zeta * grip.omega * _path_velocity(q, dt))
+    key = tuple((c, g.omega, g.zeta) for c, g in grips)
+    maps = _maps(p, dt, None if held is None else held[0], key)
+    z0 = np.array([[x[0], v[0]]]) if p.carts == 1 else np.array([[x[0], x[1], v[0], v[1]]])
+    _, end = run_maps(maps, z0, steps + 1, np.stack(columns, axis=1))
+    if p.carts == 1:
+        s.x1, s.v1 = float(end[0, 0]), float(end[0, 1])
+        s.t += steps * dt
+        return
     x, v = [float(end[0, 0]), float(end[0, 1])], [float(end[0, 2]), float(end[0, 3])]
-    x[held], v[held] = float(q[-1]), _end_velocity(q, dt)
+    if held is not None and q_held is not None:
+        x[held[0]], v[held[0]] = float(q_held[-1]), _end_velocity(q_held, dt)
     s.x1, s.x2 = x
     s.v1, s.v2 = v
     s.t += steps * dt

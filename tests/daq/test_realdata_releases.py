@@ -171,8 +171,10 @@ def _period(t: Array, y: Array, t0: float) -> float:
     return float(2.0 * np.median(np.diff(t[window][peaks]))) if peaks.size >= 3 else 0.4
 
 
-@pytest.mark.xfail(strict=True, reason="daq dates two of the seven real flicks 28-30 ms after the judge (the "
-                   "hand's force ends at once, but the ringing's joined fit is flat on the late side)")
+@pytest.mark.xfail(strict=True, reason="one of the seven real flicks (07-Feb-2025_11_29_09 at 9.03 s) is dated 27 ms "
+                   "after the judge: there the hand's force fades over ~30 ms instead of ending at once, and the "
+                   "judge itself moves by 13 ms when the ECP's whole-ms stamps are evened out; the other six are "
+                   "within -4..+17 ms")
 def test_every_real_hand_release_instant_is_within_20_ms_of_the_judge(realdata_dir: Path, tmp_path: Path) -> None:
     offsets = _offsets(realdata_dir, tmp_path)
     for name, t0, judged in offsets:

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from ident.physics.rig import ChainParams, ChainState, advance
+from ident.physics.rig import ChainParams, ChainState, Grip, advance
 
 DT = 5e-4
 
@@ -99,3 +99,42 @@ def test_one_cart_rig_held_by_the_hand_is_the_path_and_cart_2_stays_clamped() ->
     advance(p, s, DT, 10, lambda t: 0.5 * t * t, lambda _t: 1.0)
     assert (s.x1, s.x2, s.v2) == (pytest.approx(0.5 * (10 * DT) ** 2), 0.0, 0.0)
     assert s.v1 == pytest.approx(10 * DT, rel=1e-9)
+
+
+@pytest.mark.parametrize("carts", [1, 2])
+def test_a_gripping_hand_is_a_spring_and_damper_towards_its_path(carts: int) -> None:
+    # a hand grips cart 1 (cart 2 pinned by the other hand for carts=2) and swings it along a
+    # half cosine; reference: solve_ivp of m1 x1'' = -(k1 + k2) x1 - c1 x1' + m1 h, with
+    # h = wg² (p - x1) + 2 zg wg (p' - x1') (cart 2 held at 0, or clamped for carts=1)
+    p = _params(carts=carts, cubic=0.0)
+    wg, zg, amp, dur = 50.0, 0.7, 0.05, 0.2
+
+    def path(t: float) -> float:
+        return 0.5 * amp * (1.0 - math.cos(math.pi * min(t, dur) / dur))
+
+    def speed(t: float) -> float:
+        return 0.5 * amp * math.pi / dur * math.sin(math.pi * t / dur) if t < dur else 0.0
+
+    def rhs(t: float, z: np.ndarray) -> list[float]:
+        x1, v1 = z
+        hand = wg ** 2 * (path(t) - x1) + 2 * zg * wg * (speed(t) - v1)
+        return [v1, (-(p.k1 + p.k2) * x1 - p.c1 * v1) / p.m1 + hand]
+
+    grip = Grip(path, wg, zg)
+    t, x = _run(p, ChainState(), 1.0, grip, (lambda _t: 0.0) if carts == 2 else None)
+    ref = solve_ivp(rhs, (0.0, t[-1]), [0.0, 0.0], t_eval=t, rtol=1e-10, atol=1e-12, method="DOP853", max_step=1e-3)
+    assert np.max(np.abs(x[:, 0] - ref.y[0])) < 2e-6        # 2 µm on a 5 cm swing
+    # held still, the grip balances the spring: x = wg² p / (wg² + (k1 + k2)/m1), short of the path
+    assert x[-1, 0] == pytest.approx(wg ** 2 * amp / (wg ** 2 + (p.k1 + p.k2) / p.m1), rel=1e-4)
+
+
+def test_a_released_grip_leaves_the_cart_with_its_own_speed_and_the_hands_force_gone() -> None:
+    p = _params()
+    s = ChainState()
+    grip = Grip(lambda t: 0.4 * t, 40.0, 0.8)
+    advance(p, s, DT, 400, grip, lambda _t: 0.0)
+    x, v = s.x1, s.v1
+    assert 0.0 < x < 0.4 * s.t and v > 0.0                 # the grip drags the cart, which lags the hand
+    advance(p, s, DT, 1, None, lambda _t: 0.0)             # let go: the spring alone decelerates it
+    accel = (s.v1 - v) / DT
+    assert accel == pytest.approx(-(p.k1 + p.k2) / p.m1 * x - p.c1 / p.m1 * v, rel=0.02)

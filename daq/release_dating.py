@@ -1,0 +1,267 @@
+"""Where a release happened: the dating of a release the detector found. Pure.
+
+`daq.detector` finds releases (a fast departure from a hold, or a free ringing); this module
+places their instant on the samples it keeps (`t` (N,) s, `pos` (N, C) m, oldest first).
+
+A hand is a force on the cart. On the real ECP-210 hand releases (the shared records) the
+hand's force per unit mass, measured as the acceleration left after the fitted free motion,
+rises over 60-150 ms to 10-19 m/s², declines, and is still 3-9 m/s² (0.2-1.2 times the
+spring's pull) when the hand lets go; it is gone within ~10 ms. So the release is dated
+as the end of a hand force joined to the free response:
+
+- from a still hold (`fit_onset_at`): the hand held the cart against the spring; at t0 that
+  force ends and the spring's starts the motion, `y = x0 + Σ c_k max(t - t0, 0)^k`
+  (`daq.onset`);
+- a ringing (`date_ringing`): the free response `f` (a damped sinusoid about a drifting
+  centre with dry friction, `daq.ringing.FreeFit`) is fitted a period on and slid back while
+  the data keep following it (`daq.ringing.slide_back`); around where it stops, the joined
+  model (`date_release`)
+
+      t >= t0:  x = f(t)
+      t <  t0:  x = f(t) + F_r d1(t - t0) + S d2(t - t0)
+
+  is the free motion plus the cart's response to a hand force `F_r + S (t0 - t)` that ends
+  at t0 (linear over the 0.3 half-period before it; `hand_response`, ≈ F_r τ²/2 + S τ³/6);
+  linear in the free coefficients and (F_r, S) for a given t0, t0 by a grid an eighth of a
+  sample apart, then finer. A quartic hand (the previous model) also follows the first free
+  samples and dated real flicks 8-29 ms late.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+
+from daq.detector_events import DetectorSettings, Rejected, Released
+from daq.onset import OnsetFit, fit_onset
+from daq.ringing import FreeFit, Turn, basis, fit_free, motion_sign, slide_back
+
+Array = npt.NDArray[np.float64]
+
+
+@dataclass(frozen=True, slots=True)
+class Samples:
+    """The detector's kept samples: times `t` (N,) s and positions `pos` (N, C) m, oldest first."""
+
+    t: Array
+    pos: Array
+
+    @classmethod
+    def of(cls, history: list[tuple[float, tuple[float, ...]]]) -> Samples:
+        t = np.fromiter((h[0] for h in history), dtype=np.float64, count=len(history))
+        pos = np.array([h[1] for h in history], dtype=np.float64).reshape(len(history), -1)
+        return cls(t, pos)
+
+    def step(self) -> float:
+        """The median sample spacing of the last 20 samples (s)."""
+        return float(np.median(np.diff(self.t[-20:])))
+
+
+@dataclass(frozen=True, slots=True)
+class ReleaseDate:
+    """Where the free response begins: `t0_s`, the spring's acceleration there, the fit."""
+
+    t0_s: float
+    accel_m_s2: float
+    free: FreeFit
+
+
+# --- from a still hold ------------------------------------------------------------------------
+def fit_onset_at(s: Samples, channel: int, hold: tuple[float, ...], trigger_t: float,
+                 settings: DetectorSettings) -> OnsetFit | None:
+    """The onset fit on the hold before `trigger_t` and the window the live decision saw."""
+    times = s.t
+    before = np.flatnonzero(times < trigger_t)
+    if before.size < 2:
+        return None
+    n_back = max(settings.fit_min_lookback_samples,
+                 int(np.count_nonzero(times[before] >= trigger_t - settings.fit_lookback_s)))
+    first = int(before[max(0, before.size - n_back)])
+    after = np.flatnonzero(times >= trigger_t)
+    # the window the live decision saw: fit_post_s and fit_min_post_samples past the trigger
+    n_post = max(settings.fit_min_post_samples + 1,
+                 int(np.count_nonzero(times[after] <= trigger_t + settings.fit_post_s)))
+    last = int(after[min(after.size, n_post) - 1]) + 1 if after.size else len(times)
+    t = times[first:last] - trigger_t
+    y = s.pos[first:last, channel] - hold[channel]
+    return fit_onset(t, y, settings.fit_powers, trigger_offset_s=trigger_t)
+
+
+def date_hold_release(s: Samples, t_now: float, a: Turn, settings: DetectorSettings) -> Released | None:
+    """The ringing began from a hold (still before turn A): date it by the onset fit, or None.
+
+    The cart that moved most from the hold is the released one (two carts may both ring); only
+    it must have been still: the other cart, held by a hand, may wander by millimetres.
+    """
+    plateau_mask = (s.t >= a.t_s - settings.still_s) & (s.t <= a.t_s)
+    plateau = s.pos[plateau_mask]
+    if len(plateau) < settings.fit_min_lookback_samples or s.t[0] > a.t_s - settings.still_s:
+        return None
+    hold = tuple(float(v) for v in plateau.mean(axis=0))
+    after_mask = s.t > a.t_s
+    after = s.pos[after_mask]
+    swing = np.max(np.abs(after - np.array(hold)), axis=0)
+    channel = int(np.argmax(swing))
+    column = plateau[:, channel]
+    if float(column.max() - column.min()) > 2.0 * settings.still_band_m:
+        return None
+    away = np.flatnonzero(np.abs(after[:, channel] - hold[channel]) > settings.fire_m)
+    if away.size == 0:
+        return None
+    trigger = float(s.t[after_mask][away[0]])
+    fit = fit_onset_at(s, channel, hold, trigger, settings)
+    if fit is None:
+        return None
+    return Released(fit.t0_s, trigger, t_now, channel, abs(fit.accel_m_s2), hold)
+
+
+def others_swing(s: Samples, release: Released, held_ratio: float) -> bool:
+    """True when a channel other than the released one swung like it since the release."""
+    after = s.pos[s.t >= release.t_release_s]
+    swing = np.max(np.abs(after - np.array(release.hold_pos)), axis=0)
+    pulled = swing[release.channel]
+    return any(c != release.channel and v >= held_ratio * pulled for c, v in enumerate(swing))
+
+
+# --- a ringing ------------------------------------------------------------------------------
+def date_ringing(s: Samples, t_now: float, channel: int, turns: tuple[Turn, Turn, Turn],
+                 settings: DetectorSettings, first_t: float) -> Released | Rejected:
+    """Fit the free response after B, slide the fit back while it holds; date where it began."""
+    a, b, c = turns
+    half = 0.5 * (c.t_s - a.t_s)
+    s1, s2 = abs(b.x_m - a.x_m), abs(c.x_m - b.x_m)
+    sigma0 = max(0.0, math.log(max(s1, 1e-12) / max(s2, 1e-12)) / half) if s2 < s1 else 0.0
+    t, y = s.t, s.pos[:, channel]
+    t_from = b.t_s + 0.25 * half
+    span = 1.5 * half
+    window = (t >= t_from) & (t <= t_from + span)
+    vs = motion_sign(t, y)
+    free = fit_free(t[window], y[window], vs[window], sigma0, math.pi / half)
+    linear = fit_free(t[window], y[window], 0.0 * vs[window], sigma0, math.pi / half)
+    if linear is not None and (free is None or free.rms_m > 0.7 * linear.rms_m):
+        free, vs = linear, 0.0 * vs     # no dry friction to speak of: keep the model lean
+    if free is None:
+        return Rejected(t_now, 0.0, "ringing: fit failed")
+    if free.rms_m > settings.ring_fit_max_rel * s2:
+        return Rejected(t_now, 0.0, f"ringing: not a free response (fit rms {free.rms_m:.2g} m "
+                                    f"for a swing of {s2:.2g} m)")
+    limit = max(float(t[0]), a.t_s - 4.0 * half)
+    t_coarse, free = slide_back(t, y, vs, t_from, span, half, free, limit, 0.0003 * s2)
+    # a release shows the hand before it: within a half-period of the stream's start the data
+    # cannot tell a release from a swing that was going on (a record that starts in motion)
+    if t_coarse - half / 8.0 < limit or t_coarse - first_t < max(half, 2.0 * settings.fit_post_s):
+        return Rejected(t_now, 0.0, "ringing: in motion since the stream started (no release seen)"
+                        if t[0] <= first_t else "ringing: no release in view (it rang before)")
+    date = date_release(t, y, vs, free, t_coarse, half)
+    if date is None:
+        return Rejected(t_now, 0.0, "ringing: release fit failed")
+    k0 = int(np.searchsorted(t, date.t0_s))
+    x0 = y[min(k0, y.size - 1)]
+    away = np.flatnonzero(np.abs(y[k0:] - x0) > settings.fire_m)
+    trigger = float(t[k0 + int(away[0])]) if away.size else t_now
+    hold = tuple(float(v) for v in s.pos[max(0, k0 - 1)])
+    return Released(date.t0_s, trigger, t_now, channel, date.accel_m_s2, hold)
+
+
+def date_ringing_release(s: Samples, t_now: float, channel: int, turns: tuple[Turn, Turn, Turn],
+                         settings: DetectorSettings, first_t: float) -> Released | Rejected:
+    """Date a ringing: from a hold by the onset fit unless the free response clearly began later."""
+    free = date_ringing(s, t_now, channel, turns, settings, first_t)
+    hold = date_hold_release(s, t_now, turns[0], settings)
+    if hold is None:
+        return free
+    if not isinstance(free, Released) or free.channel != hold.channel or others_swing(s, hold, settings.held_ratio):
+        return hold     # two carts ring together: one damped sinusoid does not describe them
+    # a hand that lets go gradually: the motion starts before the free response does
+    late = free.t_release_s - hold.t_release_s > max(2.0 * s.step(), 0.005)
+    return free if late else hold
+
+
+# --- the joined model -------------------------------------------------------------------------
+def date_release(t: Array, y: Array, vs: Array, free: FreeFit, t_coarse: float,
+                 half_s: float) -> ReleaseDate | None:
+    """Fine release instant near `t_coarse`: a linear hand force ending at t0 joined to the free
+    response (module docstring); shapes (N,)."""
+    step = float(np.median(np.diff(t)))
+    back = max(0.3 * half_s, 5 * step)
+    lo, hi = t_coarse - back, t_coarse + back + 0.5 * half_s
+    keep = (t >= lo) & (t <= hi)
+    tw, yw, vw = _even_clock(t[keep]), y[keep], vs[keep]
+    if tw.size < 10:
+        return None
+    # the RSS has a local minimum between every two samples: the coarse grid must be finer
+    # than the sample spacing, or it lands in the wrong interval
+    candidates = np.arange(t_coarse - 0.5 * back, t_coarse + 0.75 * back, step / 8.0)
+    candidates = candidates[(candidates > tw[2]) & (candidates < tw[-4])]
+    if candidates.size == 0:
+        return None
+    best = _best_joint(tw, yw, vw, free, candidates)
+    best = _best_joint(tw, yw, vw, free, np.linspace(best - step / 8.0, best + step / 8.0, 25))
+    coef, _ = _joint_solve(tw, yw, vw, free, best)
+    g1, g2, d1, d2 = basis(np.array([best]), free.t_ref, free.sigma, free.omega)
+    # the spring's acceleration at t0, from the ODE x'' = -2σ x' - (σ² + ω²)(x - c)
+    x_rel = coef[3] * g1[0] + coef[4] * g2[0]
+    v = coef[3] * d1[0] + coef[4] * d2[0]
+    accel = -2.0 * free.sigma * v - (free.sigma ** 2 + free.omega ** 2) * x_rel
+    refit = FreeFit(free.t_ref, free.sigma, free.omega,
+                    (float(coef[0]), float(coef[1]), float(coef[2]), float(coef[3]), float(coef[4])), free.rms_m)
+    return ReleaseDate(float(best), abs(float(accel)), refit)
+
+
+def _even_clock(t: Array) -> Array:
+    """The sample times of a window, evened out when the device stamps a coarse clock on evenly
+    taken samples (the ECP-210 stamps whole ms on ~1.13 ms samples: ±0.5 ms, ±0.3 mm at speed):
+    a straight line through (index, t) when every stamp lies within half a spacing of it (no
+    sample missing), else the stamps as they are."""
+    if t.size < 3:
+        return t
+    k = np.arange(t.size, dtype=np.float64)
+    slope, intercept = np.polyfit(k, t, 1)
+    line: Array = intercept + slope * k
+    return line if float(np.max(np.abs(t - line))) < 0.5 * slope else t
+
+
+def hand_response(s: Array, sigma: float, omega: float) -> tuple[Array, Array]:
+    """What a hand force that ends at s = 0 adds to the free motion before it, s = t - t0 ≤ 0 (N,).
+
+    d'' + 2σ d' + (σ² + ω²) d = h(s), d(0) = d'(0) = 0 (the hand lets go: position and velocity
+    are continuous), for h = 1 and h = -s (m/s² per unit, a force growing back in time):
+
+        d1 = (1 - e^{-σs} (cos ωs + σ/ω sin ωs)) / Ω²                       ≈ s²/2
+        d2 = -s/Ω² + 2σ/Ω⁴ + e^{-σs} (A cos ωs + B sin ωs),
+             A = -2σ/Ω⁴,  B = (1/Ω² - 2σ²/Ω⁴)/ω,  Ω² = σ² + ω²          ≈ -s³/6
+
+    The spring acts on the hand's push too: over the ~0.3 half-period the hand is fitted, ω²s²
+    reaches ~1, and the bare polynomials α s² + β s³ would date the release ~1 ms early.
+    """
+    om2 = sigma ** 2 + omega ** 2
+    env = np.exp(-sigma * s)
+    cos, sin = np.cos(omega * s), np.sin(omega * s)
+    d1: Array = (1.0 - env * (cos + sigma / omega * sin)) / om2
+    a = -2.0 * sigma / om2 ** 2
+    b = (1.0 / om2 - 2.0 * sigma ** 2 / om2 ** 2) / omega
+    d2: Array = -s / om2 + 2.0 * sigma / om2 ** 2 + env * (a * cos + b * sin)
+    return d1, d2
+
+
+def _joint_solve(t: Array, y: Array, vs: Array, free: FreeFit, t0: float) -> tuple[Array, float]:
+    """Coefficients (c, d, f, A, B, F_r, S) (the hand's scaled) and RSS of the joined model for one `t0`."""
+    g1, g2, _, _ = basis(t, free.t_ref, free.sigma, free.omega)
+    k0 = min(int(np.searchsorted(t, t0)), t.size - 1)
+    # dry friction goes on pulling against the motion the cart has at t0 while the hand acts
+    col_f = np.where(t < t0, -vs[k0], -vs)
+    h1, h2 = hand_response(np.minimum(t - t0, 0.0), free.sigma, free.omega)
+    h1 /= max(float(np.max(np.abs(h1))), 1e-300)       # for conditioning
+    h2 /= max(float(np.max(np.abs(h2))), 1e-300)
+    design = np.stack([np.ones_like(t), t - free.t_ref, col_f, g1, g2, h1, h2], axis=1)
+    coef, *_ = np.linalg.lstsq(design, y, rcond=None)
+    residual = y - design @ coef
+    return coef, float(residual @ residual)
+
+
+def _best_joint(t: Array, y: Array, vs: Array, free: FreeFit, candidates: Array) -> float:
+    rss = [_joint_solve(t, y, vs, free, float(c))[1] for c in candidates]
+    return float(candidates[int(np.argmin(rss))])
