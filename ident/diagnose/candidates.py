@@ -24,7 +24,7 @@ from ident.diagnose.friction_fit import fit_friction
 from ident.diagnose.held_fit import fit_held_cart
 from ident.diagnose.lattice import Lattice, lattice_likelihood_gain, reading_noise
 from ident.diagnose.models import ModelSpec, effect_names, smoothed_staircase
-from ident.diagnose.problem import Bounds, FloatArray, Problem, best_on_grid, best_rows
+from ident.diagnose.problem import Bounds, FloatArray, Problem, best_on_grid, best_rows, ranked_on_grid
 
 
 def available(effect: str, current: ModelSpec, prob: Problem, ev: EvidenceResult) -> bool:
@@ -60,6 +60,8 @@ class Trial:
     look_elsewhere: float = 0.0
 
 
+#: Breakaway levels (in kinetic levels) a static friction's fit starts from.
+STATIC_GRID = (1.02, 1.05, 1.1, 1.15, 1.2, 1.3, 1.4, 1.5, 1.7, 2.0, 2.5)
 #: Function evaluations of the quick (screening) fit and of the refinement.
 SCREEN_NFEV = 10
 REFINE_NFEV = 25
@@ -77,11 +79,14 @@ def screen(prob: Problem, current: FitResult, effect: str, ev: EvidenceResult, w
         return _screen_lattice(prob, current, spec, lattice, (theta0, lower, upper, typical))
     if effect == "presliding":
         theta0 = best_on_grid(spec, prob, theta0, at, tuple(wn2 * g for g in (0.3, 1, 3, 10, 30, 50)))
-    if effect == "static_friction":
-        # where a cart sticks moves discontinuously with the level: a grid first
-        theta0 = best_on_grid(spec, prob, theta0, at, (1.05, 1.15, 1.3, 1.5, 2.0))
     if effect == "held_cart_motion":
         result = fit_held_cart(spec, prob, theta0, lower, upper, typical, at, wn2, SCREEN_NFEV)
+    elif effect == "static_friction":
+        # where a cart sticks moves discontinuously with the breakaway level: the fit from the
+        # best two of a grid (the best alone may hold the others' parameters in a local minimum)
+        fits = [fit(spec, row, lower, upper, typical, prob.dt, prob.y, prob.train, max_nfev=SCREEN_NFEV)
+                for row in ranked_on_grid(spec, prob, theta0, at, STATIC_GRID, 2)]
+        result = min(fits, key=lambda r: r.sse_train)
     elif effect == "coulomb_friction":
         # the envelope's start (a free ringing) and a short grid (a forced or short run)
         f_max = wn2 * prob.amplitude
@@ -143,6 +148,25 @@ def refine(prob: Problem, trial: Trial) -> FitResult:
                                likelihood_gain=(trial.result.likelihood_gain[0], gain_cv))
 
 
+def without(prob: Problem, trial: Trial, result: FitResult, refit: int = 0) -> FitResult:
+    """`result` (the trial's model) with `trial.effect` taken out: its other parameters as fitted,
+    evaluated (`refit` 0), or fitted on from there within the trial's bounds (1), and then
+    cross-validated too (2). What the effect itself adds is the difference from `result`: a refit
+    can also move the current model's own parameters to a better optimum, which the effect
+    must not be credited with."""
+    spec = result.spec
+    block = spec.block(trial.effect)
+    keep = np.ones(result.theta.size, dtype=bool)
+    keep[block] = False
+    gone = set(effect_names(trial.effect, spec.carts, spec.observed))
+    bare = ModelSpec(tuple(e for e in spec.effects if e != trial.effect), spec.carts,
+                     {k: v for k, v in spec.fixed.items() if k not in gone}, spec.inputs, spec.held, spec.outputs)
+    if not refit:
+        return evaluate(bare, result.theta[keep], prob.dt, prob.y, prob.train)
+    return fit(bare, result.theta[keep], trial.lower[keep], trial.upper[keep], trial.typical[keep], prob.dt, prob.y,
+               prob.train, max_nfev=REFINE_NFEV, cross_validate=refit == 2)
+
+
 def _lattice_for(prob: Problem, current: FitResult, ev: EvidenceResult) -> Lattice | None:
     """The exact lattice of the readings' encoder steps, or else, of the lattice proposed
     under noise and the fainter proposals, the one whose levels best explain the readings
@@ -166,4 +190,4 @@ def effect_parameters(result: FitResult, effect: str) -> tuple[dict[str, float],
 
 
 __all__ = ["Problem", "Trial", "available", "base_spec", "effect_parameters", "evaluate", "fit_baseline",
-           "refine", "screen"]
+           "refine", "screen", "without"]

@@ -46,6 +46,13 @@ def best_rows(spec: ModelSpec, prob: Problem, theta: FloatArray, where: slice,
 def best_on_grid(spec: ModelSpec, prob: Problem, theta: FloatArray, index: int,
                  values: tuple[float, ...]) -> FloatArray:
     """`theta` with parameter `index` set to the grid value of least cost (one batch)."""
+    return ranked_on_grid(spec, prob, theta, index, values, 1)[0]
+
+
+def ranked_on_grid(spec: ModelSpec, prob: Problem, theta: FloatArray, index: int,
+                   values: tuple[float, ...], count: int) -> list[FloatArray]:
+    """`theta` with parameter `index` set to each of the `count` grid values of least cost,
+    best first (one batch)."""
     rows = np.repeat(theta[None, :], len(values), axis=0)
     rows[:, index] = values
     for i, name in enumerate(spec.names):
@@ -54,7 +61,7 @@ def best_on_grid(spec: ModelSpec, prob: Problem, theta: FloatArray, index: int,
     with np.errstate(all="ignore"):
         pred = spec.predict(rows, prob.dt, prob.y.shape[0])
     cost = np.nan_to_num(np.sum((pred - prob.y[None]) ** 2, axis=(1, 2)), nan=np.inf)
-    return np.asarray(rows[int(np.argmin(cost))], dtype=np.float64)
+    return [np.asarray(rows[k], dtype=np.float64) for k in np.argsort(cost, kind="stable")[:count]]
 
 
-__all__ = ["Bounds", "FloatArray", "Problem", "best_on_grid", "best_rows"]
+__all__ = ["Bounds", "FloatArray", "Problem", "best_on_grid", "best_rows", "ranked_on_grid"]

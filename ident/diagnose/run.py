@@ -124,12 +124,14 @@ def diagnose(t: FloatArray, y: FloatArray, carts: int | None = None, step_m: flo
     ev = collect(prob.tau, prob.y, base.prediction, rest, wn_modes, lattice)
     if lattice is None or lattice.levels == 0:   # no exact encoder steps: fainter lattices too
         ev = dataclasses.replace(ev, lattice_proposals=tuple(lattice_candidates(y_arr[win.start:])))
-    steps, first_round = forward(
+    selection = forward(
         base, lambda cur: [e for e in EFFECTS if cands.available(e, cur.spec, prob, ev)],
         lambda cur, e: _staged(f"diagnosis: screening {e}", lambda: cands.screen(prob, cur, e, ev, wn_modes)),
-        lambda trial: _staged(f"diagnosis: fitting {trial.effect}", lambda: cands.refine(prob, trial)), carts)
+        lambda trial: _staged(f"diagnosis: fitting {trial.effect}", lambda: cands.refine(prob, trial)), carts,
+        lambda trial, result, refit: cands.without(prob, trial, result, refit))
+    steps, first_round, base = selection.steps, selection.first_round, selection.baseline
     ext = steps[-1].judgement.result if steps else base
-    effects = _ranked(prob, steps, y_arr)
+    effects = _ranked(prob, steps, y_arr, hold_level(y_arr)[2])
     cause = next((e.effect for e in effects if e.material), "none")
     report = _report(prob, win, t_arr, base, ext, first_round, effects, cause, ev, coherence, step_m,
                      source, time.perf_counter() - started)
@@ -269,9 +271,10 @@ def _no_lattice(prob: Problem, base: FitResult) -> Candidate:
                      significant=False, note="the measured positions lie on no lattice (no encoder steps)")
 
 
-def _ranked(prob: Problem, steps: list[Step], record: FloatArray) -> list[EffectFit]:
+def _ranked(prob: Problem, steps: list[Step], record: FloatArray, first_motion: int) -> list[EffectFit]:
     """Accepted effects with their own gain, largest first (parameters from the final fit);
-    `record` (N, c) the readings of the whole record (an encoder lattice's worth)."""
+    `record` (N, c) the readings of the whole record and `first_motion` where its motion
+    begins (an encoder lattice's worth)."""
     final = steps[-1].judgement.result if steps else None
     rows = []
     for k, step in enumerate(steps, start=1):
@@ -284,7 +287,7 @@ def _ranked(prob: Problem, steps: list[Step], record: FloatArray) -> list[Effect
         # an encoder lattice matters by what it costs a perfect reading of the record (the
         # sensor reads all of it), not by what the staircase happened to gain on a model
         # that is itself off by some quanta
-        worth = lattice_worth_points(record, params["quantum_m"]) if j.effect == "quantization" else gain
+        worth = lattice_worth_points(record, params["quantum_m"], first_motion) if j.effect == "quantization" else gain
         rows.append((gain, k, j, params, std, is_material(step, worth, final)))
     rows.sort(key=lambda r: -r[0])
     return [EffectFit(effect=j.effect, rank=rank, step=k, parameters=params, parameter_std=std,  # type: ignore[arg-type]

@@ -16,6 +16,7 @@ cart's coupling when both pass: `YIELDS_TO`). No I/O here.
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 
@@ -128,40 +129,116 @@ REFINED = 2
 YIELDS_TO = {"coupled_mode": "held_cart_motion"}
 
 
+#: How often a round may instead move the current model to a better optimum (an effect that
+#: passed only because its refit moved the others' parameters, `own_gain`), before such
+#: an effect is merely set aside.
+MAX_REFRESHES = 2
+
+
+@dataclass(frozen=True)
+class Selection:
+    """The forward selection's outcome: the accepted steps in order, the first round's
+    judgements (every effect against the linear model), and the linear baseline (moved to a
+    better optimum when a refit found one, `own_gain`)."""
+
+    steps: list[Step]
+    first_round: list[Judgement]
+    baseline: FitResult
+
+
+def own_gain(judgement: Judgement, bare: FitResult) -> float:
+    """n ln(SSE_bare / SSE_with): what the effect itself adds to its fitted model, `bare` being
+    that model's other parameters without it. A refit may move the current model's own
+    parameters out of a local minimum (a drag of 1e-12 /m 'gaining' a point on a real release):
+    that part of the step's gain belongs to the current model, not to the effect."""
+    floor = reading_floor(judgement.result)
+    return likelihood_ratio(judgement.result.n_train, bare.sse_train + floor, judgement.result.sse_train + floor)
+
+
 def forward(baseline: FitResult, effects: Callable[[FitResult], list[str]],
             screen: Callable[[FitResult, str], Trial], refine: Callable[[Trial], FitResult],
-            carts: int) -> tuple[list[Step], list[Judgement]]:
-    """Accepted steps in order, and the first round's judgements (every effect vs linear).
+            carts: int, without: Callable[[Trial, FitResult, int], FitResult]) -> Selection:
+    """Accepted steps in order, the first round's judgements and the baseline (`Selection`).
 
     Each round screens every available effect with a quick fit; the `REFINED` with the
     largest whole-window ratio above the noise bound are fitted on to convergence and
     cross-validated (an encoder lattice above the bound is, besides them); the passing one that
-    gains most is accepted.
+    gains most is accepted if it also passes on its own (`own_gain` against its model without it,
+    evaluated and refitted: `without(trial, result, 0 | 1)`); if not, its refit found a better optimum of the current
+    model, which replaces it (the last step's model, or the baseline) and the round is screened
+    again (at most `MAX_REFRESHES` times).
     """
     current = baseline
     steps: list[Step] = []
     first_round: list[Judgement] = []
+    refreshes = 0
     while sum(s.judgement.effect != "quantization" for s in steps) < MAX_EFFECTS:
-        trials = [screen(current, e) for e in effects(current)]
-        quick = sorted(((judge(t.effect, current, t.result, carts), t) for t in trials), key=lambda p: -p[0].gain)
-        judged = []
-        rank = 0   # among the carts' effects: an encoder lattice is judged apart, never takes their slot
-        for j, trial in quick:
-            refined = j.effect == "quantization" or rank < REFINED
-            rank += j.effect != "quantization"
-            if refined and j.lr_fit > j.threshold:
-                judged.append(judge(trial.effect, current, refine(trial), carts))
-            else:   # not cross-validated: the whole-window gain is within the noise (or too small)
-                judged.append(Judgement(j.effect, j.result, j.lr_fit, 0.0, j.threshold, j.bic_drop, j.lr_sse))
-        if not steps:
+        trials = {e: screen(current, e) for e in effects(current)}
+        judged = _round(current, trials, refine, carts)
+        if not steps and not first_round:
             first_round = judged
         passing = _yield(j for j in judged if j.passes)
-        if not passing:
+        accepted: tuple[Judgement, FitResult] | None = None
+        refreshed: FitResult | None = None
+        for best in sorted(passing, key=lambda j: -j.gain):   # the one that gains most
+            if best.effect == "quantization":   # a sensor's lattice: no parameters of the carts to move
+                accepted = best, current
+                break
+            # evaluated without the effect, then refitted without it: a dry-friction model's
+            # sticking moves discontinuously with its parameters, so only a refit tells
+            bare = without(trials[best.effect], best.result, 0)
+            if own_gain(best, bare) > best.threshold:
+                bare = without(trials[best.effect], best.result, 1)
+                if own_gain(best, bare) > best.threshold:
+                    # credit the effect only with its own part; the rest is the current model's
+                    accepted = best, bare if bare.sse_train < current.sse_train else current
+                    break
+            if refreshes < MAX_REFRESHES:
+                better = without(trials[best.effect], best.result, 2)
+                if better.sse_train < current.sse_train:
+                    refreshed = better
+                    break
+        if refreshed is not None:
+            refreshes += 1
+            current = refreshed
+            if steps:
+                steps[-1] = _moved(steps[-1], refreshed)
+            else:
+                baseline = refreshed
+            continue
+        if accepted is None:
             break
-        best = max(passing, key=lambda j: j.gain)   # the one that gains most
-        steps.append(Step(best, current))
+        best, before = accepted
+        if before is not current:
+            if steps:
+                steps[-1] = _moved(steps[-1], before)
+            else:
+                baseline = before
+        steps.append(Step(best, before))
         current = best.result
-    return steps, first_round
+    return Selection(steps, first_round, baseline)
+
+
+def _moved(step: Step, result: FitResult) -> Step:
+    """`step` whose model was moved to a better optimum `result` (the same effects)."""
+    return Step(dataclasses.replace(step.judgement, result=result), step.before)
+
+
+def _round(current: FitResult, trials: dict[str, Trial], refine: Callable[[Trial], FitResult],
+           carts: int) -> list[Judgement]:
+    """Every trial judged against `current`: screened, the best `REFINED` refined and
+    cross-validated (an encoder lattice above the bound too), the others left uncross-validated."""
+    quick = sorted(((judge(t.effect, current, t.result, carts), t) for t in trials.values()), key=lambda p: -p[0].gain)
+    judged = []
+    rank = 0   # among the carts' effects: an encoder lattice is judged apart, never takes their slot
+    for j, trial in quick:
+        refined = j.effect == "quantization" or rank < REFINED
+        rank += j.effect != "quantization"
+        if refined and j.lr_fit > j.threshold:
+            judged.append(judge(trial.effect, current, refine(trial), carts))
+        else:   # not cross-validated: the whole-window gain is within the noise (or too small)
+            judged.append(Judgement(j.effect, j.result, j.lr_fit, 0.0, j.threshold, j.bic_drop, j.lr_sse))
+    return judged
 
 
 def _yield(passing: Iterable[Judgement]) -> list[Judgement]:
