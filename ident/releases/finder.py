@@ -32,7 +32,7 @@ from numpy.typing import NDArray
 from ident.errors import IdentDimensionError
 from ident.releases.hand import HAND_SIGMAS, FreeModel, fit_free_model
 from ident.releases.instant import release_instant
-from ident.releases.motion import FloatArray, Motion, motion
+from ident.releases.motion import FloatArray, Motion, motion, turning_indices
 from ident.releases.record import EndedBy, Release
 
 #: A cart whose amplitude is below this fraction of the pulled cart's is held.
@@ -245,23 +245,7 @@ def steady_force(m: Motion, model: FreeModel, first: int, last: int) -> bool:
 
 def turning_points(x: FloatArray, hysteresis: float) -> int:
     """Number of turning points of `x` that reverse by more than `hysteresis`."""
-    count, direction = 0, 0
-    low = high = float(x[0]) if x.size else 0.0
-    for value in x:
-        v = float(value)
-        if direction >= 0:
-            if v > high:
-                high = v
-            elif high - v > hysteresis:
-                count += direction > 0
-                direction, low = -1, v
-        if direction <= 0:
-            if v < low:
-                low = v
-            elif v - low > hysteresis:
-                count += direction < 0
-                direction, high = 1, v
-    return count
+    return int(turning_indices(x, hysteresis).size)
 
 
 def _index(m: Motion, when: float) -> int:

@@ -154,9 +154,9 @@ def _fit(m: Motion, column: int, others: tuple[int, ...], slow: tuple[int, ...])
     moving = np.abs(v) > 0.05 * speed
     if np.count_nonzero(moving) < basis.shape[1] * 4:
         moving = np.ones(m.n_samples, dtype=bool)
-    coef, scale = _best_fit(m, basis, target, moving)
-    resid = target - basis @ coef
     n_k = 1 + len(others)
+    coef, scale = _physical_fit(m, basis, target, moving, n_k)
+    resid = target - basis @ coef
     # and a small share of the modelled force: the free model is fitted on the whole record,
     # so its error grows with the swing (a cart swinging further than most of the record)
     model_error = MODEL_FRACTION * np.abs(basis @ coef)
@@ -201,6 +201,22 @@ def state_misfit(m: Motion, column: int, spring: FloatArray, k: float, resid: Fl
     return np.asarray(min(STATE_MISFIT_CAP, STATE_MISFIT_FACTOR * share) * env, dtype=np.float64)
 
 
+def _physical_fit(m: Motion, basis: FloatArray, target: FloatArray, moving: NDArray[np.bool_],
+                  n_k: int) -> tuple[FloatArray, float]:
+    """`_best_fit`, refitted without viscous or dry friction while the fit makes either
+    negative (a force along the motion is no friction: a short record whose hand pulled the
+    cart slowly for as long as it rang can buy such a fit of the pull)."""
+    keep = list(range(basis.shape[1]))
+    while True:
+        part, scale = _best_fit(m, basis[:, keep], target, moving)
+        coef = np.zeros(basis.shape[1])
+        coef[keep] = part
+        negative = [i for i in (n_k, n_k + 1) if i in keep and coef[i] < 0.0]
+        if not negative:
+            return coef, scale
+        keep.remove(negative[-1])
+
+
 def _best_fit(m: Motion, basis: FloatArray, target: FloatArray, moving: NDArray[np.bool_]
               ) -> tuple[FloatArray, float]:
     """The robust fit (`_irls`) from all moving samples, or from the inliers of the best
@@ -212,9 +228,9 @@ def _best_fit(m: Motion, basis: FloatArray, target: FloatArray, moving: NDArray[
         return float(np.median(np.abs(target - basis @ c)[moving]))
 
     coef, scale = _irls(basis, target, moving, moving)
-    width = m.samples(1.5 * m.period_s)
     best, best_spread = coef, spread(coef)
-    for lo in range(0, max(1, m.n_samples - width + 1), max(1, width // 2)):
+    for width, lo in [(w, lo) for w in (m.samples(1.5 * m.period_s), m.samples(0.75 * m.period_s))
+                      for lo in range(0, max(1, m.n_samples - w + 1), max(1, w // 2))]:
         part = np.zeros(m.n_samples, dtype=bool)
         part[lo:lo + width] = True
         part &= moving

@@ -19,6 +19,9 @@ MIN_FREQUENCY_HZ = 0.2
 #: Smoothing window of the derivatives, as a fraction of the period (a cubic fits a sinusoid
 #: to ~1e-3 over a tenth of a period, and the window averages the encoder's quantization).
 SMOOTHING_FRACTION = 0.1
+#: A velocity-spectrum peak slower than the turning points by more than this ratio is a slow
+#: push, not the oscillation (`dominant_period`).
+SLOW_PEAK_RATIO = 0.65
 
 
 @dataclass(frozen=True)
@@ -66,16 +69,70 @@ def dominant_period(y: FloatArray, dt: float) -> float:
 
     Velocity (first differences) rather than position, so slow drift and steps of a held
     cart do not win; the peak is searched between `MIN_FREQUENCY_HZ` and a fifth of the
-    sample rate by the one spectral-peak finder (`ident.physics.spectral_peaks`).
+    sample rate by the one spectral-peak finder (`ident.physics.spectral_peaks`). A short
+    record whose hand moved the cart slowly (a pull over most of a second, then a second of
+    ringing) can put that peak at the pull's slow bump: when the widest column's turning
+    points (`turning_period`) come at less than `SLOW_PEAK_RATIO` of that period, the
+    peak is searched again above the frequency they imply (less a third).
     """
     vel = np.diff(y, axis=0)
     if vel.shape[0] < 3:
         return 1.0 / max(MIN_FREQUENCY_HZ, 1.0 / (dt * max(len(y), 2)))
-    peaks = spectral_peaks(vel, dt, 1, min_rad_s=2.0 * np.pi * MIN_FREQUENCY_HZ,
-                           max_rad_s=2.0 * np.pi * 0.2 / dt, fill=False)
+    top = 2.0 * np.pi * 0.2 / dt
+    peaks = spectral_peaks(vel, dt, 1, min_rad_s=2.0 * np.pi * MIN_FREQUENCY_HZ, max_rad_s=top, fill=False)
     if peaks.size == 0:
         return 1.0 / max(MIN_FREQUENCY_HZ, 1.0 / (dt * max(len(y), 2)))
-    return float(2.0 * np.pi / peaks[0])
+    period = float(2.0 * np.pi / peaks[0])
+    turns = turning_period(y, dt)
+    if turns is not None and turns < SLOW_PEAK_RATIO * period:
+        again = spectral_peaks(vel, dt, 1, min_rad_s=2.0 * np.pi / (1.5 * turns), max_rad_s=top, fill=False)
+        if again.size:
+            return float(2.0 * np.pi / again[0])
+    return period
+
+
+def turning_period(y: FloatArray, dt: float) -> float | None:
+    """Twice the median time (s) between the turns of the widest column (`turning_indices`,
+    reversals by more than 5 % of its robust range and 10 noise stds): a ringing cart turns
+    every half period. None with fewer than two turns."""
+    span = np.percentile(y, 99.5, axis=0) - np.percentile(y, 0.5, axis=0)
+    j = int(np.argmax(span))
+    x = y[:, j]
+    hysteresis = max(0.05 * float(span[j]), 10.0 * float(noise_std(y)[j]))
+    if not hysteresis > 0.0:
+        return None
+    turns = turning_indices(x, hysteresis)
+    if turns.size < 2:
+        return None
+    return 2.0 * float(np.median(np.diff(turns))) * dt
+
+
+def turning_indices(x: FloatArray, hysteresis: float) -> NDArray[np.intp]:
+    """The samples where `x` (N,) is seen to have turned: each first sample that lies more
+    than `hysteresis` back from the extreme of its swing. (Not the extreme itself: a cart
+    held still at its extreme turns where the hand lets it go, not at the hold's flattest
+    sample.)"""
+    found: list[int] = []
+    if x.size == 0:
+        return np.asarray(found, dtype=np.intp)
+    direction, low, high = 0, float(x[0]), float(x[0])
+    for k, value in enumerate(x):
+        v = float(value)
+        if direction >= 0:
+            if v > high:
+                high = v
+            elif high - v > hysteresis:
+                if direction > 0:
+                    found.append(k)
+                direction, low = -1, v
+        if direction <= 0:
+            if v < low:
+                low = v
+            elif v - low > hysteresis:
+                if direction < 0:
+                    found.append(k)
+                direction, high = 1, v
+    return np.asarray(found, dtype=np.intp)
 
 
 def motion(t: FloatArray, y: FloatArray) -> Motion:
