@@ -62,6 +62,32 @@ def ident_releases(csv: Path) -> tuple[list[dict[str, Any]], str]:
              "complete": r["complete"]} for r in json.loads(proc.stdout)], ""
 
 
+def diagnose_all(csv: Path) -> tuple[list[dict[str, Any]], str]:
+    """`ident diagnose FILE --all --json`: per release, dry friction named and the gain."""
+    proc = _py(IDENT, ["diagnose", str(csv), "--all", "--json", "-q"])
+    if proc.returncode != 0:
+        return [], (proc.stderr.strip().splitlines() or [f"exit {proc.returncode}"])[-1]
+    reps = json.loads(proc.stdout)
+    return [{"t": r["release_time_s"], "effects": [e["effect"] for e in r["effects"]], "cause": r["cause"],
+             "gain": r["gain_points"], "fit": r["extended"]["fit_percent"], "carts": r["carts"]} for r in reps], ""
+
+
+def score_diagnose(rec: Record, reps: list[dict[str, Any]], err: str) -> dict[str, Any]:
+    res: dict[str, Any] = {"complete": 0, "friction": 0, "problems": [f"ident diagnose failed: {err}"] if err else []}
+    for i, r in enumerate(rec.releases):
+        if r.get("cut"):
+            continue
+        res["complete"] += 1
+        near = [d for d in reps if abs(d["t"] - r["t_r"]) <= MATCH_S]
+        if near and "coulomb_friction" in near[0]["effects"] and near[0]["gain"] > 0:
+            res["friction"] += 1
+        else:
+            res["problems"].append(f"ident diagnose --all: release {i + 1} (t={r['t_r']:.3f} s) "
+                                   + (f"effects {near[0]['effects']}, gain {near[0]['gain']:.2f}" if near
+                                      else "no report near it"))
+    return res
+
+
 def sample_period(rec: Record, t: float) -> float:
     """The sample step at t (the ECP clock is irregular: the step around the instant)."""
     i = int(np.clip(np.searchsorted(rec.t, t), 1, len(rec.t) - 1))
@@ -104,7 +130,7 @@ def match(rec: Record, found: list[dict[str, Any]], who: str) -> dict[str, Any]:
     return res
 
 
-def run_record(seed: int, handling: bool, tmp: Path) -> dict[str, Any]:
+def run_record(seed: int, handling: bool, tmp: Path, diagnose: bool = False) -> dict[str, Any]:
     rec = make_record(seed, handling=handling)
     stem = tmp / f"rec{'h' if handling else ''}{seed}"
     ecp, csv = stem.with_suffix(".ecp"), stem.with_suffix(".csv")
@@ -113,11 +139,14 @@ def run_record(seed: int, handling: bool, tmp: Path) -> dict[str, Any]:
     runs = tmp / f"runs{'h' if handling else ''}{seed}"
     d, derr = daq_releases(ecp, runs)
     i, ierr = ident_releases(csv)
-    flag = " --handling-only" if handling else ""
+    flag = " --handling-only" if handling else (" --diagnose" if diagnose else "")
     out = {"seed": seed, "handling": handling, "rate": rec.info["rate"], "n": len(rec.releases),
            "events": rec.info["events"], "kinds": [r["kind"] for r in rec.releases],
            "daq": match(rec, d, "daq"), "ident": match(rec, i, "ident releases"),
            "repro": f".venv/bin/python tools/redteam/run10.py --seed {seed}{flag} -v"}
+    if diagnose and not handling:
+        out["diagnose"] = score_diagnose(rec, *diagnose_all(csv))
+        out["ident"]["problems"] += out["diagnose"]["problems"]
     for who, err in (("daq", derr), ("ident", ierr)):
         if err:
             out[who]["problems"].insert(0, f"{who} failed: {err}")
@@ -142,6 +171,10 @@ def summarize(results: list[dict[str, Any]]) -> str:
         lines.append(f"Handling only ({len(hs)} records of 60 s): daq false runs "
                      f"{sum(r['daq']['false'] for r in hs)}, ident releases false "
                      f"{sum(r['ident']['false'] for r in hs)}")
+    ds = [r["diagnose"] for r in results if "diagnose" in r]
+    if ds:
+        lines.append(f"ident diagnose --all (no --carts): complete releases with coulomb_friction and a positive "
+                     f"gain {sum(d['friction'] for d in ds)}/{sum(d['complete'] for d in ds)}")
     errs = [e for r in results for e in r["daq"]["errors_ms"]]
     ierrs = [e for r in results for e in r["ident"]["errors_ms"]]
     if errs:
@@ -170,6 +203,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--jobs", type=int, default=1)
     ap.add_argument("--out", type=Path)
     ap.add_argument("--keep", type=Path, help="keep the written records here")
+    ap.add_argument("--diagnose", action="store_true", help="also `ident diagnose --all` every record")
     ap.add_argument("-v", "--verbose", action="store_true")
     args = ap.parse_args(argv)
     if args.seed is not None:
@@ -181,7 +215,7 @@ def main(argv: list[str] | None = None) -> int:
         tmp = args.keep or Path(tmpd)
         tmp.mkdir(parents=True, exist_ok=True)
         results = []
-        for res in pool.map(lambda j: run_record(j[0], j[1], tmp), jobs):
+        for res in pool.map(lambda j: run_record(j[0], j[1], tmp, args.diagnose), jobs):
             results.append(res)
             bad = res["daq"]["problems"] + res["ident"]["problems"]
             print(f"record {res['seed']}{' (handling)' if res['handling'] else ''}: "
