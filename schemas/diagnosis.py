@@ -23,14 +23,17 @@ from schemas.base import Record
 #: families added with forward selection: `presliding` (Dahl friction: the Coulomb friction's
 #: pre-sliding stiffness), `static_friction` (a breakaway level above the kinetic one) and
 #: `held_cart_motion` (the held cart's measured motion driving the free cart through the
-#: coupling spring).
+#: coupling spring) and `rest_drift` (a slow drift of the free cart's rest: a held cart's
+#: wander that no encoder read).
 EffectName = Literal["coulomb_friction", "quadratic_drag", "cubic_stiffness", "quantization",
-                     "coupled_mode", "presliding", "static_friction", "held_cart_motion", "none"]
+                     "coupled_mode", "presliding", "static_friction", "held_cart_motion", "rest_drift",
+                     "none"]
 #: How the peaks of |x - x_rest| decay, from the extrema of the measured run.
 EnvelopeShape = Literal["constant_ratio", "constant_step", "amplitude_dependent", "undetermined"]
 
 EFFECT_NAMES: tuple[str, ...] = ("coulomb_friction", "quadratic_drag", "cubic_stiffness",
                                  "quantization", "coupled_mode", "presliding", "static_friction", "held_cart_motion",
+                                 "rest_drift",
                                  "none")
 
 

@@ -16,7 +16,9 @@ from ident.physics.measures import spectral_peaks
 def base_spec(prob: Problem, fixed: dict[str, float]) -> ModelSpec:
     if prob.y.shape[1] < prob.carts:   # cart 2 unseen: its rest only shifts its start, fix it
         fixed = {**fixed, "rest_2_m": 0.0}
-    return ModelSpec((), prob.carts, fixed, prob.inputs, prob.held, prob.y.shape[1])
+    if prob.drift is not None:
+        fixed = {**fixed, "drift_spacing_s": prob.drift_spacing_s}
+    return ModelSpec((), prob.carts, fixed, prob.inputs, prob.held, prob.y.shape[1], prob.drift)
 
 
 def fit_baseline(prob: Problem, fixed: dict[str, float]) -> FitResult:

@@ -8,6 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 from ident.diagnose import starts
+from ident.diagnose.drift import DRIFT_PRIOR_M
 from ident.diagnose.evidence import EvidenceResult
 from ident.diagnose.fitting import FitResult
 from ident.diagnose.models import ModelSpec
@@ -17,6 +18,9 @@ from ident.physics.measures import spectral_peaks
 
 #: Largest breakaway (static) friction level, in kinetic levels.
 STATIC_RATIO_MAX = 3.0
+#: Largest rest drift, in `DRIFT_PRIOR_M` (a hand's wander of a few mm): a larger slow shift of the
+#: rest is no held cart's wander (a stuck friction cart's misfit can ask for one of a dead band).
+DRIFT_REACH = 2.5
 
 
 def assemble(prob: Problem, current: FitResult, spec: ModelSpec, effect: str, ev: EvidenceResult,
@@ -65,6 +69,13 @@ def _bounds_of(effect: str, prob: Problem, ev: EvidenceResult, wn_modes: FloatAr
     if effect == "held_cart_motion":
         return (np.array([0.1 * wn * wn]), np.array([-0.2 * wn * wn]), np.array([1.5 * wn * wn]),
                 np.array([0.1 * wn * wn]))
+    if effect == "rest_drift":   # the knots from 0, within a hand's wander; the spacing as set
+        knots = 0 if prob.drift is None else prob.drift.shape[1]
+        reach = min(0.5 * amp, DRIFT_REACH * DRIFT_PRIOR_M)
+        return (np.concatenate([[prob.drift_spacing_s], np.zeros(knots)]),
+                np.concatenate([[0.0], np.full(knots, -reach)]),
+                np.concatenate([[np.inf], np.full(knots, reach)]),
+                np.concatenate([[1.0], np.full(knots, 0.01 * amp)]))
     if effect == "quantization":
         q, off = (ev.lattice.quantum_m, ev.lattice.offset_m) if ev.lattice is not None else (1e-3 * amp, 0.0)
         return (np.array([q, off, 0.15]), np.array([-np.inf, -np.inf, 0.005]),
@@ -118,4 +129,4 @@ def _mode_bounds(prob: Problem, wn_modes: FloatArray, res: FloatArray) -> Bounds
     return start, lower, upper, typical
 
 
-__all__ = ["MAIN_MODE_GAP", "OTHER_MODE_GAP", "STATIC_RATIO_MAX", "assemble"]
+__all__ = ["DRIFT_REACH", "MAIN_MODE_GAP", "OTHER_MODE_GAP", "STATIC_RATIO_MAX", "assemble"]

@@ -23,7 +23,7 @@ from ident.diagnose.fitting import FitResult, evaluate, fit, held_out_cost
 from ident.diagnose.friction_fit import fit_friction
 from ident.diagnose.held_fit import fit_held_cart
 from ident.diagnose.lattice import Lattice, lattice_likelihood_gain, reading_noise
-from ident.diagnose.models import ModelSpec, effect_names, smoothed_staircase
+from ident.diagnose.models import ModelSpec, smoothed_staircase
 from ident.diagnose.problem import Bounds, FloatArray, Problem, best_on_grid, best_rows, ranked_on_grid
 
 
@@ -37,6 +37,9 @@ def available(effect: str, current: ModelSpec, prob: Problem, ev: EvidenceResult
         return "coulomb_friction" in current.effects and other not in current.effects
     if effect == "held_cart_motion":
         return prob.held is not None
+    if effect == "rest_drift":
+        # an unmeasured held cart's wander: one free cart, no measured held cart or force input
+        return current.drift is not None and prob.carts == 1 and prob.held is None and prob.inputs is None
     if effect == "quantization":
         # a lattice read off the positions, or fainter ones the model's prediction may confirm
         return ev.lattice is not None or bool(ev.lattice_proposals)
@@ -109,7 +112,7 @@ def _screen_lattice(prob: Problem, current: FitResult, spec: ModelSpec, lattice:
     gain -= charge
     theta0[at:at + 2] = (lattice.quantum_m, lattice.offset_m)
     fixed = {**spec.fixed, "quantum_m": lattice.quantum_m, "lattice_offset_m": lattice.offset_m}
-    spec = ModelSpec(spec.effects, spec.carts, fixed, spec.inputs, spec.held, spec.outputs)
+    spec = dataclasses.replace(spec, fixed=fixed)
     if gain <= 0.0:   # cannot pass: no fit
         result = evaluate(spec, theta0, prob.dt, prob.y, prob.train)
     else:
@@ -158,9 +161,9 @@ def without(prob: Problem, trial: Trial, result: FitResult, refit: int = 0) -> F
     block = spec.block(trial.effect)
     keep = np.ones(result.theta.size, dtype=bool)
     keep[block] = False
-    gone = set(effect_names(trial.effect, spec.carts, spec.observed))
-    bare = ModelSpec(tuple(e for e in spec.effects if e != trial.effect), spec.carts,
-                     {k: v for k, v in spec.fixed.items() if k not in gone}, spec.inputs, spec.held, spec.outputs)
+    gone = set(spec.names_of(trial.effect)) - {"drift_spacing_s"}   # the basis stays with the model
+    bare = dataclasses.replace(spec, effects=tuple(e for e in spec.effects if e != trial.effect),
+                               fixed={k: v for k, v in spec.fixed.items() if k not in gone})
     if not refit:
         return evaluate(bare, result.theta[keep], prob.dt, prob.y, prob.train)
     return fit(bare, result.theta[keep], trial.lower[keep], trial.upper[keep], trial.typical[keep], prob.dt, prob.y,
@@ -183,7 +186,7 @@ def _lattice_for(prob: Problem, current: FitResult, ev: EvidenceResult) -> Latti
 
 def effect_parameters(result: FitResult, effect: str) -> tuple[dict[str, float], dict[str, float]]:
     """(values, 1-sigma) of `effect`'s parameters in a fit."""
-    names = effect_names(effect, result.spec.carts, result.spec.observed)
+    names = result.spec.names_of(effect)
     values = {k: v for k, v in result.parameters().items() if k in names}
     std = {k: v for k, v in result.parameter_std().items() if k in names}
     return values, std

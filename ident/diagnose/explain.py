@@ -20,6 +20,8 @@ _WHAT = {
     "presliding": "pre-sliding (Dahl) friction: a stiff, saturating friction at small amplitude",
     "static_friction": "static friction above the kinetic level: a stopped cart breaks away only under a larger pull",
     "held_cart_motion": "the held cart's motion, driving the free cart through the spring",
+    "rest_drift": ("a slow drift of the cart's rest: the other, hand-held cart wanders (not read) and "
+                   "pulls through the spring"),
 }
 
 
@@ -72,6 +74,8 @@ def _signs(report: DiagnosisReport) -> str:
         return "the last small cycles ring faster than the first large ones"
     if report.cause == "held_cart_motion":
         return "the held cart moves with the free one and drives it back through the spring"
+    if report.cause == "rest_drift":
+        return "the cart swings about a centre that moves slowly, far slower than it rings"
     hz = ev.second_frequency_hz or ev.residual_peak_hz
     return f"the residual of the linear model rings at a second frequency (near {hz:.3g} Hz)"
 

@@ -22,6 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from ident.diagnose.drift import drift_penalty
 from ident.diagnose.models import ModelSpec
 
 FloatArray = NDArray[np.float64]
@@ -84,6 +85,11 @@ def fit(spec: ModelSpec, theta0: FloatArray, lower: FloatArray, upper: FloatArra
             base[i] = spec.fixed[name]
     steps = 1e-6 * np.maximum(np.abs(base[free]), typical[free])
     y_train = y[train]
+    # a rest drift's knots are held near their neighbours and near no drift where the data do not see them
+    root = None
+    if "rest_drift" in spec.effects:
+        root = drift_penalty(spec, free, _misfit_variance(spec, base, dt, y, train))
+    m_data = y_train.size
 
     def full(x: FloatArray) -> FloatArray:
         theta = np.repeat(base[None, :], x.shape[0], axis=0)
@@ -92,7 +98,8 @@ def fit(spec: ModelSpec, theta0: FloatArray, lower: FloatArray, upper: FloatArra
 
     def residual(x: FloatArray) -> FloatArray:
         pred = spec.predict(full(x[None, :]), dt, n)[0]
-        return _finite((pred[train] - y_train).ravel())
+        out = _finite((pred[train] - y_train).ravel())
+        return out if root is None else np.concatenate([out, root @ x])
 
     def jacobian(x: FloatArray) -> FloatArray:
         rows = np.repeat(x[None, :], free.size + 1, axis=0)
@@ -100,14 +107,15 @@ def fit(spec: ModelSpec, theta0: FloatArray, lower: FloatArray, upper: FloatArra
         rows[1:] += np.diag(h)
         pred = spec.predict(full(rows), dt, n)[:, train, :].reshape(rows.shape[0], -1)
         jac: FloatArray = _finite(((pred[1:] - pred[0]) / h[:, None]).T)
-        return jac
+        return jac if root is None else np.concatenate([jac, root])
 
     x0 = _inside(base[free], lower[free], upper[free])
     with np.errstate(all="ignore"):
         sol = scipy.optimize.least_squares(residual, x0, jac=jacobian, bounds=(lower[free], upper[free]),
                                            x_scale="jac", max_nfev=max_nfev, ftol=1e-8, xtol=1e-8)
+    x_fit = sol.x if root is None else _polish(sol.x, sol.jac, sol.fun, residual, lower[free], upper[free])
     theta = base.copy()
-    theta[free] = sol.x
+    theta[free] = x_fit
     std = np.zeros_like(theta)
     std[free] = _std(sol.jac, float(np.sum(sol.fun ** 2)))
     with np.errstate(all="ignore"):
@@ -115,12 +123,13 @@ def fit(spec: ModelSpec, theta0: FloatArray, lower: FloatArray, upper: FloatArra
         start = evaluate(spec, base, dt, y, train)
     if not np.isfinite(result.sse_train) or result.sse_train > start.sse_train:
         result = start if np.isfinite(start.sse_train) else result
-        jac_at = jacobian(result.theta[free]).copy() if cross_validate else None
+        jac_at = jacobian(result.theta[free])[:m_data].copy() if cross_validate else None
     else:
-        jac_at = sol.jac if cross_validate else None
+        jac_at = sol.jac[:m_data] if cross_validate else None
     cv, cv_pred = result.sse_train, None
     if jac_at is not None:
-        cv_pred = _blocked_cv(spec, result, full, free, jac_at, lower[free], upper[free], dt, y, train)
+        prior = None if root is None else root.T @ root
+        cv_pred = _blocked_cv(spec, result, full, free, jac_at, lower[free], upper[free], dt, y, train, prior)
         cv = held_out_cost(cv_pred, y, train)
     return FitResult(spec, result.theta, result.std, result.prediction, result.sse_train, cv,
                      result.n_train, int(free.size), cv_pred)
@@ -154,14 +163,17 @@ CV_ITERATIONS = 2
 
 def _blocked_cv(spec: ModelSpec, res: FitResult, full: Callable[[FloatArray], FloatArray], free: NDArray[np.int_],
                 jac: FloatArray, lower: FloatArray, upper: FloatArray, dt: float, y: FloatArray,
-                train: NDArray[np.bool_]) -> FloatArray:
+                train: NDArray[np.bool_], prior: FloatArray | None = None) -> FloatArray:
     """The prediction (N, c) of each held-out block b after a refit without b (docstring);
     the whole-window prediction before the first block.
 
     The refit of every block starts at the whole-window fit and takes `CV_ITERATIONS`
     Levenberg-Marquardt steps, all blocks in one batched simulation per step; each step's
     damping is chosen among `CV_DAMPING` (or no step) by the cost OUTSIDE block b, so the
-    held-out block never chooses its own model.
+    held-out block never chooses its own model. `prior` (p, p): the quadratic penalty xᵀ P x
+    of the whole-window fit (`drift.drift_penalty`), added to every refit's cost: a drift knot
+    that mostly block b saw keeps its neighbours' level instead of flying off on the outside's
+    noise.
     """
     n, c = y.shape
     # the first of BLOCKS + 1 stretches is never held out: it fixes the release state
@@ -186,8 +198,13 @@ def _blocked_cv(spec: ModelSpec, res: FitResult, full: Callable[[FloatArray], Fl
             jb = jacs[b].reshape(n, c, p)[outside[b]].reshape(-1, p)
             rb = (pred[b] - y)[outside[b]].ravel()
             scale = np.maximum(np.linalg.norm(jb, axis=0), 1e-300)
+            if prior is not None:   # a knot the outside does not see is scaled by its penalty
+                scale = np.maximum(scale, np.sqrt(np.diag(prior)))
             js = jb / scale
             g, h = js.T @ rb, js.T @ js
+            if prior is not None:   # in the scaled coordinates φ = x · scale
+                g = g + (prior @ x[b]) / scale
+                h = h + prior / scale[:, None] / scale[None, :]
             for i, lam in enumerate(CV_DAMPING):
                 step = np.linalg.lstsq(h + lam * np.diag(np.diag(h)) + 1e-12 * np.eye(p), -g, rcond=1e-12)[0] / scale
                 trials[b * k + i + 1] = np.clip(x[b] + step, lower, upper)
@@ -196,6 +213,8 @@ def _blocked_cv(spec: ModelSpec, res: FitResult, full: Callable[[FloatArray], Fl
         err = np.nan_to_num(((tp - y[None]) ** 2).sum(axis=2), nan=np.inf, posinf=np.inf)
         for b in range(BLOCKS):
             cost = err[b * k:(b + 1) * k][:, outside[b]].sum(axis=1)
+            if prior is not None:
+                cost = cost + np.einsum("ip,pq,iq->i", trials[b * k:(b + 1) * k], prior, trials[b * k:(b + 1) * k])
             best = int(np.argmin(cost))
             x[b] = trials[b * k + best]
             pred[b] = tp[b * k + best]
@@ -225,6 +244,27 @@ def _jacobians(spec: ModelSpec, full: Callable[[FloatArray], FloatArray], xs: Fl
         out.append(_finite(((block[1:] - block[0]) / hs[b][:, None]).T))
         base[b] = pred[b * (p + 1)]
     return out, base
+
+
+def _polish(x: FloatArray, jac: FloatArray, fun: FloatArray, residual: Callable[[FloatArray], FloatArray],
+            lower: FloatArray, upper: FloatArray) -> FloatArray:
+    """One Gauss-Newton step of the penalised cost from the solver's end, kept if it lowers the
+    cost: the directions the readings do not see (a drift knot in a stuck cart's dead band) are
+    set by the penalty alone, on which the solver's relative tolerances stop long before."""
+    step = np.linalg.lstsq(jac, -fun, rcond=1e-12)[0]
+    trial = np.clip(x + step, lower, upper)
+    with np.errstate(all="ignore"):
+        better = float(np.sum(residual(trial) ** 2)) < float(np.sum(fun ** 2))
+    return trial if better else x
+
+
+def _misfit_variance(spec: ModelSpec, theta: FloatArray, dt: float, y: FloatArray,
+                     train: NDArray[np.bool_]) -> float:
+    """The start's residual variance (m²) per reading: what the model being extended leaves."""
+    with np.errstate(all="ignore"):
+        res = spec.predict(theta[None, :], dt, y.shape[0])[0][train] - y[train]
+    value = float(np.mean(res ** 2)) if res.size else 0.0
+    return value if np.isfinite(value) else 0.0
 
 
 def _finite(a: FloatArray) -> FloatArray:

@@ -39,9 +39,7 @@ def fit_friction(spec: ModelSpec, prob: Problem, theta0: FloatArray, lower: Floa
                                      [np.array([g * f_max]) for g in (0.003, 0.01, 0.03, 0.1)]))
     else:
         candidates += _two_cart_friction_starts(spec, prob, theta0)
-    short = ModelSpec(spec.effects, spec.carts, spec.fixed,
-                      None if spec.inputs is None else spec.inputs[:n_cut],
-                      None if spec.held is None else spec.held[:n_cut], spec.outputs)
+    short = spec.cut(n_cut)
     best: FitResult | None = None
     for start in candidates:
         first = fit(short, start, lower, upper, typical, prob.dt, prob.y[:n_cut], prob.train[:n_cut],

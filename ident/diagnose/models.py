@@ -19,6 +19,9 @@ of the input column, only with `--input`), then each effect's block in `EFFECTS`
                        a spring k (e + γ e³) with κ = wn² γ)
     held_cart_motion   held_cart_gain_per_s2 β: a = β (u_h(τ) - u_h(0)), u_h the held cart's
                        measured position (the spring between the carts, k2/m)
+    rest_drift         drift_spacing_s (fixed), drift_knot_j_m r_j: one cart's rest moves by
+                       r(τ) = Σ_j r_j B_j(τ), a slow cubic B-spline (`drift`): a = wn² r(τ), an
+                       unmeasured held cart's wander
     coupled_mode       mode_hz, mode_decay_1_s, mode_cos_m_j, mode_sin_m_j (per output j):
                        + e^{-σ τ}(a_j cos 2π f τ + b_j sin 2π f τ) added to output j
     quantization       quantum_m, lattice_offset_m, quantization_blur: the expected reading
@@ -32,6 +35,7 @@ held at 0). No fitting and no I/O here.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -44,7 +48,7 @@ FloatArray = NDArray[np.float64]
 
 #: Canonical order of the effect blocks in a parameter vector.
 EFFECTS: tuple[str, ...] = ("coulomb_friction", "presliding", "static_friction", "quadratic_drag", "cubic_stiffness",
-                            "held_cart_motion", "coupled_mode", "quantization")
+                            "held_cart_motion", "rest_drift", "coupled_mode", "quantization")
 
 
 def state_names(carts: int) -> tuple[str, ...]:
@@ -53,8 +57,9 @@ def state_names(carts: int) -> tuple[str, ...]:
             + tuple(f"rest_{i}_m" for i in idx))
 
 
-def effect_names(effect: str, carts: int, outputs: int | None = None) -> tuple[str, ...]:
-    """Parameter names of `effect` for `carts` carts seen through `outputs` encoders."""
+def effect_names(effect: str, carts: int, outputs: int | None = None, knots: int = 0) -> tuple[str, ...]:
+    """Parameter names of `effect` for `carts` carts seen through `outputs` encoders (`knots`:
+    the rest drift's spline functions)."""
     outputs = carts if outputs is None else outputs
     if effect == "coulomb_friction":
         return ("coulomb_accel_m_s2",) + (("coulomb_accel_m_s2_cart2",) if carts == 2 else ())
@@ -68,6 +73,8 @@ def effect_names(effect: str, carts: int, outputs: int | None = None) -> tuple[s
         return ("cubic_per_m2_s2",)
     if effect == "held_cart_motion":
         return ("held_cart_gain_per_s2",)
+    if effect == "rest_drift":
+        return ("drift_spacing_s", *(f"drift_knot_{j}_m" for j in range(1, knots + 1)))
     if effect == "coupled_mode":
         return ("mode_hz", "mode_decay_1_s", *(f"mode_cos_m_{j}" for j in range(1, outputs + 1)),
                 *(f"mode_sin_m_{j}" for j in range(1, outputs + 1)))
@@ -80,7 +87,8 @@ def effect_names(effect: str, carts: int, outputs: int | None = None) -> tuple[s
 class ModelSpec:
     """A model: its effects (in `EFFECTS` order), cart count, measured inputs and parameter
     names; `fixed` maps parameter name -> value; `inputs` (N, m) force inputs, `held` (N,) the held
-    cart's measured motion from its first sample (both on the work grid)."""
+    cart's measured motion from its first sample, `drift` (N, K) the rest drift's spline basis
+    (all on the work grid)."""
 
     effects: tuple[str, ...]
     carts: int
@@ -88,6 +96,7 @@ class ModelSpec:
     inputs: FloatArray | None = None
     held: FloatArray | None = None
     outputs: int = 0
+    drift: FloatArray | None = None
 
     @property
     def observed(self) -> int:
@@ -96,7 +105,17 @@ class ModelSpec:
 
     def with_effect(self, effect: str) -> ModelSpec:
         effects = tuple(e for e in EFFECTS if e in self.effects or e == effect)
-        return ModelSpec(effects, self.carts, dict(self.fixed), self.inputs, self.held, self.outputs)
+        return dataclasses.replace(self, effects=effects, fixed=dict(self.fixed))
+
+    def cut(self, n: int) -> ModelSpec:
+        """The same model on the first `n` work samples (its measured inputs cut)."""
+        return dataclasses.replace(self, inputs=None if self.inputs is None else self.inputs[:n],
+                                   held=None if self.held is None else self.held[:n],
+                                   drift=None if self.drift is None else self.drift[:n])
+
+    def names_of(self, effect: str) -> tuple[str, ...]:
+        """Parameter names of `effect` in this model."""
+        return effect_names(effect, self.carts, self.observed, 0 if self.drift is None else self.drift.shape[1])
 
     @property
     def n_inputs(self) -> int:
@@ -106,7 +125,7 @@ class ModelSpec:
     def names(self) -> tuple[str, ...]:
         inputs = tuple(f"input_gain_{i}_{q}" for q in range(1, self.n_inputs + 1) for i in range(1, self.carts + 1))
         return (LINEAR_NAMES[self.carts] + state_names(self.carts) + inputs
-                + tuple(n for e in self.effects for n in effect_names(e, self.carts, self.observed)))
+                + tuple(n for e in self.effects for n in self.names_of(e)))
 
     @property
     def n_linear(self) -> int:
@@ -121,7 +140,7 @@ class ModelSpec:
         """Where `effect`'s parameters sit in a parameter vector."""
         start = self.n_base
         for e in self.effects:
-            size = len(effect_names(e, self.carts, self.observed))
+            size = len(self.names_of(e))
             if e == effect:
                 return slice(start, start + size)
             start += size
@@ -170,6 +189,10 @@ class ModelSpec:
             columns.append(self.held.reshape(n, 1))
             beta = theta[:, self.block("held_cart_motion")][:, 0]
             gains.append(np.repeat(beta[:, None, None], c, axis=1))
+        if "rest_drift" in self.effects and self.drift is not None:   # one cart: a = wn² r(τ)
+            columns.append(self.drift)
+            knots = theta[:, self.block("rest_drift")][:, 1:]
+            gains.append((lin[:, 0] ** 2)[:, None, None] * knots[:, None, :])
         if not columns:
             return NonlinearTerms(**kw), None
         kw["input_gain"] = np.concatenate(gains, axis=2)

@@ -19,7 +19,8 @@ Bounds = tuple[FloatArray, FloatArray, FloatArray, FloatArray]
 class Problem:
     """Work samples of the window: `tau` (N,) s, `y` (N, carts) m, `dt` s, `train` (N,) the
     samples every fit uses (all of them), the largest swing `amplitude` (m), `held` (N,) the
-    held cart's motion from its first sample (m) or None, `inputs` (N, m) or None."""
+    held cart's motion from its first sample (m) or None, `inputs` (N, m) or None, `drift`
+    (N, K) the rest drift's spline basis on knots `drift_spacing_s` apart (`drift`) or None."""
 
     tau: FloatArray
     y: FloatArray
@@ -29,6 +30,8 @@ class Problem:
     amplitude: float
     held: FloatArray | None = None
     inputs: FloatArray | None = None
+    drift: FloatArray | None = None
+    drift_spacing_s: float = 0.0
 
 
 def best_rows(spec: ModelSpec, prob: Problem, theta: FloatArray, where: slice,

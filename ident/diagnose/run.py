@@ -33,6 +33,7 @@ from ident import progress, summary
 from ident.diagnose import candidates as cands
 from ident.diagnose import explain
 from ident.diagnose.candidates import Problem, fit_baseline
+from ident.diagnose.drift import drift_basis, drift_spacing
 from ident.diagnose.evidence import EvidenceResult, collect
 from ident.diagnose.fitting import FitResult
 from ident.diagnose.identifiable import identifiable_friction, one_encoder, typical_scale
@@ -120,6 +121,7 @@ def diagnose(t: FloatArray, y: FloatArray, carts: int | None = None, step_m: flo
         coherence = lattice.coherence if lattice is not None else coherence
     n_lin = len(LINEAR_NAMES[carts])
     wn_modes = np.array([w for w, _ in modes(base.theta[None, :n_lin], carts)])
+    prob, base = _with_drift(prob, base, float(wn_modes[0]))
     rest = base.theta[n_lin + 2 * carts:n_lin + 3 * carts]
     ev = collect(prob.tau, prob.y, base.prediction, rest, wn_modes, lattice)
     if lattice is None or lattice.levels == 0:   # no exact encoder steps: fainter lattices too
@@ -140,6 +142,21 @@ def diagnose(t: FloatArray, y: FloatArray, carts: int | None = None, step_m: flo
     extrema = ev.extrema.copy()
     extrema[:, 0] += t_arr[win.start]
     return Diagnosis(report, t_arr[idx], prob.y, base.prediction, ext.prediction, prob.train, extrema)
+
+
+def _with_drift(prob: Problem, base: FitResult, wn: float) -> tuple[Problem, FitResult]:
+    """The problem and the baseline's model carrying the rest drift's spline basis (knots
+    `drift.DRIFT_PERIODS` periods of the main mode apart), for one cart with no measured held
+    cart or input; unchanged otherwise or when the window is too short for it."""
+    if prob.carts != 1 or prob.held is not None or prob.inputs is not None:
+        return prob, base
+    spacing = drift_spacing(wn)
+    basis = drift_basis(prob.tau, spacing)
+    if basis is None:
+        return prob, base
+    prob = dataclasses.replace(prob, drift=basis, drift_spacing_s=spacing)
+    spec = dataclasses.replace(base.spec, drift=basis, fixed={**base.spec.fixed, "drift_spacing_s": spacing})
+    return prob, dataclasses.replace(base, spec=spec)
 
 
 def _staged(label: str, work: Callable[[], _T]) -> _T:
@@ -257,7 +274,7 @@ def _candidate(prob: Problem, base: FitResult, j: Judgement) -> Candidate:
     fit_c = _fit_points(prob, j.result)
     return Candidate(effect=j.effect, parameters=params, parameter_std=std, fit_percent=fit_c,  # type: ignore[arg-type]
                      gain_points=fit_c - _fit_points(prob, base),
-                     extra_parameters=len(effect_names(j.effect, prob.carts, prob.y.shape[1])), lr_train=j.lr_fit,
+                     extra_parameters=len(j.result.spec.names_of(j.effect)), lr_train=j.lr_fit,
                      lr_validation=j.lr_cv, threshold_train=j.threshold, threshold_validation=j.threshold,
                      significant=j.passes)
 

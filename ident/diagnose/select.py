@@ -25,7 +25,6 @@ from numpy.typing import NDArray
 
 from ident.diagnose.candidates import Trial
 from ident.diagnose.fitting import FitResult
-from ident.diagnose.models import effect_names
 
 FloatArray = NDArray[np.float64]
 
@@ -100,7 +99,8 @@ class Judgement:
 
 def judge(effect: str, before: FitResult, after: FitResult, carts: int) -> Judgement:
     n = before.n_train
-    extra = len(effect_names(effect, after.spec.carts, after.spec.observed))
+    # the rest drift's knot spacing is set, not fitted
+    extra = len(after.spec.names_of(effect)) - (effect == "rest_drift")
     floor = reading_floor(before)
     lr_sse = likelihood_ratio(n, before.sse_train + floor, after.sse_train + floor)
     bar = threshold(extra, effect in SEARCHED, n)

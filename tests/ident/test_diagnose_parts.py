@@ -82,7 +82,7 @@ def test_the_record_round_trips_and_has_a_schema() -> None:
         assert key in schema["properties"]
     assert set(schema["$defs"]["Candidate"]["properties"]["effect"]["enum"]) == {
         "coulomb_friction", "quadratic_drag", "cubic_stiffness", "quantization", "coupled_mode", "presliding",
-        "static_friction", "held_cart_motion", "none"}
+        "static_friction", "held_cart_motion", "rest_drift", "none"}
     assert "effects" in schema["properties"] and DiagnosisReport.SCHEMA_VERSION == 2
 
 

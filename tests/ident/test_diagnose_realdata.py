@@ -43,3 +43,33 @@ def test_hand_release_runs_name_a_cause_with_a_positive_gain(realdata_dir: Path,
     assert report.cause == "coulomb_friction"
     assert 0.02 < report.extended.parameters["coulomb_accel_m_s2"] < 1.0
     assert report.corrected_linear["zeta"] < 0.75 * report.baseline.parameters["zeta"]
+
+
+@pytest.mark.slow
+def test_the_hand_steps_unread_held_cart_drift_is_named_and_the_steps_reach_97_5(
+        realdata_dir: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    # cart 1 is held by the hand that moved it (PROVENANCE.md) and is not read: its slow wander
+    # moves cart 2's rest through the spring (`rest_drift`); without it the first cycles leave a
+    # 0.4-0.6 mm hump and 3 of the 5 steps stayed below 97.5 % (95.90, 97.02, 95.02)
+    folder = realdata_dir / "ECP210_UCSD_2023_Parker-Knopf" / "Open_Loop"
+    paths = [folder / name for name in FILES if (folder / name).exists()]
+    if len(paths) < len(FILES):
+        pytest.skip("the 2023 hand steps are not all in the real-data folder")
+    fits, drift, lines = [], 0, []
+    for path in paths:
+        assert main(["diagnose", str(path), "--time", "Time", "--pos", "Encoder 2 Pos",
+                     "--scale", repr(M_PER_COUNT), "--json"]) == 0
+        report = DiagnosisReport.from_json_bytes(capsys.readouterr().out)
+        effects = {e.effect: e for e in report.effects}
+        fits.append(report.extended.fit_percent)
+        if "rest_drift" in effects:
+            drift += 1
+            knots = [v for k, v in effects["rest_drift"].parameters.items() if k.startswith("drift_knot_")]
+            assert max(abs(v) for v in knots) < 2e-3      # a held cart's wander: under 2 mm of rest
+            assert effects["rest_drift"].cv_ratio > effects["rest_drift"].cv_threshold
+        lines.append(f"{path.name} {report.extended.fit_percent:.2f} % "
+                     f"{[(e.effect, round(e.gain_points, 2)) for e in report.effects]}")
+    with capsys.disabled():
+        print("\n".join(lines))
+    assert drift >= 3
+    assert sum(f >= 97.5 for f in fits) >= 4

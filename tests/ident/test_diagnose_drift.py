@@ -1,0 +1,67 @@
+"""The rest drift: a free cart let go while the hand holds the other, which nobody reads.
+
+The runs come from the independent generator `testkit.effects` (`coulomb+held_cart`: cart 2
+let go with dry friction, cart 1 held by a loose, wandering hand), with the held cart's column
+dropped, as in the 2023 ECP `DOF1_en2_manual2` records where only encoder 2 was recorded.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from ident.diagnose import diagnose
+from ident.diagnose.drift import MIN_SPANS, drift_basis
+from testkit.effects import make_case
+
+
+@pytest.mark.parametrize("spacing", [0.4, 1.0, 2.3])
+def test_the_drift_basis_is_slow_zero_at_the_release_and_spans_every_slow_path(spacing: float) -> None:
+    tau = np.arange(0.0, 6.0, 0.01)
+    basis = drift_basis(tau, spacing)
+    assert basis is not None
+    assert np.all(basis[0] == 0.0)                       # the rest at the release is the fitted rest
+    assert np.all(basis >= 0.0)
+    # with the one function that is not 0 at τ = 0, the splines sum to 1; every line through the
+    # origin and every C² cubic piece that starts at a knot are in the span
+    assert np.all(np.sum(basis, axis=1) <= 1.0 + 1e-12)
+    for path in (tau, np.maximum(tau - 2 * spacing, 0.0) ** 3):
+        coef = np.linalg.lstsq(basis, path, rcond=None)[0]
+        assert np.max(np.abs(basis @ coef - path)) < 1e-9 * max(1.0, float(np.max(np.abs(path))))
+    # slow: a ring at 3 spacings' period or faster is nearly outside the span
+    ring = np.sin(2 * np.pi * tau / (spacing / 3.0))
+    coef = np.linalg.lstsq(basis, ring, rcond=None)[0]
+    assert np.linalg.norm(basis @ coef) < 0.15 * np.linalg.norm(ring)
+
+
+def test_a_window_shorter_than_two_spacings_has_no_drift() -> None:
+    tau = np.arange(0.0, 2.0, 0.01)
+    assert drift_basis(tau, tau[-1] / (MIN_SPANS - 0.1)) is None
+    assert drift_basis(tau, tau[-1] / (MIN_SPANS + 0.1)) is not None
+
+
+SEEDS = [int(s) for s in np.random.default_rng([2026, 11, 3]).integers(0, 2**31, 4)]
+
+
+@pytest.mark.slow
+def test_an_unread_wandering_held_cart_is_named_and_the_fit_reaches_the_noise_floor() -> None:
+    named, gaps = 0, []
+    for seed in SEEDS:
+        case = make_case(seed, "coulomb+held_cart")
+        y = case.observed.y
+        free = int(np.argmax(np.ptp(y, axis=0)))          # the released cart; the held one is not read
+        report = diagnose(case.observed.t, y[:, free], carts=1).report
+        window = case.observed.t >= report.window_start_s
+        yw, clean = y[window, free], case.truth.clean[window, free]
+        floor = 100.0 * (1.0 - np.linalg.norm(yw - clean) / np.linalg.norm(yw - yw.mean()))
+        effects = [e.effect for e in report.effects]
+        friction = next(e for e in report.effects if e.effect == "coulomb_friction")
+        error = abs(friction.parameters["coulomb_accel_m_s2"] / case.truth.parameters["coulomb_accel_m_s2"] - 1)
+        print(seed, effects, f"fit {report.extended.fit_percent:.2f} floor {floor:.2f}",
+              f"friction {100 * error:.1f} %")
+        assert report.cause == "coulomb_friction"
+        assert error <= 0.05
+        named += "rest_drift" in effects
+        gaps.append(floor - report.extended.fit_percent)
+    assert named >= 3
+    assert float(np.median(gaps)) <= 0.3
