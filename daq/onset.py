@@ -26,12 +26,18 @@ class OnsetFit:
 
 
 def fit_onset(t: npt.NDArray[np.float64], y: npt.NDArray[np.float64], powers: Sequence[int],
-              trigger_offset_s: float = 0.0) -> OnsetFit | None:
+              trigger_offset_s: float = 0.0, spring: tuple[float, float] | None = None) -> OnsetFit | None:
     """Least-squares onset of `y = x0 + Σ c_k max(t - t0, 0)^k` (shapes (N,)).
 
     t0 is searched on [t[0], t[-1]] by a grid at the median sample spacing, then refined on a
     grid 50× finer around the best point. Returns t0 (+ `trigger_offset_s`), `a = 2 c_2` and
     the residual RMS, or None when there are too few samples.
+
+    With `spring` = (σ, ω) (1/s, rad/s) known (a release confirmed by its ringing) the motion
+    after t0 is the spring's from rest instead of a polynomial: `y = x0 + a r1(τ) + b r2(τ)`,
+    r1 the response to a constant force (`r1'' (0) = 1`), r2 to one that changes linearly
+    (`daq.release_dating.hand_response` run forwards): over the 40-70 ms fitted, (ωτ)² reaches
+    ~0.5 and τ², τ³ would date a release from a hold ~1 ms late at 1 kHz.
     """
     if t.size < len(powers) + 3:
         return None
@@ -39,30 +45,37 @@ def fit_onset(t: npt.NDArray[np.float64], y: npt.NDArray[np.float64], powers: Se
     if not step > 0:
         return None
     coarse = np.arange(t[0], t[-1], step)
-    best = _best_onset(t, y, powers, coarse)
+    best = _best_onset(t, y, powers, coarse, spring)
     fine = np.linspace(best - step, best + step, 101)
-    best = _best_onset(t, y, powers, fine)
-    coefs, rms = _solve_at(t, y, powers, np.array([best]))
+    best = _best_onset(t, y, powers, fine, spring)
+    coefs, rms = _solve_at(t, y, powers, np.array([best]), spring)
     span = float(t[-1] - t[0])
+    if spring is not None:
+        return OnsetFit(best + trigger_offset_s, float(coefs[0, 1]) / span ** 2, float(rms[0]))
     accel = 2.0 * float(coefs[0, 1 + list(powers).index(2)]) / span ** 2
     return OnsetFit(best + trigger_offset_s, accel, float(rms[0]))
 
 
 def _best_onset(t: npt.NDArray[np.float64], y: npt.NDArray[np.float64], powers: Sequence[int],
-                candidates: npt.NDArray[np.float64]) -> float:
-    _, rms = _solve_at(t, y, powers, candidates)
+                candidates: npt.NDArray[np.float64], spring: tuple[float, float] | None) -> float:
+    _, rms = _solve_at(t, y, powers, candidates, spring)
     return float(candidates[int(np.argmin(rms))])
 
 
 def _solve_at(t: npt.NDArray[np.float64], y: npt.NDArray[np.float64], powers: Sequence[int],
-              candidates: npt.NDArray[np.float64]) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+              candidates: npt.NDArray[np.float64],
+              spring: tuple[float, float] | None = None) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
     """Batched linear least squares for every candidate t0: coefficients (G, 1+P) and RMS (G,).
 
     τ is scaled by the window span (τ/T) for conditioning: c_k(unscaled) = c_k / T^k.
     """
     span = float(t[-1] - t[0])
     tau = np.maximum(t[None, :] - candidates[:, None], 0.0) / span      # (G, N)
-    columns = [np.ones_like(tau)] + [tau ** p for p in powers]
+    if spring is None:
+        columns = [np.ones_like(tau)] + [tau ** p for p in powers]
+    else:   # the spring's response from rest, τ in units of the span (so r1 ≈ τ²/2, r2 ≈ τ³/6)
+        sigma, omega = spring[0] * span, spring[1] * span
+        columns = [np.ones_like(tau), *_from_rest(tau, sigma, omega)]
     design = np.stack(columns, axis=2)                                  # (G, N, 1+P)
     design_t = design.transpose(0, 2, 1)                                # (G, 1+P, N)
     normal = design_t @ design                                          # batched BLAS, not einsum
@@ -72,3 +85,16 @@ def _solve_at(t: npt.NDArray[np.float64], y: npt.NDArray[np.float64], powers: Se
     residual = y[None, :] - (design @ coefs[..., None])[..., 0]
     rms: npt.NDArray[np.float64] = np.sqrt(np.mean(residual ** 2, axis=1))
     return coefs, rms
+
+
+def _from_rest(tau: npt.NDArray[np.float64], sigma: float, omega: float) -> tuple[npt.NDArray[np.float64], ...]:
+    """r1, r2 (shapes of `tau` ≥ 0): x'' + 2σx' + (σ²+ω²)x = 1 (resp. τ) from rest at τ = 0."""
+    om2 = sigma ** 2 + omega ** 2
+    env = np.exp(-sigma * tau)
+    cos, sin = np.cos(omega * tau), np.sin(omega * tau)
+    r1 = (1.0 - env * (cos + sigma / omega * sin)) / om2
+    # particular τ/Ω² - 2σ/Ω⁴; homogeneous chosen for r2(0) = r2'(0) = 0
+    a = 2.0 * sigma / om2 ** 2
+    b = (2.0 * sigma ** 2 / om2 ** 2 - 1.0 / om2) / omega
+    r2 = tau / om2 - 2.0 * sigma / om2 ** 2 + env * (a * cos + b * sin)
+    return r1, r2

@@ -9,9 +9,9 @@ rises over 60-150 ms to 10-19 m/s², declines, and is still 3-9 m/s² (0.2-1.2 t
 spring's pull) when the hand lets go; it is gone within ~10 ms. So the release is dated
 as the end of a hand force joined to the free response:
 
-- from a still hold (`fit_onset_at`): the hand held the cart against the spring; at t0 that
-  force ends and the spring's starts the motion, `y = x0 + Σ c_k max(t - t0, 0)^k`
-  (`daq.onset`);
+- from a still hold (`fit_onset_at`, the fast path): the hand held the cart against the
+  spring; at t0 that force ends and the spring's starts the motion, `y = x0 + Σ c_k max(t -
+  t0, 0)^k`, or with the spring known from a ringing its response from rest (`daq.onset`);
 - a ringing (`date_ringing`): the free response `f` (a damped sinusoid about a drifting
   centre with dry friction, `daq.ringing.FreeFit`) is fitted a period on and slid back while
   the data keep following it (`daq.ringing.slide_back`); around where it stops, the joined
@@ -24,7 +24,9 @@ as the end of a hand force joined to the free response:
   at t0 (linear over the 0.3 half-period before it; `hand_response`, ≈ F_r τ²/2 + S τ³/6);
   linear in the free coefficients and (F_r, S) for a given t0, t0 by a grid an eighth of a
   sample apart, then finer. A quartic hand (the previous model) also follows the first free
-  samples and dated real flicks 8-29 ms late.
+  samples and dated real flicks 8-29 ms late. From a still hold the onset fit is kept unless
+  the free response clearly begins later (more than two samples: a hand that lets go
+  gradually).
 """
 
 from __future__ import annotations
@@ -55,10 +57,6 @@ class Samples:
         pos = np.array([h[1] for h in history], dtype=np.float64).reshape(len(history), -1)
         return cls(t, pos)
 
-    def step(self) -> float:
-        """The median sample spacing of the last 20 samples (s)."""
-        return float(np.median(np.diff(self.t[-20:])))
-
 
 @dataclass(frozen=True, slots=True)
 class ReleaseDate:
@@ -71,7 +69,7 @@ class ReleaseDate:
 
 # --- from a still hold ------------------------------------------------------------------------
 def fit_onset_at(s: Samples, channel: int, hold: tuple[float, ...], trigger_t: float,
-                 settings: DetectorSettings) -> OnsetFit | None:
+                 settings: DetectorSettings, spring: tuple[float, float] | None = None) -> OnsetFit | None:
     """The onset fit on the hold before `trigger_t` and the window the live decision saw."""
     times = s.t
     before = np.flatnonzero(times < trigger_t)
@@ -87,14 +85,16 @@ def fit_onset_at(s: Samples, channel: int, hold: tuple[float, ...], trigger_t: f
     last = int(after[min(after.size, n_post) - 1]) + 1 if after.size else len(times)
     t = times[first:last] - trigger_t
     y = s.pos[first:last, channel] - hold[channel]
-    return fit_onset(t, y, settings.fit_powers, trigger_offset_s=trigger_t)
+    return fit_onset(t, y, settings.fit_powers, trigger_offset_s=trigger_t, spring=spring)
 
 
-def date_hold_release(s: Samples, t_now: float, a: Turn, settings: DetectorSettings) -> Released | None:
+def date_hold_release(s: Samples, t_now: float, a: Turn, settings: DetectorSettings,
+                      spring: tuple[float, float] | None = None) -> Released | None:
     """The ringing began from a hold (still before turn A): date it by the onset fit, or None.
 
     The cart that moved most from the hold is the released one (two carts may both ring); only
-    it must have been still: the other cart, held by a hand, may wander by millimetres.
+    it must have been still: the other cart, held by a hand, may wander by millimetres. With
+    `spring` (σ, ω of the ringing) the onset is the spring's motion from rest (`daq.onset`).
     """
     plateau_mask = (s.t >= a.t_s - settings.still_s) & (s.t <= a.t_s)
     plateau = s.pos[plateau_mask]
@@ -112,7 +112,7 @@ def date_hold_release(s: Samples, t_now: float, a: Turn, settings: DetectorSetti
     if away.size == 0:
         return None
     trigger = float(s.t[after_mask][away[0]])
-    fit = fit_onset_at(s, channel, hold, trigger, settings)
+    fit = fit_onset_at(s, channel, hold, trigger, settings, spring)
     if fit is None:
         return None
     return Released(fit.t0_s, trigger, t_now, channel, abs(fit.accel_m_s2), hold)
@@ -127,13 +127,23 @@ def others_swing(s: Samples, release: Released, held_ratio: float) -> bool:
 
 
 # --- a ringing ------------------------------------------------------------------------------
+def spring_of(turns: tuple[Turn, Turn, Turn]) -> tuple[float, float]:
+    """(σ 1/s, ω rad/s) of a ringing from its turns A, B, C: ω = π / half-period, σ from the
+    swings' decay (0 when the second swing is not smaller)."""
+    a, b, c = turns
+    half = 0.5 * (c.t_s - a.t_s)
+    s1, s2 = abs(b.x_m - a.x_m), abs(c.x_m - b.x_m)
+    sigma = max(0.0, math.log(max(s1, 1e-12) / max(s2, 1e-12)) / half) if s2 < s1 else 0.0
+    return sigma, math.pi / half
+
+
 def date_ringing(s: Samples, t_now: float, channel: int, turns: tuple[Turn, Turn, Turn],
                  settings: DetectorSettings, first_t: float) -> Released | Rejected:
     """Fit the free response after B, slide the fit back while it holds; date where it began."""
     a, b, c = turns
     half = 0.5 * (c.t_s - a.t_s)
-    s1, s2 = abs(b.x_m - a.x_m), abs(c.x_m - b.x_m)
-    sigma0 = max(0.0, math.log(max(s1, 1e-12) / max(s2, 1e-12)) / half) if s2 < s1 else 0.0
+    s2 = abs(c.x_m - b.x_m)
+    sigma0 = spring_of(turns)[0]
     t, y = s.t, s.pos[:, channel]
     t_from = b.t_s + 0.25 * half
     span = 1.5 * half
@@ -168,15 +178,16 @@ def date_ringing(s: Samples, t_now: float, channel: int, turns: tuple[Turn, Turn
 
 def date_ringing_release(s: Samples, t_now: float, channel: int, turns: tuple[Turn, Turn, Turn],
                          settings: DetectorSettings, first_t: float) -> Released | Rejected:
-    """Date a ringing: from a hold by the onset fit unless the free response clearly began later."""
+    """Date a ringing: from a still hold by the onset fit unless the free response clearly began
+    later (a hand that lets go gradually), or where the free response begins."""
     free = date_ringing(s, t_now, channel, turns, settings, first_t)
-    hold = date_hold_release(s, t_now, turns[0], settings)
+    hold = date_hold_release(s, t_now, turns[0], settings, spring_of(turns))
     if hold is None:
         return free
     if not isinstance(free, Released) or free.channel != hold.channel or others_swing(s, hold, settings.held_ratio):
         return hold     # two carts ring together: one damped sinusoid does not describe them
     # a hand that lets go gradually: the motion starts before the free response does
-    late = free.t_release_s - hold.t_release_s > max(2.0 * s.step(), 0.005)
+    late = free.t_release_s - hold.t_release_s > max(2.0 * float(np.median(np.diff(s.t[-20:]))), 0.005)
     return free if late else hold
 
 
