@@ -4,6 +4,7 @@ bomb, each loaded in a child whose peak RSS is measured) and the suite under loa
 from __future__ import annotations
 
 import re
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -117,6 +118,7 @@ def row10_load(work: Path, repeat: int, tests: tuple[str, ...] = LOAD_TESTS) -> 
     selected = [] if tests == ("all",) else list(tests)
     done = run_python(["tools/suite_under_load.py", "--burners", "2", "--repeat", str(repeat),
                        "--log-dir", str(work / "r10"), *selected, "-q"], timeout_s=3 * 3600)
+    print(done.stdout, file=sys.stderr, flush=True)   # each run's line and a failed run's report
     runs = [m for m in map(_RUN_LINE.match, done.stdout.splitlines()) if m]
     failed = sum(m.group(1) != "0" for m in runs)
     failures = sorted({line.split(" - ")[0] for line in done.stdout.splitlines() if line.startswith("FAILED")})
