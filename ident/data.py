@@ -59,7 +59,7 @@ def check_arrays(t: ArrayLike, u: ArrayLike | None, y: ArrayLike,
         kind = "duplicate" if steps[i] == 0.0 else "decreasing"
         raise IdentValueError("t", "strictly increasing time stamps",
                               f"{kind} time at index {i + 1} ({t_arr[i]!r} then {t_arr[i + 1]!r})")
-    step = float(np.median(steps))
+    step = float(np.median(steps, overwrite_input=True))   # `steps` is ours: no copy of N floats
     if step >= MS_STEP_THRESHOLD_S:
         raise IdentValueError("t", f"seconds (a sample step below {MS_STEP_THRESHOLD_S} s)",
                               f"a median step of {step:.4g}: milliseconds? pass t / 1000 "

