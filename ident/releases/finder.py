@@ -52,6 +52,11 @@ MIN_AMPLITUDE_BANDS = 4.0
 #: A hand that lets a ringing cart go where it took it leaves a swing below this many
 #: `min_amplitude_m` when it only nudged it (`nudged_while_ringing`).
 NUDGE_AMPLITUDE_FACTOR = 2.0
+#: ... and whatever its swing when the hand let it go within this many metres of where it took
+#: it (a nudge moves the cart 2-8 mm and back) with no more swing than before (this factor
+#: allows for the amplitudes' estimates).
+NUDGE_RETURN_M = 0.003
+NUDGE_SWING_MARGIN = 1.1
 #: The hand's largest force on a released cart is at least this fraction of the spring's
 #: force at the amplitude of the free response (per unit mass: wn²·A).
 HAND_FORCE_FRACTION = 0.3
@@ -220,8 +225,16 @@ def nudged_while_ringing(m: Motion, j: int, first: int, last: int, amplitude: fl
     # the smoothing sees the hand half a window early and late
     took = float(x[min(first + m.window // 2, last)])
     let_go = float(x[max(last - m.window // 2, first)])
+    returned = abs(let_go - took)
+    # a hand that put the ringing cart back where it took it, to within a few millimetres,
+    # added no swing whatever the swing left: only the swing the cart had (a release let go
+    # there by chance leaves its own, larger swing); told only when the two places are read
+    # apart, half a smoothing window inside each end of the episode
+    if (last - first > 2 * m.window and returned < NUDGE_RETURN_M
+            and amplitude <= NUDGE_SWING_MARGIN * before):
+        return True
     return (amplitude <= before and amplitude < NUDGE_AMPLITUDE_FACTOR * min_amplitude_m
-            and abs(let_go - took) < min_amplitude_m)
+            and returned < min_amplitude_m)
 
 
 def steady_force(m: Motion, model: FreeModel, first: int, last: int) -> bool:
