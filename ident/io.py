@@ -28,12 +28,9 @@ import numpy as np
 
 from ident.data import FloatArray, IdData, check_arrays, from_release
 from ident.errors import DataFileError, IdentValueError
-from ident.releases.select import with_found_release
+from ident.releases.select import DEFAULT_STEP_M, with_found_release
 from ident.text_dialect import SAMPLE_LINES, clean, sniff
 from schemas import SchemaError, run_file, topics
-
-#: Default pull distance of the lab (m): the cart is held 0.15 m from rest.
-DEFAULT_STEP_M = 0.15
 
 _UNIT_SCALES = {"m": 1.0, "cm": 1e-2, "mm": 1e-3, "in": 0.0254, "s": 1.0, "ms": 1e-3, "us": 1e-6}
 _POSITION_HINTS = ("pos", "encoder", "x1", "x2", "distance", "position")
