@@ -12,6 +12,9 @@ from ident.diagnose.problem import FloatArray, Problem
 from ident.modal import fit_modes
 from ident.physics.measures import spectral_peaks
 
+#: One cart: the strongest spectral peaks tried as its mode (`_linear_starts`).
+START_PEAKS = 3
+
 
 def base_spec(prob: Problem, fixed: dict[str, float]) -> ModelSpec:
     if prob.y.shape[1] < prob.carts:   # cart 2 unseen: its rest only shifts its start, fix it
@@ -46,6 +49,13 @@ def _linear_starts(prob: Problem) -> list[FloatArray]:
     """Linear | x0 | v0 | rest start vectors: from a modal fit of the free response, or, with
     a force input, from the ringing's frequencies (spectral peaks of the sample differences,
     where the input's slow shape no longer dominates) with the carts at rest at the start."""
+    if prob.inputs is None and prob.carts == 1:
+        # the strongest of the position's peaks may be no ring: a free cart dragged in
+        # stick-slip steps by a wandering held cart, or a drift, leaves its slow steps the
+        # largest peak; each of the strongest peaks is fitted as the mode and the modal fit that
+        # leaves the least residual starts the baseline
+        fits = [fit_modes(prob.tau, prob.y, np.array([w])) for w in spectral_peaks(prob.y, prob.dt, START_PEAKS)]
+        return starts.linear_starts(min(fits, key=lambda f: f.sse), prob.carts)
     if prob.inputs is None:
         modal = fit_modes(prob.tau, prob.y, spectral_peaks(prob.y, prob.dt, prob.carts))
         return starts.linear_starts(modal, prob.carts)

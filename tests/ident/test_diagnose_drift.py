@@ -65,3 +65,17 @@ def test_an_unread_wandering_held_cart_is_named_and_the_fit_reaches_the_noise_fl
         gaps.append(floor - report.extended.fit_percent)
     assert named >= 3
     assert float(np.median(gaps)) <= 0.3
+
+
+@pytest.mark.slow
+def test_a_cart_dragged_in_steps_by_a_wandering_held_cart_starts_from_its_ring() -> None:
+    # bench seed 1437021865 (coulomb+held_cart, seed set 11): cart 2 rings for 1.5 s, then sticks
+    # and is dragged in steps by the held cart's 0.4 Hz wander for 6 s, the strongest peak of
+    # its position; the linear baseline started there fitted 1.2 % and no effect was found
+    case = make_case(1437021865, "coulomb+held_cart")
+    report = diagnose(case.observed.t, case.observed.y, carts=1).report
+    assert report.baseline.fit_percent > 50.0
+    assert report.corrected_linear["wn_rad_s"] == pytest.approx(case.truth.details["wn_rad_s"], rel=0.05)
+    friction = next(e for e in report.effects if e.effect == "coulomb_friction")
+    assert friction.parameters["coulomb_accel_m_s2"] == pytest.approx(case.truth.parameters["coulomb_accel_m_s2"],
+                                                                      rel=0.05)
