@@ -23,9 +23,13 @@ from testkit.effects import SINGLE, make_case
 #: hold at 641 Hz).
 KNOWN = ((2035121339, "quadratic_drag"),)
 N_DRAWN = 24
-#: Drawn cases whose release must be found once and on time (the rest: a coarse lattice or a
-#: second mode hiding a flick's end, a second-mode swing taken for a second release).
-MIN_FOUND = 0.8
+#: Drawn cases whose release must be found once and on time: 21 of these 24 are. The rest:
+#: a coarse lattice hiding a flick's end (seeds 1150721785 and 1500255062: no release, and
+#: 16 samples early), and a hold at 972 Hz read with 0.2 mm of noise dated 8.7 samples early
+#: (1706154916). On 60 other draws (scratch survey), 55 pass: two coarse-lattice flicks, two
+#: second modes (a hold and a flick: the second mode's misfit early in the free response is
+#: taken for the hand again within a period) and a cubic-spring flick 12 samples early.
+MIN_FOUND = 0.85
 HOLD_SAMPLES = 3.0
 FLICK_PERIODS = 0.1
 
