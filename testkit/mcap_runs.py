@@ -28,3 +28,11 @@ def write_mcap_run(path: Path, t_ns: list[int], pos1: list[float], release_s: fl
     writer.add_metadata(topics.METADATA_RUN, {topics.METADATA_JSON_KEY: meta.to_json_bytes().decode()})
     writer.finish()
     path.write_bytes(stream.getvalue())
+
+
+def read_run_samples(path: str) -> str:
+    """How many samples `schemas.run_file.read_run` reads from `path`, with its expansion check
+    off (a file of repeated batches is not a bomb here): a call `testkit.peak_memory` measures."""
+    from schemas import run_file
+
+    return str(run_file.read_run(Path(path), run_file.Limits(max_expansion=1e9)).t_ns.size)

