@@ -224,7 +224,9 @@ def _bad_runs(runs_dir: Path) -> list[str]:
     return sorted(p.stem for p in runs_dir.glob("*.mcap"))
 
 
-@pytest.mark.timeout(300)   # STARTUP_S, then up to 150 s of fits
+# the fixture's two start-up waits (the worker alive, its first fit) of STARTUP_S each, then up
+# to 150 s of fits: pytest-timeout counts the fixture's time too
+@pytest.mark.timeout(2 * STARTUP_S + 150)
 @pytest.mark.parametrize("worker", [fit_run], indirect=True, ids=["real-pipeline"])
 def test_runs_that_cannot_be_fitted_get_a_failed_report_with_a_reason_and_the_worker_goes_on(
         worker: Setup) -> None:

@@ -154,6 +154,7 @@ def test_real_pipeline_reports_corrupted_and_truncated_runs_and_goes_on(router: 
     assert ok.pending == ["diagnosis", "figures"] and ok.simple
 
 
+@pytest.mark.timeout(2 * STARTUP_S + 120)   # two workers started one after the other
 def test_a_restarted_worker_republishes_stored_fits_without_refitting(router: Router, tmp_path: Path) -> None:
     endpoint, session = router
     runs_dir = tmp_path / "runs"
@@ -210,6 +211,7 @@ def test_kill_9_during_the_diagnosis_the_other_worker_completes_the_run(router: 
     assert (runs_dir / f"{runs[0].run_id}.fit" / "report.json").is_file()
 
 
+@pytest.mark.timeout(2 * STARTUP_S + 120)   # two workers started one after the other
 def test_a_new_worker_learns_from_a_survivor_what_a_dead_worker_fitted(router: Router, tmp_path: Path) -> None:
     """Separate runs directories (nothing shared on disk): wa and wb fit, wa is killed, then
     wc starts with an empty history of wa's publications and must refit nothing."""
