@@ -161,13 +161,17 @@ def date_ringing(s: Samples, t_now: float, channel: int, turns: tuple[Turn, Turn
     limit = max(float(t[0]), a.t_s - 4.0 * half)
     t_coarse, free = slide_back(t, y, vs, t_from, span, half, free, limit, 0.0003 * s2)
     # a release shows the hand before it: within a half-period of the stream's start the data
-    # cannot tell a release from a swing that was going on (a record that starts in motion)
-    if t_coarse - half / 8.0 < limit or t_coarse - first_t < max(half, 2.0 * settings.fit_post_s):
+    # cannot tell a release from a swing that was going on (a record that starts in motion);
+    # judged on the slid-back start and again on the fine instant (it may lie before it)
+    too_early = max(half, 2.0 * settings.fit_post_s)
+    date = None
+    if t_coarse - half / 8.0 >= limit and t_coarse - first_t >= too_early:
+        date = date_release(t, y, vs, free, t_coarse, half)
+        if date is None:
+            return Rejected(t_now, 0.0, "ringing: release fit failed")
+    if date is None or date.t0_s - first_t < too_early:
         return Rejected(t_now, 0.0, "ringing: in motion since the stream started (no release seen)"
                         if t[0] <= first_t else "ringing: no release in view (it rang before)")
-    date = date_release(t, y, vs, free, t_coarse, half)
-    if date is None:
-        return Rejected(t_now, 0.0, "ringing: release fit failed")
     k0 = int(np.searchsorted(t, date.t0_s))
     x0 = y[min(k0, y.size - 1)]
     away = np.flatnonzero(np.abs(y[k0:] - x0) > settings.fire_m)

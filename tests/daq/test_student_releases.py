@@ -69,3 +69,14 @@ def test_two_minutes_of_handling_make_no_run(rate_hz: int) -> None:
     stream, truth = samples(f"sim://?realtime=0&rate_hz={rate_hz}&student=handling&duration_s=120&seed={rate_hz}")
     assert truth == []
     assert detect(stream) == []
+
+
+def test_a_record_that_starts_in_motion_makes_no_run_before_its_first_release() -> None:
+    # seed 50137 at 50 Hz starts in a swing whose joined fit lands just inside the first
+    # half-period (its slid-back start just outside): it was taken for a release, and the run it
+    # opened hid the record's two real releases
+    stream, truth = samples("sim://?realtime=0&rate_hz=50&student=releases&seed=50137")
+    tally = Tally()
+    tally.add(truth, detect(stream), 0.25, "seed=50137")
+    assert tally.releases == 2
+    assert tally.recorded == 2 and tally.false_runs == 0, (tally.misses, tally.false)
