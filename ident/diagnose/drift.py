@@ -23,7 +23,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ident.diagnose.models import ModelSpec
-from ident.diagnose.problem import FloatArray
+from ident.diagnose.problem import FloatArray, Problem
 
 #: Knot spacing of the drift, in periods of the lowest mode: a cubic B-spline passes little
 #: above 1/(spacing) Hz, a third of the main mode's frequency and below any searched mode.
@@ -83,4 +83,24 @@ def drift_penalty(spec: ModelSpec, free: NDArray[np.int_], sigma2: float) -> Flo
     return out
 
 
-__all__ = ["DRIFT_PERIODS", "DRIFT_PRIOR_M", "MIN_SPANS", "drift_basis", "drift_penalty", "drift_spacing"]
+def slow_residual(prob: Problem, prediction: FloatArray) -> bool:
+    """Whether the residual of `prediction` (N, 1) has enough slow content for a drift to be
+    worth fitting: its least-squares projection on the drift's splines passes the selection's
+    noise bound, n ln(SSE / (SSE - |projection|²)) > χ²_K(1 - 1e-3). A slow rest shift moves a
+    free cart by about as much (x ≈ r below the ring), a stuck one less, so a drift that fails
+    this cannot pass its own fit; the screen saves its fit on records with nothing slow left."""
+    import scipy.stats  # deferred: keeps `import ident` fast
+    if prob.drift is None:
+        return False
+    res = (prob.y - prediction)[:, 0]
+    coef = np.linalg.lstsq(prob.drift, res, rcond=None)[0]
+    slow = float(np.sum((prob.drift @ coef) ** 2))
+    sse = float(np.sum(res ** 2))
+    if sse <= 0.0 or slow <= 0.0:
+        return False
+    gain = res.size * float(np.log(sse / max(sse - slow, 1e-300 * sse)))
+    return gain > float(scipy.stats.chi2.ppf(1 - 1e-3, prob.drift.shape[1]))
+
+
+__all__ = ["DRIFT_PERIODS", "DRIFT_PRIOR_M", "MIN_SPANS", "drift_basis", "drift_penalty", "drift_spacing",
+           "slow_residual"]

@@ -33,7 +33,7 @@ from ident import progress, summary
 from ident.diagnose import candidates as cands
 from ident.diagnose import explain
 from ident.diagnose.candidates import Problem, fit_baseline
-from ident.diagnose.drift import drift_basis, drift_spacing
+from ident.diagnose.drift import drift_basis, drift_spacing, slow_residual
 from ident.diagnose.evidence import EvidenceResult, collect
 from ident.diagnose.fitting import FitResult
 from ident.diagnose.identifiable import identifiable_friction, one_encoder, typical_scale
@@ -127,7 +127,8 @@ def diagnose(t: FloatArray, y: FloatArray, carts: int | None = None, step_m: flo
     if lattice is None or lattice.levels == 0:   # no exact encoder steps: fainter lattices too
         ev = dataclasses.replace(ev, lattice_proposals=tuple(lattice_candidates(y_arr[win.start:])))
     selection = forward(
-        base, lambda cur: [e for e in EFFECTS if cands.available(e, cur.spec, prob, ev)],
+        base, lambda cur: [e for e in EFFECTS if cands.available(e, cur.spec, prob, ev)
+                           and (e != "rest_drift" or slow_residual(prob, cur.prediction))],
         lambda cur, e: _staged(f"diagnosis: screening {e}", lambda: cands.screen(prob, cur, e, ev, wn_modes)),
         lambda trial: _staged(f"diagnosis: fitting {trial.effect}", lambda: cands.refine(prob, trial)), carts,
         lambda trial, result, refit: cands.without(prob, trial, result, refit))

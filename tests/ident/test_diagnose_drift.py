@@ -11,7 +11,8 @@ import numpy as np
 import pytest
 
 from ident.diagnose import diagnose
-from ident.diagnose.drift import MIN_SPANS, drift_basis
+from ident.diagnose.drift import MIN_SPANS, drift_basis, slow_residual
+from ident.diagnose.problem import Problem
 from testkit.effects import make_case
 
 
@@ -38,6 +39,26 @@ def test_a_window_shorter_than_two_spacings_has_no_drift() -> None:
     tau = np.arange(0.0, 2.0, 0.01)
     assert drift_basis(tau, tau[-1] / (MIN_SPANS - 0.1)) is None
     assert drift_basis(tau, tau[-1] / (MIN_SPANS + 0.1)) is not None
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_a_drift_is_offered_only_when_something_slow_is_left(seed: int) -> None:
+    rng = np.random.default_rng([seed, 9])
+    tau = np.arange(0.0, 8.0, 0.005)
+    noise = float(rng.uniform(1e-5, 1e-4))
+    basis = drift_basis(tau, 1.2)
+    assert basis is not None
+    ring = 0.02 * np.exp(-0.3 * tau) * np.cos(15.0 * tau)
+
+    def offered(y: np.ndarray) -> bool:
+        prob = Problem(tau, y[:, None], 0.005, np.ones(tau.size, dtype=bool), 1, 0.04, drift=basis,
+                       drift_spacing_s=1.2)
+        return slow_residual(prob, ring[:, None])
+
+    assert not offered(ring + rng.normal(0.0, noise, tau.size))              # white noise only
+    assert not offered(ring + 0.05 * ring + rng.normal(0.0, noise, tau.size))  # a ring misfit is no drift
+    hump = 10 * noise * np.sin(np.pi * np.minimum(tau / 3.0, 1.0)) ** 2        # a slow hump of 10 noise std
+    assert offered(ring + hump + rng.normal(0.0, noise, tau.size))
 
 
 SEEDS = [int(s) for s in np.random.default_rng([2026, 11, 3]).integers(0, 2**31, 4)]
