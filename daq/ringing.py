@@ -220,11 +220,17 @@ def slide_back(t: Array, y: Array, vs: Array, t_from: float, span_s: float, half
     `half_s / 8` while it still fits with ω within ±4 % of `first`'s (the fit at `t_from`; a
     hand's push is not absorbed by a changed frequency): its RMS within 1.5 × and every residual of
     its first eighth of a period within `k_rms` × the RMS of `first`, not before `t_limit`; that
-    RMS taken at least `floor_m` (a few samples' RMS is a poor yardstick at low rates).
+    RMS taken at least `floor_m` (a few samples' RMS is a poor yardstick at low rates) and at least
+    half `first`'s largest residual: a free response the model misses by structure (a held cart's
+    weak second mode, a rest that drifts) leaves residuals that peak at turns at several times
+    their RMS, and the window's head, sliding over a turn, is judged by what the free response
+    itself shows there, not taken for the hand (it stopped flicks a half-period late).
     Returns the earliest start that fits and its fit."""
     start, fit = t_from, first
     step = half_s / 8.0
-    ref = max(first.rms_m, floor_m)
+    own = (t >= t_from) & (t <= t_from + span_s)
+    peak = float(np.max(np.abs(y[own] - first(t[own], vs[own])))) if own.any() else 0.0
+    ref = max(first.rms_m, floor_m, 0.5 * peak)
     limit = k_rms * ref
     while start - step >= t_limit:
         ts = start - step

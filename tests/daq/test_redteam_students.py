@@ -1,0 +1,52 @@
+"""The release detector on student records it was not written against: the red team's
+generator (`tools/redteam/cases10.py`, written from the issue and the physics only: a chain of
+two carts with dry friction and stick, a student's hand as a position path let go at 80-100 %
+of it, the other cart held by a soft hand that wanders, nudges, touches, records that start in
+motion; ECP's whole-ms clock or 50-1000 Hz). The truth (`Record.releases`) is used only in the
+assertions.
+
+Flicks let go at their extreme, where the first turn is the release itself, were dated a
+half-period late: sliding the free fit back over the next turn, dry friction's flip left a
+residual above four times the window's RMS and was taken for the hand.
+"""
+
+from __future__ import annotations
+
+import importlib
+import sys
+from pathlib import Path
+from types import ModuleType
+
+import numpy as np
+import pytest
+
+from daq.detector import ReleaseDetector
+from daq.detector_events import Released
+
+REDTEAM = Path(__file__).resolve().parents[2] / "tools" / "redteam"
+
+
+@pytest.fixture(scope="module")
+def cases10() -> ModuleType:
+    """The red team's generator (it imports its sibling `physics` by its folder)."""
+    sys.path.insert(0, str(REDTEAM))
+    try:
+        return importlib.import_module("cases10")
+    finally:
+        sys.path.remove(str(REDTEAM))
+
+
+@pytest.mark.parametrize("seed", range(9))
+def test_every_release_of_a_red_team_student_is_dated_within_20_ms(cases10: ModuleType, seed: int) -> None:
+    record = cases10.make_record(seed)
+    t = np.asarray(record.t, dtype=np.float64)
+    t = t / 1000.0 if record.t.dtype.kind in "iu" else t     # the ECP clock counts whole ms
+    pos = np.asarray(record.counts, dtype=np.float64) / cases10.COUNTS_PER_M
+    detector = ReleaseDetector()
+    found = [e.t_release_s for k in range(t.size) for e in detector.feed(float(t[k]), tuple(pos[k]))
+             if isinstance(e, Released)]
+    truths = [float(r["t_r"]) for r in record.releases]
+    assert len(found) == len(truths), (found, truths)
+    errors_ms = [1e3 * (f - r) for f, r in zip(found, truths)]
+    print(seed, record.info["rate"], [f"{e:+.1f}" for e in errors_ms])
+    assert max(abs(e) for e in errors_ms) <= 20.0, errors_ms
