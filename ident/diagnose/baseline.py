@@ -57,8 +57,15 @@ def _linear_starts(prob: Problem) -> list[FloatArray]:
         fits = [fit_modes(prob.tau, prob.y, np.array([w])) for w in spectral_peaks(prob.y, prob.dt, START_PEAKS)]
         return starts.linear_starts(min(fits, key=lambda f: f.sse), prob.carts)
     if prob.inputs is None:
-        modal = fit_modes(prob.tau, prob.y, spectral_peaks(prob.y, prob.dt, prob.carts))
-        return starts.linear_starts(modal, prob.carts)
+        peaks = spectral_peaks(prob.y, prob.dt, prob.carts)
+        out = starts.linear_starts(fit_modes(prob.tau, prob.y, peaks), prob.carts)
+        # the velocity's spectrum too when it peaks elsewhere: the position's favours slow
+        # motion, and a ring that friction stops within a few periods has a broad, low peak
+        # beside the slow drift a held cart's wander leaves after it (the fit keeps the better)
+        fast = spectral_peaks(np.diff(prob.y, axis=0), prob.dt, prob.carts)
+        if np.any(np.abs(fast / peaks - 1.0) > 0.2):
+            out += starts.linear_starts(fit_modes(prob.tau, prob.y, fast), prob.carts)
+        return out
     wn = spectral_peaks(np.diff(prob.y, axis=0), prob.dt, prob.carts, min_rad_s=1.0)
     c = prob.carts
     state = np.concatenate([prob.y[0], np.zeros(c), prob.y[0]])
