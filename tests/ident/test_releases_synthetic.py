@@ -71,10 +71,10 @@ def test_every_release_is_found_once_with_its_instant_and_cart(rate_hz: float) -
                   if all(abs(r.release_time_s - true.time_s) >= 0.25 for true in rec.releases)]
     print(f"{rate_hz:g} Hz: {total} releases, missed {missed}, extra {extra}, off {late}")
     # every release found once and nothing elsewhere on these seeds (112 releases over the
-    # four rates); on 200 other seeds per rate tools/bench_ident_releases.py finds 99.2-99.4 %
-    # with 3-4 false (short cut holds of two free carts missed; nudges of a ringing cart
-    # taken for releases); instants within tolerance for 90 % (a flick whose force passes
-    # through zero before the hand lets go can be dated a few hundredths early)
+    # four rates); on 200 other seeds per rate tools/bench_ident_releases.py finds 99.6-99.8 %
+    # with 0 false (a cut hold after a nudge and a flick of two free carts missed); instants
+    # within tolerance for 90 % (a flick whose force passes through zero before the hand lets
+    # go can be dated a few hundredths early)
     assert missed == [] and extra == []
     assert len(late) <= 0.1 * total
 
