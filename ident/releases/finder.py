@@ -32,6 +32,7 @@ from numpy.typing import NDArray
 from ident.errors import IdentDimensionError
 from ident.releases.hand import HAND_SIGMAS, FreeModel, fit_free_model
 from ident.releases.instant import release_instant
+from ident.releases.misfit import free_misfit
 from ident.releases.motion import FloatArray, Motion, motion, turning_indices
 from ident.releases.record import EndedBy, Release
 
@@ -94,8 +95,9 @@ def find_releases(t: NDArray[np.float64], y: NDArray[np.float64],
         # every other cart's position enters: a held cart that wanders or is moved shifts
         # this cart's rest through the spring, which is not a hand on this cart
         model = fit_free_model(m, j, tuple(i for i in range(n_cols) if i != j), tuple(held))
-        episodes = hand_episodes(m, model)
-        pushes = sustained_pushes(m, model)
+        # a free response's own misfit (an effect of the state the model lacks) is no hand
+        episodes = [e for e in hand_episodes(m, model) if not free_misfit(m, model, *e)]
+        pushes = [p for p in sustained_pushes(m, model) if not free_misfit(m, model, *p)]
         # where a hand begins to act, conservatively: the derivatives' smoothing (T/20 each
         # side) and the sustained pushes' moving average (T/8 each side) see it late
         stops += [(j, max(0, a - m.samples(m.period_s / 20))) for a, _ in episodes]
@@ -206,7 +208,9 @@ def is_release(m: Motion, model: FreeModel, first: int, last: int, nxt: int, fre
     if push < HAND_FORCE_FRACTION * float(model.stiffness[0]) * amplitude:
         return False
     lead = max(0, first - m.samples(m.period_s / 8))
-    own = float(np.ptp(x[lead:last + 1]))
+    # what the hand moved this cart by: over the episode, or from its rest when it held the
+    # cart still (a record that starts on the hold), at least the swing it let go
+    own = max(float(np.ptp(x[lead:last + 1])), amplitude)
     held = [i for i in range(m.y.shape[1]) if i not in free]
     return all(float(np.ptp(m.x[lead:last + 1, i])) < TOUCH_FRACTION * own for i in held)
 
