@@ -48,6 +48,8 @@ FINE_H_WN = 0.01
 SWING_NOISE = 10.0
 #: ... and this many encoder quanta (a stuck cart dithers by one count).
 SWING_QUANTA = 3.0
+#: The fitted release stays within this many start-value periods of the given one.
+RELEASE_PERIODS = 0.25
 
 
 @dataclass(frozen=True)
@@ -129,7 +131,22 @@ def _response(p: FloatArray, t: FloatArray, amplitude: float, method: Method, su
         return offset + coulomb_response(wn, zeta, p[5], gain * amplitude, t, t_r)
     A = np.array([[0.0, 1.0], [-wn * wn, -2.0 * zeta * wn]])
     B = np.array([[0.0], [wn * wn]])
-    return offset + linear_step_response(A, B, t, t_r, gain * amplitude, method, substeps)[:, 0]
+    grid, skip = _grid_from(t, t_r)
+    return offset + linear_step_response(A, B, grid, t_r, gain * amplitude, method, substeps)[skip:, 0]
+
+
+def _grid_from(t: FloatArray, release_time_s: float) -> tuple[FloatArray, int]:
+    """The time base (s) to simulate on and how many leading samples to drop: `t` itself, or,
+    for a release before the first sample (a window that starts after the release), `t` with
+    sample steps prepended back past the release. Without them the stepper would take one step
+    of t[0] - t_r, and Euler's single step from rest leaves the cart where it was."""
+    h = _sample_step(t)
+    if release_time_s >= t[0] or not h > 0.0 or not np.isfinite(release_time_s):
+        return t, 0
+    k = int(np.ceil((t[0] - release_time_s) / h))
+    if k > t.size:   # a release this far out is refused after the fit (`release_bounds`)
+        return t, 0
+    return np.concatenate([t[0] - h * np.arange(k, 0, -1, dtype=np.float64), t]), k
 
 
 def coulomb_response(wn: float, zeta: float, friction: float, r: float, t: FloatArray,
@@ -158,7 +175,7 @@ def start_values(t: FloatArray, y: FloatArray, amplitude: float, release0: float
     quantum (`swing_floor`): a cart stuck between two counts dithers across the final level
     every sample, and those crossings would set the period to two samples.
     """
-    offset = float(np.median(y[rest_window(len(y))]))
+    offset = release_level(t, y, release0)
     after = t > release0
     tail = y[after][-max(5, int(after.sum()) // 10):]
     final = float(np.mean(tail))
@@ -179,6 +196,21 @@ def start_values(t: FloatArray, y: FloatArray, amplitude: float, release0: float
         sigma = max(-float(slope), 1e-3 * omega_d)
     wn = float(np.hypot(omega_d, sigma))
     return np.array([wn, sigma / wn, gain, release0, offset])
+
+
+def release_level(t: FloatArray, y: FloatArray, release0: float) -> float:
+    """Start value of the offset o (m): the level at the release, where the model's cart is.
+
+    The median of the rest samples just before `release0` (`rest_window` of them) when there are
+    at least 5, else y at `release0`: a window that starts at (or after) the release, as the
+    release finder's do on a flicked cart, begins moving, and the median of its first samples
+    lies inside the swing, which gave a start gain of the wrong sign.
+    """
+    before = np.flatnonzero(t < release0)
+    if before.size >= 5:
+        size = rest_window(len(y)).stop
+        return float(np.median(y[before[-size:]]))
+    return float(np.interp(release0, t, y))
 
 
 def swing_floor(y: FloatArray) -> float:
@@ -232,21 +264,67 @@ def fit_simple(data: IdData, method: Method = "rk4", *, friction: bool = False, 
     release0 = data.release_time_s if data.release_time_s is not None else float(data.t[int(jumps[0]) + 1])
     fixed = None if fit_release else release0
     start = start_values(data.t, y, amplitude, release0)
+    # a release the loader found is bounded near it; a step the caller placed in u may be a
+    # guess (the motion's onset is then the start), bounded by the window only
+    bounds = (release_bounds(data.t, release0, start[0]) if data.release_time_s is not None
+              else (float(data.t[0]), float(data.t[-1])))
+    start[3] = float(np.clip(start[3], *bounds))
     # with friction the linear start is RK4's: Euler's inflated ζ would be a worse start
     linear_method: Method = "rk4" if friction else method
     if linear_method == "euler":
         start[1] = euler_zeta(start[0], start[1], _sample_step(data.t) / substeps)
     _check_start(data.t, y, amplitude, linear_method, substeps, start)
-    outcome = _least_squares(data.t, y, amplitude, linear_method, substeps, False, start, fixed)
+    outcome = _least_squares(data.t, y, amplitude, linear_method, substeps, False, start, fixed, bounds)
     if friction:
         # the dry-friction fit starts from the linear fit, with f = 0⁺ and with f from the
         # envelope regression |e_{j+1}| = ρ |e_j| - 2 f / wn²; the lower cost wins
         linear = outcome.p
         tries = [np.append(linear, 1e-3 * linear[0] ** 2 * abs(linear[2] * amplitude)),
                  np.append(linear, envelope_friction(data.t, y, release0, linear[0]))]
-        outcomes = [_least_squares(data.t, y, amplitude, method, substeps, True, p0, fixed) for p0 in tries]
+        outcomes = [_least_squares(data.t, y, amplitude, method, substeps, True, p0, fixed, bounds)
+                    for p0 in tries]
         outcome = min(outcomes, key=lambda o: o.cost)
+    _check_outcome(outcome, bounds if fixed is None else (fixed, fixed), method)
     return _result(outcome, data, y, method, substeps, friction, float(data.t[jumps[0] + 1]))
+
+
+def release_bounds(t: FloatArray, release0: float, wn: float) -> tuple[float, float]:
+    """Where the data can place the release (s): within `RELEASE_PERIODS` of a start-value
+    period 2π/wn around `release0`, and not before the first sample.
+
+    Before the first sample no datum shows the rest the model starts from, so a release there
+    trades against the gain and the offset freely: unbounded, a window that starts just after a
+    flicked cart's release ran its release 0.15 s before the data with a gain of -4, and an
+    Euler fit to -8259 s.
+    """
+    half = RELEASE_PERIODS * 2.0 * np.pi / wn if np.isfinite(wn) and wn > 0.0 else 0.0
+    low = release0 - half
+    high = min(float(t[-1]), max(release0 + half, low))
+    return low, max(high, np.nextafter(low, np.inf))
+
+
+def _check_outcome(outcome: _Outcome, bounds: tuple[float, float], method: Method) -> None:
+    """Refuse a fit that ran off: non-finite parameters, wn ≤ 0, a release outside `bounds`
+    or a gain that is not positive (a pull released from rest moves toward the spring's rest,
+    so X/U > 0)."""
+    wn, _zeta, gain, release = (float(v) for v in outcome.p[:4])
+    low, high = bounds
+    problems = []
+    if not np.all(np.isfinite(outcome.p)):
+        problems.append(f"parameters {np.round(outcome.p, 6).tolist()}, expected finite values")
+    if not wn > 0.0:
+        problems.append(f"wn {wn:.4g} rad/s, expected > 0")
+    margin = 1e-3 * (high - low)   # trf stops short of a bound the optimum lies beyond
+    if not low + margin < release < high - margin and low < high:
+        problems.append(f"release {release:.4f} s, expected inside [{low:.4f}, {high:.4f}] s "
+                        "(where the data can place it: a quarter period around a found release, "
+                        "else the window)")
+    if not gain > 0.0:
+        problems.append(f"gain {gain:.4g}, expected > 0 (the cart released toward its rest)")
+    if problems:
+        raise FitFailed(f"the {method} simple fit ran off ({outcome.message}): " + "; ".join(problems)
+                        + ": check that the window holds the release and the ring after it, and that u "
+                          "steps at the release by the pull; or fit with fit_release=False")
 
 
 def euler_zeta(wn: float, zeta: float, h: float) -> float:
@@ -301,8 +379,10 @@ class _Outcome:
 
 
 def _least_squares(t: FloatArray, y: FloatArray, amplitude: float, method: Method, substeps: int,
-                   friction: bool, start: FloatArray, fixed_release: float | None) -> _Outcome:
-    """Unbounded trust-region least squares (bounds stalled the friction fit in local minima)."""
+                   friction: bool, start: FloatArray, fixed_release: float | None,
+                   release_bounds: tuple[float, float]) -> _Outcome:
+    """Trust-region least squares, bounded in the release time only (`release_bounds`, s):
+    bounds on the other parameters stalled the friction fit in local minima."""
     from scipy.optimize import least_squares  # deferred: keeps `import ident` fast
     free = np.ones(start.size, dtype=bool)
     if fixed_release is not None:
@@ -320,7 +400,10 @@ def _least_squares(t: FloatArray, y: FloatArray, amplitude: float, method: Metho
 
     # stick events make the friction model's output jump with its parameters: difference
     # over a wider step (10⁻³ relative) so the Jacobian sees the trend, not the jumps
-    result = least_squares(residual, start[free], method="trf", x_scale="jac",
+    low = np.full(start.size, -np.inf)
+    high = np.full(start.size, np.inf)
+    low[3], high[3] = release_bounds
+    result = least_squares(residual, start[free], bounds=(low[free], high[free]), method="trf", x_scale="jac",
                            diff_step=1e-3 if friction else 1e-7, xtol=1e-12, ftol=1e-12, max_nfev=400)
     names = tuple(n for n, keep in zip(PARAMETER_NAMES[:start.size], free, strict=True) if keep)
     return _Outcome(full(result.x), np.asarray(result.jac), np.asarray(result.fun), names,
