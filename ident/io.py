@@ -20,7 +20,7 @@ from __future__ import annotations
 import itertools
 import re
 from array import array
-from collections.abc import Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
@@ -65,6 +65,20 @@ def read_table(text: str | Iterable[str], max_rows: int | None = None) -> Table:
     else into a growing flat `array('d')`: memory stays near the values' size (8 bytes each),
     not the Python objects' (about 10x more).
     """
+    names, comments, blocks = _read(text, max_rows, None)
+    return Table(names, blocks[0], comments)
+
+
+#: Which columns to keep, given the column names: groups of column indices, one array each.
+Select = Callable[[list[str]], list[list[int]]]
+
+
+def _read(text: str | Iterable[str], max_rows: int | None, select: Select | None
+          ) -> tuple[list[str], dict[str, str], list[FloatArray]]:
+    """`read_table`'s parse: names, comments, and one (N, len(group)) array per group of
+    `select(names)` (every column in one array without `select`). Only the selected fields
+    are converted and stored: an ECP export's five columns of which three are used (about
+    23 bytes a row) cost 24 bytes a row, not 40 plus the copies taken from them."""
     lines = iter(text.splitlines() if isinstance(text, str) else text)
     head = _head(lines)
     dialect = sniff(head)
@@ -85,10 +99,13 @@ def read_table(text: str | Iterable[str], max_rows: int | None = None) -> Table:
         if fields and all(_NUMBER.match(f) for f in fields):
             if not width:
                 width = len(fields)
+                if len(names) != width:  # no header line, or one we could not split: number the columns
+                    names = [f"col{i}" for i in range(width)]
+                values.start(select(names) if select is not None else [list(range(width))])
             elif len(fields) != width:
                 raise DataFileError(f"expected {width} values per row, got {len(fields)} in line {number} "
                                     f"(read as {dialect.describe()})")
-            values.add([float(f) for f in fields])
+            values.add(fields)
         elif not width:
             names = dialect.split(line) if dialect.delimiter is not None else _split_header(line)
         else:
@@ -96,34 +113,52 @@ def read_table(text: str | Iterable[str], max_rows: int | None = None) -> Table:
                                 f"in line {number} (read as {dialect.describe()})")
     if not width:
         raise DataFileError(f"expected numeric rows after the header, got none (read as {dialect.describe()})")
-    if len(names) != width:  # no header line, or one we could not split: number the columns
-        names = [f"col{i}" for i in range(width)]
-    return Table(names, values.array(width), comments)
+    return names, comments, values.arrays()
 
 
 class _Rows:
-    """Numeric rows gathered for `read_table`: into a preallocated array when a bound on
-    the row count is known (no reallocation, so no second copy at the peak), else flat."""
+    """Numeric rows gathered for `read_table`, one array per group of columns: preallocated
+    when a bound on the row count is known (no reallocation, so no second copy at the peak),
+    else flat."""
 
     def __init__(self, max_rows: int | None) -> None:
         self._max_rows = max_rows
-        self._block: FloatArray | None = None
-        self._flat = array("d")
+        self._groups: list[list[int]] = []
+        self._blocks: list[FloatArray] = []
+        self._flats: list[array[float]] = []
+        self._filled: list[tuple[FloatArray, list[int]]] = []
+        self._columns: list[tuple[FloatArray, int]] = []
         self.n = 0
 
-    def add(self, row: list[float]) -> None:
-        if self._max_rows is not None and self._block is None:
-            self._block = np.empty((self._max_rows, len(row)))
-        if self._block is not None:
-            self._block[self.n] = row
+    def start(self, groups: list[list[int]]) -> None:
+        """Keep these groups of columns (indices into a row's fields)."""
+        self._groups = groups
+        if self._max_rows is not None:
+            self._blocks = [np.empty((self._max_rows, len(g)), dtype=np.float64) for g in groups]
+            pairs = list(zip(self._blocks, groups, strict=True))
+            self._columns = [(b[:, 0], g[0]) for b, g in pairs if len(g) == 1]
+            self._filled = [(b, g) for b, g in pairs if len(g) > 1]   # no writes for empty groups
         else:
-            self._flat.extend(row)
+            self._flats = [array("d") for _ in groups]
+
+    def add(self, fields: list[str]) -> None:
+        if self._blocks:
+            for column, i in self._columns:   # a scalar write costs a fraction of a row's
+                column[self.n] = float(fields[i])
+            for block, group in self._filled:
+                block[self.n] = [float(fields[i]) for i in group]
+        else:
+            for flat, group in zip(self._flats, self._groups, strict=True):
+                flat.extend(float(fields[i]) for i in group)
         self.n += 1
 
-    def array(self, width: int) -> FloatArray:
-        if self._block is not None:
-            return self._block[: self.n]   # a view: the unused rows are never touched (not in RSS)
-        return np.frombuffer(self._flat, dtype=np.float64).reshape(-1, width)
+    def arrays(self) -> list[FloatArray]:
+        if self._blocks:   # shrunk in place (the unused rows were never touched, not in RSS):
+            for block in self._blocks:   # arrays that own their data, which IdData keeps uncopied
+                block.resize((self.n, block.shape[1]), refcheck=False)
+            return self._blocks
+        return [np.frombuffer(flat, dtype=np.float64).reshape(-1, len(group))
+                for flat, group in zip(self._flats, self._groups, strict=True)]
 
 
 def _head(lines: Iterator[str]) -> list[str]:
@@ -235,27 +270,33 @@ def load_text(path: str | Path, time_col: str | None = None, pos_cols: list[str]
     recorded; otherwise `u` is the release step.
     """
     file = Path(path)
-    table = read_table(text_lines(file), max_rows=count_lines(file))
-    release_time_s, pulled_cart = _from_comments(table.comments, release_time_s, pulled_cart)
-    y_indices = (_default_position_columns(table.names) if pos_cols is None
-                 else [_find_column(table.names, c) for c in pos_cols])
-    if rate_hz is not None and time_col is None:
-        if not np.isfinite(rate_hz) or rate_hz <= 0.0:
-            raise IdentValueError("rate_hz", "a positive sample rate", rate_hz)
-        t = np.arange(table.values.shape[0]) / float(rate_hz)
+    if rate_hz is not None and time_col is None and (not np.isfinite(rate_hz) or rate_hz <= 0.0):
+        raise IdentValueError("rate_hz", "a positive sample rate", rate_hz)
+    chosen: dict[str, list[int]] = {}
+    scales: list[float] = []
+
+    def select(names: list[str]) -> list[list[int]]:
+        """The time, position and input columns, each parsed straight into its own array
+        (no copies taken afterwards: the positions are one C-ordered (N, n_y) block)."""
+        chosen["y"] = (_default_position_columns(names) if pos_cols is None
+                       else [_find_column(names, c) for c in pos_cols])
+        chosen["t"] = ([] if rate_hz is not None and time_col is None
+                       else [_default_time_column(names) if time_col is None else _find_column(names, time_col)])
+        chosen["u"] = [] if input_col is None else [_find_column(names, input_col)]
+        scales.extend(_position_scale(names[i], scale) for i in chosen["y"])  # refused before the parse
+        return [chosen["t"], chosen["y"], chosen["u"]]
+
+    names, comments, (t_block, y, u_block) = _read(text_lines(file), count_lines(file), select)
+    release_time_s, pulled_cart = _from_comments(comments, release_time_s, pulled_cart)
+    if chosen["t"]:
+        t = _one_column(t_block)
+        t *= unit_scale(names[chosen["t"][0]]) or 1.0
     else:
-        t_index = _default_time_column(table.names) if time_col is None else _find_column(table.names, time_col)
-        t = table.values[:, t_index].copy()
-        t *= unit_scale(table.names[t_index]) or 1.0
-    # one new C-ordered array (`values[:, list].copy()` made two: a transient 16 bytes per row,
-    # the peak of the whole load, 2.25x a 199 MB CSV); scaled in place
-    y = np.take(table.values, y_indices, axis=1)
-    y *= np.array([_position_scale(table.names[i], scale) for i in y_indices])
-    columns = tuple(table.names[i] for i in y_indices)
-    u_in = None if input_col is None else table.values[:, _find_column(table.names, input_col)].copy()
-    u_note = "" if input_col is None else \
-        f"input: column {table.names[_find_column(table.names, input_col)]!r} as recorded"
-    del table   # the parsed values are released before the checks make their temporaries
+        t = np.arange(y.shape[0]) / float(rate_hz or 1.0)
+    y *= np.array(scales, dtype=np.float64)
+    columns = tuple(names[i] for i in chosen["y"])
+    u_in = _one_column(u_block) if chosen["u"] else None
+    u_note = "" if input_col is None else f"input: column {names[chosen['u'][0]]!r} as recorded"
     t, _, y = check_arrays(t, None, y)
     _check_plausible(y)
     t.flags.writeable = y.flags.writeable = False   # handed to IdData as they are, not copied
@@ -264,6 +305,14 @@ def load_text(path: str | Path, time_col: str | None = None, pos_cols: list[str]
     if raw:
         return IdData(t, np.zeros(t.shape), y, release_time_s, pulled_cart, file.name, (), columns)
     return replace(_step_run(t, y, release_time_s, step_m, pulled_cart, file.name), columns=columns)
+
+
+def _one_column(block: FloatArray) -> FloatArray:
+    """An (N, 1) block as (N,), still owning its data when it did (no copy)."""
+    if block.flags.owndata:
+        block.resize((block.shape[0],), refcheck=False)
+        return block
+    return block[:, 0].copy()
 
 
 def _from_comments(comments: dict[str, str], release_time_s: float | None, pulled_cart: int | None

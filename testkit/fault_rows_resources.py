@@ -17,13 +17,14 @@ from testkit.peak_memory import PeakGrowth, peak_growth
 REFUSAL_BYTES = 32 << 20
 
 
-def load_outcome(path: str) -> str:
-    """`ident.io.load` of `path` (release at 1 s): what became of it, in a few words."""
+def load_outcome(path: str, scale: str = "") -> str:
+    """`ident.io.load` of `path` (release at 1 s; `scale` in m per unit, if given, for columns
+    without a unit such as an ECP export's encoder counts): what became of it, in a few words."""
     import ident.io
     from ident.errors import IdentError
 
     try:
-        data = ident.io.load(Path(path), release_time_s=1.0)
+        data = ident.io.load(Path(path), release_time_s=1.0, scale=float(scale) if scale else None)
     except (IdentError, ValueError) as exc:
         return f"refused: {str(exc)[:70]}"
     return f"loaded {data.y.shape[0]} samples"
