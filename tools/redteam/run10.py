@@ -25,6 +25,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from cases10 import Record, csv_text, ecp_lines, make_record
+from output import publish
 
 REPO = Path(__file__).resolve().parents[2]
 MATCH_S = 0.3
@@ -222,12 +223,7 @@ def main(argv: list[str] | None = None) -> int:
                   f"{'ok' if not bad else 'FAIL'}", file=sys.stderr)
             if args.verbose:
                 print(json.dumps(res, indent=1, default=float))
-    text = summarize(results)
-    print(text)
-    if args.out:
-        args.out.mkdir(parents=True, exist_ok=True)
-        (args.out / "results.jsonl").write_text("".join(json.dumps(r, default=float) + "\n" for r in results))
-        (args.out / "summary.md").write_text(text + "\n")
+    publish(results, summarize(results), args.out)
     return 0
 
 

@@ -28,6 +28,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from cases11 import EXPECTED, FAMILIES, Case, make_case
+from output import publish
 
 REPO = Path(__file__).resolve().parents[2]
 IDENT = [sys.executable, "-c", "import sys; from ident.cli import main; sys.exit(main())"]
@@ -232,12 +233,7 @@ def main(argv: list[str] | None = None) -> int:
             print(f"{res['family']} seed {res['seed']}: {mark} ({res['diagnose_s']:.1f} s)", file=sys.stderr)
             if args.verbose:
                 print(json.dumps(res, indent=1, default=float))
-    text = summarize(results)
-    print(text)
-    if args.out:
-        args.out.mkdir(parents=True, exist_ok=True)
-        (args.out / "results.jsonl").write_text("".join(json.dumps(r, default=float) + "\n" for r in results))
-        (args.out / "summary.md").write_text(text + "\n")
+    publish(results, summarize(results), args.out)
     return 0
 
 
