@@ -28,7 +28,8 @@ def add_parser(subparsers: Any) -> None:
     parser.add_argument("--release-s", dest="release", type=float, default=None,
                         help="release time (s) if known (fits the whole record from there)")
     add_release_options(parser)
-    parser.add_argument("--step-m", type=float, default=0.15, help="pull distance (m), default 0.15")
+    parser.add_argument("--step-m", type=float, default=None,
+                        help="pull distance (m); default: a raw record's release's own signed pull, else 0.15")
     parser.add_argument("--order", type=int, default=None, help="PEM order (default: 2 per cart)")
     parser.add_argument("--noise-model", choices=("oe", "innovation"), default="oe",
                         help="PEM noise model: output error (white noise) or innovation form with K")

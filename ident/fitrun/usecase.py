@@ -45,7 +45,8 @@ class RunFileOptions:
     """How to read a run file. MCAP runs need none; text exports may name columns.
 
     `time_col`/`pos_cols` column names, `scale` metres per file unit, `release_time_s` the
-    release when known (s), `step_m` the pull (m), `input_col` a recorded input column
+    release when known (s), `step_m` the pull (m; None: a daq run's own, a raw record's
+    release's own signed pull, else `DEFAULT_STEP_M`), `input_col` a recorded input column
     (e.g. a motor's control effort) instead of the release step, `rate_hz` the sample rate
     of an export without a time column.
     """
@@ -54,7 +55,7 @@ class RunFileOptions:
     pos_cols: tuple[str, ...] | None = None
     scale: float | None = None
     release_time_s: float | None = None
-    step_m: float = DEFAULT_STEP_M
+    step_m: float | None = None
     input_col: str | None = None
     rate_hz: float | None = None
 
@@ -85,16 +86,23 @@ def load_run(path: str | Path, options: RunFileOptions = RunFileOptions(),
     complete release, as `ident fit` and `ident diagnose` do (the release finder decides)."""
     # raw: a record of several releases, or one that starts in motion, has no single
     # release to build the step from
+    step_m = DEFAULT_STEP_M if options.step_m is None else options.step_m
     data = load(path, options.time_col, None if options.pos_cols is None else list(options.pos_cols),
-                options.scale, options.release_time_s, options.step_m, options.input_col,
+                options.scale, options.release_time_s, step_m, options.input_col,
                 options.rate_hz, raw=True)
-    if release is not None:
-        return select(data, release)
-    if options.input_col is not None:
+    if options.input_col is not None and release is None:
         return data
-    if data.release_time_s is None:
-        return select(data, FIRST_COMPLETE)
-    stepped = from_release(data.t, data.y, data.release_time_s, options.step_m, data.pulled_cart, data.name)
+    if release is not None or data.release_time_s is None:
+        return _stepped(select(data, FIRST_COMPLETE if release is None else release), options.step_m)
+    return _stepped(data, step_m)
+
+
+def _stepped(data: IdData, step_m: float | None) -> IdData:
+    """`data` with its input a step of `step_m` (m) at its release; as it is when None (the
+    selector's step: the release's own pull)."""
+    if step_m is None or data.release_time_s is None:
+        return data
+    stepped = from_release(data.t, data.y, data.release_time_s, step_m, data.pulled_cart, data.name)
     return dataclasses.replace(stepped, notes=data.notes, columns=data.columns)
 
 

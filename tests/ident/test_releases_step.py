@@ -48,3 +48,14 @@ def test_a_hold_released_on_either_side_has_its_own_step_and_gain_one(tmp_path: 
     assert data.step_amplitude == pytest.approx(-held_at, rel=0.03)
     fit = fit_simple(data, "rk4")
     assert fit.gain == pytest.approx(1.0, abs=0.03)
+
+
+def test_a_given_step_is_the_step_of_a_raw_record(tmp_path: Path) -> None:
+    """`--step-m` (`RunFileOptions.step_m`) is the step when given, not the release's own."""
+    path, held_at = _csv(tmp_path / "hold.csv", -1.0, 3)
+    own = fit_simple(load_run(path, RunFileOptions()), "rk4").gain
+    given = load_run(path, RunFileOptions(step_m=-4.0 * held_at))
+    assert given.step_amplitude == pytest.approx(-4.0 * held_at)
+    assert fit_simple(given, "rk4").gain == pytest.approx(own / 4.0, rel=0.03)
+    picked = load_run(path, RunFileOptions(step_m=-4.0 * held_at), release=1)
+    assert picked.step_amplitude == pytest.approx(-4.0 * held_at)
