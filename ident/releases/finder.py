@@ -102,9 +102,12 @@ def find_releases(t: NDArray[np.float64], y: NDArray[np.float64],
         # side) and the sustained pushes' moving average (T/8 each side) see it late
         stops += [(j, max(0, a - m.samples(m.period_s / 20))) for a, _ in episodes]
         # a hand moving a held cart (a touch) pushes this one through the spring: seen by the
-        # model without the held carts
-        alone = fit_free_model(m, j, tuple(i for i in free if i != j)) if held else model
-        stops += [(j, max(0, a - m.samples(m.period_s / 4))) for a, _ in sustained_pushes(m, alone)]
+        # model without the held carts; with none, those are the pushes above (the free
+        # response's own misfit is no touch either: it had ended cubic-spring windows within
+        # a period, too short to diagnose)
+        alone = fit_free_model(m, j, tuple(i for i in free if i != j)) if held else None
+        stops += [(j, max(0, a - m.samples(m.period_s / 4)))
+                  for a, _ in (sustained_pushes(m, alone) if alone is not None else pushes)]
         for k, (a, b) in enumerate(episodes):
             # the free stretch lasts until the next hand episode or sustained push
             nxt = min([episodes[k + 1][0]] if k + 1 < len(episodes) else [m.n_samples])
