@@ -380,8 +380,8 @@ class _Outcome:
 
 def _least_squares(t: FloatArray, y: FloatArray, amplitude: float, method: Method, substeps: int,
                    friction: bool, start: FloatArray, fixed_release: float | None,
-                   release_bounds: tuple[float, float]) -> _Outcome:
-    """Trust-region least squares, bounded in the release time only (`release_bounds`, s):
+                   release_range: tuple[float, float]) -> _Outcome:
+    """Trust-region least squares, bounded in the release time only (`release_range`, s):
     bounds on the other parameters stalled the friction fit in local minima."""
     from scipy.optimize import least_squares  # deferred: keeps `import ident` fast
     free = np.ones(start.size, dtype=bool)
@@ -402,7 +402,7 @@ def _least_squares(t: FloatArray, y: FloatArray, amplitude: float, method: Metho
     # over a wider step (10⁻³ relative) so the Jacobian sees the trend, not the jumps
     low = np.full(start.size, -np.inf)
     high = np.full(start.size, np.inf)
-    low[3], high[3] = release_bounds
+    low[3], high[3] = release_range
     result = least_squares(residual, start[free], bounds=(low[free], high[free]), method="trf", x_scale="jac",
                            diff_step=1e-3 if friction else 1e-7, xtol=1e-12, ftol=1e-12, max_nfev=400)
     names = tuple(n for n, keep in zip(PARAMETER_NAMES[:start.size], free, strict=True) if keep)

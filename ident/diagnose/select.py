@@ -204,27 +204,25 @@ def forward(baseline: FitResult, effects: Callable[[FitResult], list[str]],
         if refreshed is not None:
             refreshes += 1
             current = refreshed
-            if steps:
-                steps[-1] = _moved(steps[-1], refreshed)
-            else:
-                baseline = refreshed
+            baseline = _move_current(steps, baseline, refreshed)
             continue
         if accepted is None:
             break
         best, before = accepted
         if before is not current:
-            if steps:
-                steps[-1] = _moved(steps[-1], before)
-            else:
-                baseline = before
+            baseline = _move_current(steps, baseline, before)
         steps.append(Step(best, before))
         current = best.result
     return Selection(steps, first_round, baseline)
 
 
-def _moved(step: Step, result: FitResult) -> Step:
-    """`step` whose model was moved to a better optimum `result` (the same effects)."""
-    return Step(dataclasses.replace(step.judgement, result=result), step.before)
+def _move_current(steps: list[Step], baseline: FitResult, result: FitResult) -> FitResult:
+    """Move the current model (the last step's, in `steps`, else the baseline) to a better
+    optimum `result` with the same effects; returns the baseline."""
+    if not steps:
+        return result
+    steps[-1] = Step(dataclasses.replace(steps[-1].judgement, result=result), steps[-1].before)
+    return baseline
 
 
 def _round(current: FitResult, trials: dict[str, Trial], refine: Callable[[Trial], FitResult],
