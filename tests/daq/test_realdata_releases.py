@@ -12,8 +12,8 @@ data from 20 ms after it, and did not hold a quarter second before it (the hand 
 
 Strict check (the issue's 20 ms): the instant against the independent judge of
 `testkit/release_judge.py` (a nonlinear free response with dry friction fitted after the
-largest extreme, integrated backwards, and a change-point fit of the data's departure from
-it; the judge the ident release finder is held to), on the 2025 hand releases. Every offset is
+largest extreme, and a change-point fit of where the hand's force, that free equation's
+residual, ends; the judge the ident release finder is held to), on the 2025 hand releases. Every offset is
 printed (`-s`). Not on the 2023 hand steps: there the hand moves cart 1 and cart 2 is never let
 go (its force changes through the spring as cart 1 stops), and it sticks within a period, so
 the judge's two-period free fit does not hold; they keep the check above.
@@ -171,10 +171,9 @@ def _period(t: Array, y: Array, t0: float) -> float:
     return float(2.0 * np.median(np.diff(t[window][peaks]))) if peaks.size >= 3 else 0.4
 
 
-@pytest.mark.xfail(strict=True, reason="one of the seven real flicks (07-Feb-2025_11_29_09 at 9.03 s) is dated 27 ms "
-                   "after the judge: there the hand's force fades over ~30 ms instead of ending at once, and the "
-                   "judge itself moves by 13 ms when the ECP's whole-ms stamps are evened out; the other six are "
-                   "within -4..+17 ms")
+@pytest.mark.xfail(strict=True, reason="one of the seven real flicks (14-Feb-2025_09_22_43 at 4.90 s) is dated 25 ms "
+                   "before the judge: the hand's force drops from 8 to 2-3 m/s² there and a 1-3 m/s² tail lasts "
+                   "20-28 ms more; the other six are within -15..+1 ms")
 def test_every_real_hand_release_instant_is_within_20_ms_of_the_judge(realdata_dir: Path, tmp_path: Path) -> None:
     offsets = _offsets(realdata_dir, tmp_path)
     for name, t0, judged in offsets:
