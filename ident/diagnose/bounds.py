@@ -57,7 +57,7 @@ def _bounds_of(effect: str, prob: Problem, ev: EvidenceResult, wn_modes: FloatAr
     if effect == "presliding":
         return (np.array([wn * wn]), np.zeros(1), np.array([50.0 * wn * wn]), np.array([wn * wn]))
     if effect == "static_friction":
-        return np.array([1.2]), np.ones(1), np.array([STATIC_RATIO_MAX]), np.array([0.1])
+        return np.full(c, 1.2), np.ones(c), np.full(c, STATIC_RATIO_MAX), np.full(c, 0.1)
     if effect == "quadratic_drag":
         d_max = 10.0 / amp
         d0 = float(np.clip(0.75 * ev.drag_beta_per_m, 0.01 / amp, 0.5 * d_max))

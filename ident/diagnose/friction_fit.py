@@ -9,7 +9,7 @@ import numpy as np
 from ident.diagnose.evidence import EvidenceResult
 from ident.diagnose.fitting import FitResult, fit
 from ident.diagnose.models import ModelSpec
-from ident.diagnose.problem import FloatArray, Problem, best_rows
+from ident.diagnose.problem import FloatArray, Problem, best_rows, ranked_rows
 
 
 def fit_friction(spec: ModelSpec, prob: Problem, theta0: FloatArray, lower: FloatArray, upper: FloatArray,
@@ -40,46 +40,94 @@ def fit_friction(spec: ModelSpec, prob: Problem, theta0: FloatArray, lower: Floa
     else:
         candidates += _two_cart_friction_starts(spec, prob, theta0)
     short = spec.cut(n_cut)
+    firsts = [fit(short, start, lower, upper, typical, prob.dt, prob.y[:n_cut], prob.train[:n_cut],
+                  max_nfev=2 * max_nfev) for start in candidates]
+    # every start through the smooth large-amplitude stage; those that then fit the whole
+    # window best (where the carts stick tells the starts apart: one batch) go on to every sample
+    rows = np.array([f.theta for f in firsts])
+    on_all = ranked_rows(spec, prob, rows[0], slice(0, rows.shape[1]), list(rows), FULL_FITS)
     best: FitResult | None = None
-    for start in candidates:
-        first = fit(short, start, lower, upper, typical, prob.dt, prob.y[:n_cut], prob.train[:n_cut],
-                    max_nfev=2 * max_nfev)
-        result = fit(spec, first.theta, lower, upper, typical, prob.dt, prob.y, prob.train, max_nfev=max_nfev)
+    for start in on_all:
+        result = fit(spec, start, lower, upper, typical, prob.dt, prob.y, prob.train, max_nfev=max_nfev)
         if best is None or result.sse_train < best.sse_train:
             best = result
     assert best is not None
     return best
 
 
+#: Where a one-encoder chain's friction fit starts A = (k1+k2)/m1 between the squares of the
+#: modes' frequencies (0: the lower, 1: the upper), D = (k2+k3)/m2 = trace - A.
+VALLEY = (0.1, 0.3, 0.5, 0.7, 0.9)
+#: Starts fitted on to every sample (the best after the large-amplitude stage).
+FULL_FITS = 2
+
+
 def _two_cart_friction_starts(spec: ModelSpec, prob: Problem, theta0: FloatArray) -> list[FloatArray]:
     """Two carts: the linear fit put both frictions' loss into c1/m1 and c2/m2, and which cart
     rubs shows only in how each mode's envelope decays. Restart from a quarter of that damping
-    with the friction on cart 1 only, cart 2 only or both, on a grid of levels (the best row).
+    with the friction on cart 1 only, cart 2 only or both, on a grid of levels (each chain's
+    best row).
 
-    Through one encoder the linear chain is not identifiable: x1 sees only the characteristic
-    polynomial, a + d, ad - bc and the dampings (a = (k1+k2)/m1, b = k2/m1, c = k2/m2,
-    d = (k2+k3)/m2), so the linear fit may land on the mirrored chain (a and d exchanged)
-    where friction on the wrong cart fits best. Also start from that mirror, b c kept, with
-    its dampings exchanged and not reduced (on 6 one-encoder runs, a quarter of them left 2 of
-    the mirrors short of the noise floor, 0.9 and 1.0 points)."""
+    Through one encoder the linear chain is not identifiable: x1 (with cart 2's start free)
+    sees only the characteristic polynomial, whose four coefficients g1 + g2, A + D + g1 g2,
+    g1 D + g2 A and A D - b1 b2 leave a one-parameter family of (A, D, g1, g2) (A = a1 + b1,
+    D = b2 + a2, notation of `ident.physics.chain`); with light damping A runs between the two
+    modes' wn² and D = trace - A. Friction breaks the tie (where a cart sticks depends on its
+    own stiffness), but the linear fit lands anywhere in the family, and friction on the wrong
+    cart then fits best. So the chain is also started across that family (`VALLEY`), each with
+    cart 2's start as fitted or at rest (whichever row fits better)."""
     at = spec.block("coulomb_friction").start
-    chains = [theta0.copy()]
-    if spec.observed < spec.carts:
-        a, d, bc = theta0[0] + theta0[1], theta0[2] + theta0[3], theta0[1] * theta0[2]
-        for share in (0.5, 0.7):
-            b = share * d
-            c = bc / max(b, 1e-12)
-            if c < a:
-                mirror = theta0.copy()
-                mirror[:6] = [d - b, b, c, a - c, theta0[5], theta0[4]]
-                chains.append(mirror)
+    chain = theta0.copy()
+    chain[4:6] = 0.25 * theta0[4:6]
     f_max = float(np.max(theta0[:4])) * prob.amplitude
-    patterns = (np.array([1.0, 0.0]), np.array([0.0, 1.0]), np.array([1.0, 1.0]))
-    chains[0][4:6] = 0.25 * theta0[4:6]
+    patterns = [np.array([1.0, 0.0]), np.array([0.0, 1.0]), np.array([1.0, 1.0])]
+    levels = [g * f_max * p for p in patterns for g in (0.003, 0.01, 0.03, 0.1)]
+    out = [best_rows(spec, prob, chain, slice(at, at + 2), levels)]
+    if spec.observed == spec.carts:
+        return out
+    # through one encoder the valley is rugged: where each cart sticks decides, so finer levels
+    # and unequal shares (factor 2 apart, 0.3-2 between the carts)
+    patterns += [np.array([1.0, 0.3]), np.array([0.3, 1.0])]
+    levels = [g * f_max * p for p in patterns for g in (0.003, 0.006, 0.012, 0.025, 0.05, 0.1)]
+    for pair in _valley_chains(chain, spec):
+        rows = []
+        for c in pair:
+            for level in levels:
+                row = c.copy()
+                row[at:at + 2] = level
+                rows.append(row)
+        out.append(best_rows(spec, prob, chain, slice(0, chain.size), rows))
+    return out
+
+
+def _valley_chains(chain: FloatArray, spec: ModelSpec) -> list[tuple[FloatArray, FloatArray]]:
+    """`chain` moved across the one-encoder family (see `_two_cart_friction_starts`) to each
+    `VALLEY` share: the modes' wn² kept (trace and A D - b1 b2), the dampings moved to keep
+    g1 + g2 and g1 D + g2 A, the gauge b1 inside the range where every spring is positive
+    (`identifiable`); each with cart 2's start as fitted, and at rest."""
+    a1, b1, b2, a2, g1, g2 = chain[:6]
+    big_a, big_d = a1 + b1, b2 + a2
+    trace, det = big_a + big_d, big_a * big_d - b1 * b2
+    disc = np.sqrt(max(trace * trace - 4.0 * det, 0.0))
+    w1, w2 = 0.5 * (trace - disc), 0.5 * (trace + disc)
+    g_sum, g_mix = g1 + g2, g1 * big_d + g2 * big_a
+    names = spec.names
+    x2, v2, r2 = names.index("x0_2_m"), names.index("v0_2_m_s"), names.index("rest_2_m")
     out = []
-    for chain in chains:
-        out.append(best_rows(spec, prob, chain, slice(at, at + 2),
-                              [g * f_max * p for p in patterns for g in (0.003, 0.01, 0.03, 0.1)]))
+    for share in VALLEY:
+        new_a = w1 + share * (w2 - w1)
+        new_d = trace - new_a
+        bc = new_a * new_d - det
+        if bc <= 0.0 or abs(new_d - new_a) < 1e-9 * trace:
+            continue
+        nb1 = float(np.sqrt(bc / new_d * new_a))     # inside (bc / D, A): both walls' springs > 0
+        nb2 = bc / nb1
+        ng1 = float(np.clip((g_mix - g_sum * new_a) / (new_d - new_a), 0.0, g_sum))
+        row = chain.copy()
+        row[:6] = [new_a - nb1, nb1, nb2, new_d - nb2, ng1, g_sum - ng1]
+        still = row.copy()
+        still[x2], still[v2] = still[r2], 0.0
+        out.append((row, still))
     return out
 
 

@@ -6,7 +6,9 @@ With x2 = α z (α > 0) the chain (notation of `ident.physics.chain`, friction F
     x2'' =  b2 x1 - (b2 + a2) x2 - g2 x2' - F2 sgn x2'
 
 becomes the same chain in z with b1 -> α b1, b2 -> b2/α, a1 + b1 and b2 + a2 kept, F2 -> F2/α,
-z(0) = x2(0)/α: cart 1's motion, sticking included, does not change. So cart 1's encoder
+z(0) = x2(0)/α: cart 1's motion, sticking included, does not change (cart 2 sticks when
+|b2 x1 - (b2 + a2) x2| ≤ r2 F2, which scales by 1/α on both sides: each cart's breakaway
+ratio r_i = Fs_i / F_i is kept, so r2 is identifiable wherever cart 2 sticks). So cart 1's encoder
 fixes F1, g1, g2, a1 + b1, b2 + a2 and b1 b2, but not b1, b2 or F2 apart: cart 2's friction
 (m/s²) is not identifiable. What is: F2 / b2 = f2 / k2 (m), cart 2's friction force over the
 coupling spring's stiffness, the stretch of that spring that cart 2's friction balances (how
@@ -112,6 +114,25 @@ def identifiable_friction(prob: Problem, result: FitResult, scale: FloatArray,
     return out, out_std
 
 
+Values = dict[str, float]
+
+
+def identifiable_model(params: Values, std: Values, friction: tuple[Values, Values] | None) -> tuple[Values, Values]:
+    """A one-encoder model's (parameters, 1-sigma) as reported: cart 2's friction in m/s² (set
+    by the fit's arbitrary scale of cart 2's coordinate, `flat_direction`) replaced by the
+    friction effect's identifiable `CART2_FRICTION` and its std (`friction`: that effect's
+    values and stds from `identifiable_friction`)."""
+    if CART2_ACCEL not in params or friction is None:
+        return params, std
+    values, stds = friction
+    out = {k: v for k, v in params.items() if k != CART2_ACCEL}
+    out_std = {k: v for k, v in std.items() if k != CART2_ACCEL}
+    out[CART2_FRICTION] = values[CART2_FRICTION]
+    if CART2_FRICTION in stds:
+        out_std[CART2_FRICTION] = stds[CART2_FRICTION]
+    return out, out_std
+
+
 def typical_scale(prob: Problem, result: FitResult) -> FloatArray:
     """(p,) typical magnitudes of a two-cart fit's parameters: the linear block's and the
     state's from `starts.linear_typical`, a friction of 1 % of the largest stiffness times the
@@ -126,5 +147,5 @@ def typical_scale(prob: Problem, result: FitResult) -> FloatArray:
     return out
 
 
-__all__ = ["CART2_ACCEL", "CART2_FRICTION", "covariance", "flat_direction", "identifiable_friction", "one_encoder",
-           "typical_scale"]
+__all__ = ["CART2_ACCEL", "CART2_FRICTION", "covariance", "flat_direction", "identifiable_friction",
+           "identifiable_model", "one_encoder", "typical_scale"]

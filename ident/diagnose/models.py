@@ -11,9 +11,10 @@ of the input column, only with `--input`), then each effect's block in `EFFECTS`
     coulomb_friction   F_i = coulomb_accel_m_s2[_cart2]   (kinetic friction force / mass)
     presliding         presliding_per_s2 σ: the friction is Dahl's (w' = σ(v - |v| w/F));
                        only on top of coulomb_friction
-    static_friction    static_friction_ratio r ≥ 1: a cart at rest breaks away only when the
-                       pull exceeds r F_i (kinetic F_i); on top of coulomb_friction, not with
-                       presliding (Dahl friction has no stick)
+    static_friction    static_friction_ratio[_cart2] r_i ≥ 1: a cart at rest breaks away only
+                       when the pull exceeds r_i F_i (kinetic F_i), one ratio per cart (two
+                       carts rub on their own surfaces); on top of coulomb_friction, not
+                       with presliding (Dahl friction has no stick)
     quadratic_drag     drag_per_m             (drag / m, the same on every cart)
     cubic_stiffness    cubic_per_m2_s2 κ: a_i = -κ (x_i - rest_i)³ on every cart (one cart:
                        a spring k (e + γ e³) with κ = wn² γ)
@@ -66,7 +67,7 @@ def effect_names(effect: str, carts: int, outputs: int | None = None, knots: int
     if effect == "presliding":
         return ("presliding_per_s2",)
     if effect == "static_friction":
-        return ("static_friction_ratio",)
+        return ("static_friction_ratio",) + (("static_friction_ratio_cart2",) if carts == 2 else ())
     if effect == "quadratic_drag":
         return ("drag_per_m",)
     if effect == "cubic_stiffness":

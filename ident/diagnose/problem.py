@@ -46,6 +46,22 @@ def best_rows(spec: ModelSpec, prob: Problem, theta: FloatArray, where: slice,
     return np.asarray(rows[int(np.argmin(cost))], dtype=np.float64)
 
 
+def ranked_rows(spec: ModelSpec, prob: Problem, theta: FloatArray, where: slice, values: list[FloatArray],
+                count: int) -> list[FloatArray]:
+    """`theta` with the block `where` set to each of the `count` candidates of least cost, best
+    first (one batch; the fixed parameters kept at their values)."""
+    rows = np.repeat(theta[None, :], len(values), axis=0)
+    for k, v in enumerate(values):
+        rows[k, where] = v
+    for i, name in enumerate(spec.names):
+        if name in spec.fixed:
+            rows[:, i] = spec.fixed[name]
+    with np.errstate(all="ignore"):
+        pred = spec.predict(rows, prob.dt, prob.y.shape[0])
+    cost = np.nan_to_num(np.sum((pred - prob.y[None]) ** 2, axis=(1, 2)), nan=np.inf)
+    return [np.asarray(rows[k], dtype=np.float64) for k in np.argsort(cost, kind="stable")[:count]]
+
+
 def best_on_grid(spec: ModelSpec, prob: Problem, theta: FloatArray, index: int,
                  values: tuple[float, ...]) -> FloatArray:
     """`theta` with parameter `index` set to the grid value of least cost (one batch)."""
@@ -56,15 +72,7 @@ def ranked_on_grid(spec: ModelSpec, prob: Problem, theta: FloatArray, index: int
                    values: tuple[float, ...], count: int) -> list[FloatArray]:
     """`theta` with parameter `index` set to each of the `count` grid values of least cost,
     best first (one batch)."""
-    rows = np.repeat(theta[None, :], len(values), axis=0)
-    rows[:, index] = values
-    for i, name in enumerate(spec.names):
-        if name in spec.fixed:
-            rows[:, i] = spec.fixed[name]
-    with np.errstate(all="ignore"):
-        pred = spec.predict(rows, prob.dt, prob.y.shape[0])
-    cost = np.nan_to_num(np.sum((pred - prob.y[None]) ** 2, axis=(1, 2)), nan=np.inf)
-    return [np.asarray(rows[k], dtype=np.float64) for k in np.argsort(cost, kind="stable")[:count]]
+    return ranked_rows(spec, prob, theta, slice(index, index + 1), [np.array([v]) for v in values], count)
 
 
-__all__ = ["Bounds", "FloatArray", "Problem", "best_on_grid", "best_rows", "ranked_on_grid"]
+__all__ = ["Bounds", "FloatArray", "Problem", "best_on_grid", "best_rows", "ranked_on_grid", "ranked_rows"]

@@ -36,7 +36,7 @@ from ident.diagnose.candidates import Problem, fit_baseline
 from ident.diagnose.drift import drift_basis, drift_spacing, slow_residual
 from ident.diagnose.evidence import EvidenceResult, collect
 from ident.diagnose.fitting import FitResult
-from ident.diagnose.identifiable import identifiable_friction, one_encoder, typical_scale
+from ident.diagnose.identifiable import identifiable_friction, identifiable_model, one_encoder, typical_scale
 from ident.diagnose.lattice import find_lattice, find_noisy_lattice, lattice_candidates, lattice_worth_points
 from ident.diagnose.models import EFFECTS, effect_names
 from ident.diagnose.select import Judgement, Step, forward, is_material, threshold
@@ -330,6 +330,10 @@ def _report(prob: Problem, win: Window, t: FloatArray, base: FitResult, ext: Fit
     base_fit = _model_fit(prob, base, MODEL_NAMES[carts])
     names = " + ".join(e.effect for e in sorted(effects, key=lambda e: e.step))
     ext_fit = base_fit if not effects else _model_fit(prob, ext, f"{MODEL_NAMES[carts]} + {names}")
+    if one_encoder(prob):   # cart 2's friction as the friction effect reports it (identifiable)
+        friction = next(((e.parameters, e.parameter_std) for e in effects if e.effect == "coulomb_friction"), None)
+        params, std = identifiable_model(ext_fit.parameters, ext_fit.parameter_std, friction)
+        ext_fit = ext_fit.model_copy(update={"parameters": params, "parameter_std": std})
     candidates = [_candidate(prob, base, j) for j in first_round]
     if not any(c.effect == "quantization" for c in candidates):
         candidates.append(_no_lattice(prob, base))
