@@ -46,7 +46,10 @@ class Model:
 
     `sigma`, `omega` (m,): poles -σ ± jω; `theta` (n_out, 1 + 2m): (D, c0_i, c1_i) of
     `ident.modal`; `t` (N,) the time base; `relative_degree` per output as fitted; `K`
-    (n, n_out) the innovation gain at the time base's Ts (None: output-error noise model).
+    (n, n_out) the innovation gain at the time base's Ts (None: output-error noise model);
+    `initial_velocity` (n_out, m) m/s: with the initial state estimated (a flicked cart let go
+    moving at `release_time_s`), each mode's velocity there, whose free response
+    Σ_i v_ji e^{-σ_i τ} sin(ω_i τ)/ω_i is added to the step's (None: released from rest).
     """
 
     sigma: FloatArray
@@ -68,6 +71,7 @@ class Model:
     message: str
     notes: tuple[str, ...] = field(default=())
     K: FloatArray | None = None
+    initial_velocity: FloatArray | None = None
 
     @property
     def order(self) -> int:
@@ -152,8 +156,11 @@ class Model:
             return np.tile(self.offset, (len(t_arr), 1))
         if jumps.size == 1:
             release = float(t_arr[jumps[0] + 1]) + self.input_delay_s
-            phi = (u_arr[-1] - u_arr[0]) * modal.step_basis(t_arr, release, self.sigma, self.omega)
-            return np.asarray(self.offset + phi @ self.theta.T)
+            basis = modal.step_basis(t_arr, release, self.sigma, self.omega)
+            y = self.offset + (u_arr[-1] - u_arr[0]) * basis @ self.theta.T
+            if self.initial_velocity is not None:   # the flick's own motion from the release
+                y = y + basis[:, 2::2] @ self.initial_velocity.T
+            return np.asarray(y)
         return self._simulate_zoh(u_arr, t_arr)
 
     def summary_rows(self) -> list[tuple[str, str]]:
@@ -166,6 +173,9 @@ class Model:
         rows.append(("dc gain", ", ".join(f"{v:.4g}" for v in self.dc_gain)))
         release = "n/a" if self.release_time_s is None else f"{self.release_time_s:.4f} s"
         rows.append(("release", f"{release} (input delay {1e3 * self.input_delay_s:.3g} ms)"))
+        if self.initial_velocity is not None:
+            rows.append(("initial state", "estimated: velocity at the release "
+                         + ", ".join(f"{v:.4g} m/s" for v in self.initial_velocity.sum(axis=1))))
         rows.append(("data", f"{len(self.t)} samples, Ts = {float(np.median(np.diff(self.t))):.4g} s"))
         state = "converged" if self.success else "NOT converged"
         rows.append(("status", f"{state}, {self.nfev} evaluations: {self.message}"))

@@ -18,6 +18,13 @@ Pipeline (MATLAB `pem` → `d2c` → `tf`, made robust for lightly damped poles 
 4. the result is continuous-time already: poles, `wn`, `zeta` per mode, transfer functions.
    The discrete innovation form is available from `Model.discrete()`.
 
+Initial state (`initial_state`, as MATLAB pem's InitialState): "zero" releases the carts from
+rest at a fitted release time (a pull-hold-release); "estimate" starts them at the release the
+data state (`data.release_time_s`, else where u steps) with their velocities there estimated
+(a flicked cart is let go moving; `ident.varpro`'s docstring), so a flicked window is fitted from
+its first sample; "auto" (default) fits both when the data state a release and keeps "zero"
+unless the estimate's BIC is lower by more than `CHOICE_CHI2`.
+
 Order selection: `order=None` fits 2, 4 and 6 and keeps the smallest BIC among the stable
 models (all of them when none is stable).
 
@@ -48,11 +55,16 @@ from ident.zoh import d2c_zoh
 
 #: Orders tried by the order selection.
 CANDIDATE_ORDERS = (2, 4, 6)
+#: "auto" keeps the release from rest unless the estimated initial state lowers the BIC by more
+#: than this (χ², 1 degree of freedom, α = 1e-3), as `ident.simple` does.
+CHOICE_CHI2 = 10.83
+InitialState = Literal["auto", "zero", "estimate"]
 
 
 def pem(data: IdData, order: int | None = None, *, relative_degree: int | Sequence[int] = 2,
         dc_gain: float | Sequence[float | None] | None = None, fit_release: bool = True,
-        fit_offset: bool = True, noise_model: Literal["oe", "innovation"] = "oe") -> Model:
+        fit_offset: bool = True, noise_model: Literal["oe", "innovation"] = "oe",
+        initial_state: InitialState = "auto") -> Model:
     """Identify a linear model of even `order` (2: one cart, 4: two carts; None: BIC choice).
 
     `relative_degree` (per output or one for all) and `dc_gain` (per output, None = free)
@@ -61,11 +73,13 @@ def pem(data: IdData, order: int | None = None, *, relative_degree: int | Sequen
     jointly with an innovation gain K by minimising one-step prediction errors
     (`ident.innovation`; white noise gives K ≈ 0). `fit_release=False` keeps the release fixed at
     `data.release_time_s` (e.g. from the run's metadata), or where `u` steps when that is None.
+    `initial_state`: "zero", "estimate" or "auto" (the module docstring; "estimate" needs a step
+    input and the output-error noise model).
     Raises `IdentValueError` for unusable data and `FitFailed` when no fit converges.
     """
     if order is None:
-        models = [pem(data, n, relative_degree=relative_degree, dc_gain=dc_gain,
-                      fit_release=fit_release, fit_offset=fit_offset, noise_model=noise_model)
+        models = [pem(data, n, relative_degree=relative_degree, dc_gain=dc_gain, fit_release=fit_release,
+                      fit_offset=fit_offset, noise_model=noise_model, initial_state=initial_state)
                   for n in CANDIDATE_ORDERS]
         stable = [model for model in models if model.stable]
         return min(stable or models, key=lambda model: _bic(model, data))
@@ -78,20 +92,58 @@ def pem(data: IdData, order: int | None = None, *, relative_degree: int | Sequen
         raise IdentValueError("y", "motion in every output: fit the moving carts only with "
                               f"pem(data.select_outputs({moving}), ...)",
                               f"no motion in output(s) {still} (a held cart?)")
-    problem, release0 = _problem(data, _per_output(relative_degree, data.n_outputs, "relative_degree"),
-                                 _per_output(dc_gain, data.n_outputs, "dc_gain"), fit_release, fit_offset)
-    n_modes = order // 2
-    solution = _best_fit(problem, data, release0, n_modes)
+    if initial_state not in ("auto", "zero", "estimate"):
+        raise IdentValueError("initial_state", "'auto', 'zero' or 'estimate'", initial_state)
+    if noise_model not in ("oe", "innovation"):
+        raise IdentValueError("noise_model", "'oe' or 'innovation'", noise_model)
+    step = np.flatnonzero(np.diff(data.u) != 0.0).size == 1
+    if initial_state == "estimate" and not (step and noise_model == "oe"):
+        raise IdentValueError("initial_state", "'zero' for a general input or noise_model='innovation' "
+                              "('estimate' starts the carts moving at a release step)", initial_state)
+    estimate = initial_state == "estimate" or (initial_state == "auto" and step and noise_model == "oe"
+                                               and data.release_time_s is not None)
+    degrees = _per_output(relative_degree, data.n_outputs, "relative_degree")
+    gains = _per_output(dc_gain, data.n_outputs, "dc_gain")
+    kinds = ([False] if initial_state != "estimate" else []) + ([True] if estimate else [])
+    model = _choose(data, [_fit_or_failure(data, order, degrees, gains, fit_release, fit_offset, kind)
+                           for kind in kinds])
+    if noise_model == "innovation":
+        if any(dc is not None for dc in gains):
+            raise IdentValueError("dc_gain", "None with noise_model='innovation'", gains)
+        model = refine(model, data if data.is_uniform() else make_uniform(data, "linear"))
+    return flag_unstable(model)
+
+
+def _fit_or_failure(data: IdData, order: int, degrees: tuple[int, ...], gains: tuple[float | None, ...],
+                    fit_release: bool, fit_offset: bool, estimate: bool) -> Model | FitFailed:
+    try:
+        return _fit_order(data, order, degrees, gains, fit_release, fit_offset, estimate)
+    except FitFailed as exc:
+        return exc
+
+
+def _choose(data: IdData, fits: list[Model | FitFailed]) -> Model:
+    """The only model, or of [from rest, estimated state] the one from rest unless the other's
+    BIC (both on the first one's noise weights) is lower by more than `CHOICE_CHI2`."""
+    models = [fit for fit in fits if isinstance(fit, Model)]
+    if not models:
+        raise next(fit for fit in fits if isinstance(fit, FitFailed))
+    if len(models) == 1:
+        return models[0]
+    noise = models[0].noise_std
+    after = models[1].t >= float(models[1].release_time_s or models[1].t[0])   # the estimate's samples
+    return models[1] if _bic(models[0], data, noise, after) - _bic(models[1], data, noise, after) > CHOICE_CHI2 \
+        else models[0]
+
+
+def _fit_order(data: IdData, order: int, degrees: tuple[int, ...], gains: tuple[float | None, ...],
+               fit_release: bool, fit_offset: bool, estimate: bool) -> Model:
+    """One model of `order`: released from rest, or with the initial state estimated."""
+    problem, release0 = _problem(data, degrees, gains, fit_release, fit_offset, estimate)
+    solution = _best_fit(problem, data, release0, order // 2)
     if problem.y.shape[1] > 1:
         solution = _reweighted(problem, solution)
-    model = _to_model(data, problem, solution)
-    if noise_model == "innovation":
-        if any(dc is not None for dc in problem.dc_gain):
-            raise IdentValueError("dc_gain", "None with noise_model='innovation'", problem.dc_gain)
-        model = refine(model, data if data.is_uniform() else make_uniform(data, "linear"))
-    elif noise_model != "oe":
-        raise IdentValueError("noise_model", "'oe' or 'innovation'", noise_model)
-    return flag_unstable(model)
+    return _to_model(data, problem, solution)
 
 
 def flag_unstable(model: Model) -> Model:
@@ -114,7 +166,7 @@ def _per_output(value: object, n_out: int, name: str) -> tuple[Any, ...]:
 
 
 def _problem(data: IdData, relative_degree: tuple[int, ...], dc_gain: tuple[float | None, ...],
-             fit_release: bool, fit_offset: bool) -> tuple[varpro.Problem, float]:
+             fit_release: bool, fit_offset: bool, estimate: bool = False) -> tuple[varpro.Problem, float]:
     jumps = np.flatnonzero(np.diff(data.u) != 0.0)
     if jumps.size == 0:
         raise IdentValueError("u", "a step at the release (or an input that changes)", "a constant input")
@@ -123,11 +175,11 @@ def _problem(data: IdData, relative_degree: tuple[int, ...], dc_gain: tuple[floa
     source = data if (step or data.is_uniform()) else make_uniform(data, "linear")
     weights = 1.0 / _noise_level(source, release0)
     known = data.release_time_s if data.release_time_s is not None else float(data.t[jumps[0] + 1])
-    fixed = None if (fit_release and step) else known
+    fixed = None if (fit_release and step and not estimate) else known
     problem = varpro.Problem(
         t=source.t, y=np.asarray(source.y), weights=weights, amplitude=data.step_amplitude,
         step=step, u=np.asarray(source.u), ts=source.sample_time(), relative_degree=relative_degree,
-        dc_gain=dc_gain, fit_offset=fit_offset, fixed_release_s=fixed)
+        dc_gain=dc_gain, fit_offset=fit_offset, fixed_release_s=fixed, initial_velocity=estimate)
     return problem, (release0 if fixed is None else fixed)
 
 
@@ -264,14 +316,22 @@ def _to_model(data: IdData, problem: varpro.Problem, solution: varpro.Solution) 
                  release_time_s=release, relative_degree=problem.relative_degree, modes=modes,
                  fit_percent=fit, noise_std=1.0 / problem.weights, residuals=solution.residuals,
                  covariance=covariance, method=f"pem-oe-ct order {2 * m}", nfev=solution.nfev,
-                 success=solution.success, message=solution.message, notes=data.notes)
+                 success=solution.success, message=solution.message, notes=data.notes,
+                 initial_velocity=None if solution.velocity is None else solution.velocity[:, order])
 
 
-def _bic(model: Model, data: IdData) -> float:
-    """N log(RSS/N) + p log N over all outputs (p: modes, release, free linear coefficients;
-    numerator coefficients after the relative-degree constraints: order + 1 - r per output)."""
-    n_total = model.residuals.size
-    rss = float(np.sum((model.residuals / model.noise_std) ** 2))
+def _bic(model: Model, data: IdData, noise_std: FloatArray | None = None,
+         samples: NDArray[np.bool_] | None = None) -> float:
+    """N log(RSS/N) + p log N over all outputs, residuals over `noise_std` (default: the model's
+    own weights). p: modes, the release (fitted from rest), free linear coefficients: numerator
+    coefficients after the relative-degree constraints, order + 1 - r per output, one more per
+    output with the initial state estimated (m velocities in place of m - 1 free s-terms).
+    `samples` (N,) picks the samples counted (default: all)."""
+    residuals = model.residuals if samples is None else model.residuals[samples]
+    n_total = residuals.size
+    rss = float(np.sum((residuals / (model.noise_std if noise_std is None else noise_std)) ** 2))
     numerators = sum(model.order + 1 - r for r in model.relative_degree)
-    n_params = 2 * len(model.sigma) + 1 + numerators + model.offset.size
+    estimated = model.initial_velocity is not None
+    n_params = (2 * len(model.sigma) + (0 if estimated else 1) + numerators + model.offset.size
+                + (model.n_outputs if estimated else 0))
     return n_total * np.log(rss / n_total) + n_params * np.log(n_total)

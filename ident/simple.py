@@ -1,16 +1,29 @@
 """Simple identification (the lab's Part 2): fit the physical single-cart model by simulation.
 
-Model, in the zeroed frame, released from rest at t_r with pull U (m):
+Model, in the zeroed frame, let go at t_r with pull U (m) and velocity v0 (m/s):
 
-    x'' + 2ζ wn x' + wn² (x - g U H(t - t_r)) [+ f sign(x')] = 0,   y = o + x + e,
+    x'' + 2ζ wn x' + wn² (x - g U H(t - t_r)) [+ f sign(x')] = 0,   x(t_r) = 0, x'(t_r) = v0,
+    y = o + x + e,
 
-simulated on the sample grid by RK4 or explicit Euler (`ident.physics.steppers`), parameters
-p = (wn, ζ, g, t_r, o[, f]) fitted by minimising the output error Σ (y - ŷ(p))² with
+simulated on the sample grid by RK4 or explicit Euler (`ident.physics.steppers`: the handout's
+state-space recursion from the initial conditions), parameters p = (wn, ζ, g, t_r, o[, f], v0)
+fitted by minimising the output error Σ (y - ŷ(p))² with
 `scipy.optimize.least_squares` (finite-difference Jacobian on scaled parameters). Start
 values come from the data: t_r from the onset of the motion, g from the final level, the
 damped period from the zero crossings of y - y_final and σ = ζ wn from the logarithmic
 decrement of the successive extrema. The release time stays a continuous parameter: the
 simulation takes one partial step from t_r to the first sample after it.
+
+Two releases (`initial_state`): a pull-hold-release lets the cart go from rest (v0 = 0, t_r
+fitted); a flick lets it go moving, so the model starts at the release the data state from the
+cart's position there (o) with an estimated v0, and t_r is not fitted (any point of a free
+trajectory is a start from which the same curve follows). v0 = 0 is the release from rest.
+
+The gain g is the fitted travel to the spring's rest over the stated pull U: g U = rest - o.
+The DC gain of X(s)/R(s) is not identifiable from a free response alone (the rest level is);
+with the lab's known pull (the hold at -d) g checks the pull and the encoder's scale; with a
+raw record's pull, measured from the same record (its rest less the level at the release,
+`ident.releases.release_step`), g ≈ 1 says the fitted rest is the record's, nothing more.
 
 Euler's bias is the point of the lab: its amplitude grows by √(1 + (wn h)²) per step, so the
 fitted ζ comes out too large; `substeps` shrinks h.
@@ -25,8 +38,8 @@ for display (`SimpleFit.euler_display`).
 
 from __future__ import annotations
 
-import itertools
 from dataclasses import dataclass
+from typing import Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -36,20 +49,24 @@ from ident.comparison import fit_percent
 from ident.data import IdData
 from ident.errors import FitFailed, IdentValueError
 from ident.physics.free import NonlinearTerms, simulate_free
-from ident.physics.measures import encoder_quantum
 from ident.physics.steppers import Method, euler_coulomb, linear_step_response
-from ident.release import check_motion, moving_outputs, noise_std, rest_window
+from ident.release import check_motion, moving_outputs
+from ident.simple_start import envelope_friction, euler_zeta, release_state, sample_step, start_values, swing_floor
 
 FloatArray = NDArray[np.float64]
-PARAMETER_NAMES = ("wn", "zeta", "gain", "release_time_s", "offset", "friction")
+InitialState = Literal["auto", "rest", "estimate"]
+PARAMETER_NAMES = ("wn", "zeta", "gain", "release_time_s", "offset", "friction", "release_velocity")
 #: h·wn of the fine grid the dry-friction model is simulated on (converged: see the docstring).
 FINE_H_WN = 0.01
-#: A swing about the final level counts as motion above this many noise std ...
-SWING_NOISE = 10.0
-#: ... and this many encoder quanta (a stuck cart dithers by one count).
-SWING_QUANTA = 3.0
 #: The fitted release stays within this many start-value periods of the given one.
 RELEASE_PERIODS = 0.25
+#: `initial_state="auto"` keeps the release from rest unless the estimated state explains the
+#: data better by N ln(cost_rest / cost_estimate) above this (χ², 1 degree of freedom, α = 1e-3;
+#: both models have as many parameters).
+CHOICE_CHI2 = 10.83
+
+__all__ = ["InitialState", "SimpleFit", "coulomb_response", "euler_zeta", "fit_simple", "release_bounds",
+           "start_values", "swing_floor"]
 
 
 @dataclass(frozen=True)
@@ -84,6 +101,8 @@ class SimpleFit:
     success: bool
     message: str
     euler_display: FloatArray | None = None
+    release_velocity: float = 0.0
+    initial_state: Literal["rest", "estimate"] = "rest"
 
     def summary_rows(self) -> list[tuple[str, str]]:
         """The labelled lines of `repr` and `_repr_html_` (arrays stay in the attributes)."""
@@ -93,7 +112,9 @@ class SimpleFit:
         rows = [("wn", value("wn", "rad/s")), ("zeta", value("zeta")), ("gain", value("gain"))]
         if self.friction is not None:
             rows.append(("friction", value("friction", "m/s²")))
-        rows += [("release", f"{self.release_time_s:.4f} s"),
+        start = ("from rest" if self.initial_state == "rest"
+                 else f"the data's, with velocity {self.release_velocity:.4g} m/s (estimated)")
+        rows += [("release", f"{self.release_time_s:.4f} s, {start}"),
                  ("fit (simulation)", summary.percents(self.fit_percent)),
                  ("status", f"{'converged' if self.success else 'NOT converged'}, {self.nfev} evaluations: "
                             + self.message)]
@@ -116,7 +137,8 @@ class SimpleFit:
         if jumps.size != 1:
             raise IdentValueError("u", "a single step (the release)", f"{jumps.size} changes")
         release = float(t_arr[jumps[0] + 1]) + self.input_delay_s
-        params = np.array([self.wn, self.zeta, self.gain, release, self.offset, self.friction or 0.0])
+        params = np.array([self.wn, self.zeta, self.gain, release, self.offset, self.friction or 0.0,
+                           self.release_velocity])
         y = _response(params, t_arr, float(u_arr[-1] - u_arr[0]), self.method, self.substeps,
                       self.friction is not None)
         return y[:, None]
@@ -124,15 +146,17 @@ class SimpleFit:
 
 def _response(p: FloatArray, t: FloatArray, amplitude: float, method: Method, substeps: int,
               with_friction: bool) -> FloatArray:
-    wn, zeta, gain, t_r, offset = p[:5]
+    """y (N,) of the model of the module docstring; p = (wn, ζ, g, t_r, o, f, v0)."""
+    wn, zeta, gain, t_r, offset, friction, velocity = p
     if with_friction:
         if method != "euler":
             raise IdentValueError("method", "'euler' for the dry-friction model", method)
-        return offset + coulomb_response(wn, zeta, p[5], gain * amplitude, t, t_r)
+        return offset + coulomb_response(wn, zeta, friction, gain * amplitude, t, t_r, velocity)
     A = np.array([[0.0, 1.0], [-wn * wn, -2.0 * zeta * wn]])
     B = np.array([[0.0], [wn * wn]])
     grid, skip = _grid_from(t, t_r)
-    return offset + linear_step_response(A, B, grid, t_r, gain * amplitude, method, substeps)[skip:, 0]
+    initial = np.array([0.0, velocity], dtype=np.float64)
+    return offset + linear_step_response(A, B, grid, t_r, gain * amplitude, method, substeps, initial)[skip:, 0]
 
 
 def _grid_from(t: FloatArray, release_time_s: float) -> tuple[FloatArray, int]:
@@ -140,7 +164,7 @@ def _grid_from(t: FloatArray, release_time_s: float) -> tuple[FloatArray, int]:
     for a release before the first sample (a window that starts after the release), `t` with
     sample steps prepended back past the release. Without them the stepper would take one step
     of t[0] - t_r, and Euler's single step from rest leaves the cart where it was."""
-    h = _sample_step(t)
+    h = sample_step(t)
     if release_time_s >= t[0] or not h > 0.0 or not np.isfinite(release_time_s):
         return t, 0
     k = int(np.ceil((t[0] - release_time_s) / h))
@@ -150,10 +174,11 @@ def _grid_from(t: FloatArray, release_time_s: float) -> tuple[FloatArray, int]:
 
 
 def coulomb_response(wn: float, zeta: float, friction: float, r: float, t: FloatArray,
-                     release_time_s: float) -> FloatArray:
+                     release_time_s: float, velocity: float = 0.0) -> FloatArray:
     """Positions (N,) of x'' + 2ζwn x' + wn² (x - r) + f sign(x') = 0 (static = kinetic f, m/s²),
-    at rest at 0 until t_r: the physics' free response on a uniform grid from t_r with
-    h·wn ≤ FINE_H_WN, linearly interpolated at the samples (error ≈ (h wn)² r / 8)."""
+    at 0 until t_r and let go there with velocity `velocity` (m/s; 0: from rest): the physics'
+    free response on a uniform grid from t_r with h·wn ≤ FINE_H_WN, linearly interpolated at
+    the samples (error ≈ (h wn)² r / 8)."""
     t = np.asarray(t, dtype=np.float64)
     out = np.zeros(t.size)
     after = t > release_time_s
@@ -163,92 +188,31 @@ def coulomb_response(wn: float, zeta: float, friction: float, r: float, t: Float
     n = int(np.ceil(tau[-1] * wn / FINE_H_WN)) + 2
     h = tau[-1] / (n - 1)
     terms = NonlinearTerms(friction_m_s2=np.array([[abs(friction)]]))
-    deviation = simulate_free(np.array([[wn, zeta]]), np.array([[-r, 0.0]]), h, n, 1, terms)[0, :, 0]
+    deviation = simulate_free(np.array([[wn, zeta]]), np.array([[-r, velocity]]), h, n, 1, terms)[0, :, 0]
     out[after] = r + np.interp(tau, h * np.arange(n), deviation)
     return out
 
 
-def start_values(t: FloatArray, y: FloatArray, amplitude: float, release0: float) -> FloatArray:
-    """(wn, ζ, g, t_r, o) from the data: period from zero crossings, σ from the log decrement.
-
-    A crossing counts only while the swings are larger than the noise and than the encoder's
-    quantum (`swing_floor`): a cart stuck between two counts dithers across the final level
-    every sample, and those crossings would set the period to two samples.
-    """
-    offset = release_level(t, y, release0)
-    after = t > release0
-    tail = y[after][-max(5, int(after.sum()) // 10):]
-    final = float(np.mean(tail))
-    gain = (final - offset) / amplitude
-    e = y[after] - final
-    ta = t[after]
-    crossings = _significant_crossings(e, swing_floor(y))
-    if crossings.size < 3:
-        raise FitFailed(f"expected an oscillation (≥ 3 crossings of the final level), got {crossings.size}")
-    t_cross = ta[crossings] - e[crossings] * (ta[crossings + 1] - ta[crossings]) / (e[crossings + 1] - e[crossings])
-    omega_d = np.pi / float(np.median(np.diff(t_cross)))
-    peaks = np.array([np.max(np.abs(e[a:b + 1])) for a, b in itertools.pairwise(crossings)])
-    times = np.array([ta[a + int(np.argmax(np.abs(e[a:b + 1])))] for a, b in itertools.pairwise(crossings)])
-    usable = peaks > 0.05 * peaks[0]
-    sigma = 0.05 * omega_d
-    if usable.sum() >= 2:
-        slope = np.polyfit(times[usable], np.log(peaks[usable]), 1)[0]
-        sigma = max(-float(slope), 1e-3 * omega_d)
-    wn = float(np.hypot(omega_d, sigma))
-    return np.array([wn, sigma / wn, gain, release0, offset])
-
-
-def release_level(t: FloatArray, y: FloatArray, release0: float) -> float:
-    """Start value of the offset o (m): the level at the release, where the model's cart is.
-
-    The median of the rest samples just before `release0` (`rest_window` of them) when there are
-    at least 5, else y at `release0`: a window that starts at (or after) the release, as the
-    release finder's do on a flicked cart, begins moving, and the median of its first samples
-    lies inside the swing, which gave a start gain of the wrong sign.
-    """
-    before = np.flatnonzero(t < release0)
-    if before.size >= 5:
-        size = rest_window(len(y)).stop
-        return float(np.median(y[before[-size:]]))
-    return float(np.interp(release0, t, y))
-
-
-def swing_floor(y: FloatArray) -> float:
-    """Smallest swing (m) about the final level that is motion, not noise: the larger of
-    `SWING_NOISE` noise std and `SWING_QUANTA` encoder quanta.
-
-    The quantum is the smallest non-zero step between samples. On a quantized record the rest
-    reads one count, so its noise std is ~0 and the quantum is what bounds the dither.
-    """
-    return max(SWING_NOISE * float(noise_std(y)[0]), SWING_QUANTA * encoder_quantum(y))
-
-
-def _significant_crossings(e: FloatArray, floor: float) -> NDArray[np.int64]:
-    """Indices k where e changes sign between k and k+1, kept while the swing between
-    crossings exceeds `floor` (noise or a count's dither around a stuck cart makes spurious
-    crossings)."""
-    signs = np.signbit(e)
-    crossings = np.flatnonzero(signs[1:] != signs[:-1])
-    kept = [int(crossings[0])] if crossings.size else []
-    for a, b in itertools.pairwise(crossings):
-        if np.max(np.abs(e[a:b + 1])) < floor:
-            break
-        kept.append(int(b))
-    return np.array(kept, dtype=np.int64)
-
-
 def fit_simple(data: IdData, method: Method = "rk4", *, friction: bool = False, substeps: int = 1,
-               output: int = 0, fit_release: bool = True) -> SimpleFit:
-    """Fit wn, ζ, gain, release time, offset (and dry friction f, Euler only) of one cart.
+               output: int = 0, fit_release: bool = True, initial_state: InitialState = "auto") -> SimpleFit:
+    """Fit wn, ζ, gain, offset, the release (and dry friction f, Euler only) of one cart.
 
     `output` picks the column of `data.y`; `data.u` gives the pull amplitude U.
-    `fit_release=False` holds the release at `data.release_time_s` (required then).
+    `initial_state`: "rest" releases the cart from rest at a fitted t_r (a pull-hold-release;
+    `fit_release=False` holds t_r at `data.release_time_s`, required then); "estimate" lets it
+    go at the stated release (`data.release_time_s`, else where u steps) from its position
+    there with an estimated velocity v0 (a flick; t_r is not identifiable then: any point of
+    the trajectory is a start); "auto" fits both when the data state a release and keeps the
+    release from rest unless the estimate explains the data better than noise would
+    (`CHOICE_CHI2`), from rest only when they do not.
     """
     if method not in ("rk4", "euler"):
         raise IdentValueError("method", "'rk4' or 'euler'", method)
     if friction and method != "euler":
         raise IdentValueError("method", "'euler' when friction=True (the Coulomb model)", method)
-    if not fit_release and data.release_time_s is None:
+    if initial_state not in ("auto", "rest", "estimate"):
+        raise IdentValueError("initial_state", "'auto', 'rest' or 'estimate'", initial_state)
+    if not fit_release and data.release_time_s is None and initial_state != "estimate":
         raise IdentValueError("release_time_s", "a known release with fit_release=False", None)
     y = np.asarray(data.y[:, output])
     moving = moving_outputs(data.y)
@@ -256,36 +220,85 @@ def fit_simple(data: IdData, method: Method = "rk4", *, friction: bool = False, 
         raise IdentValueError(f"output {output}", f"a moving cart's column: fit_simple(data, ..., "
                               f"output={moving[0]}) or data.select_outputs({moving})", "no motion in it")
     check_motion(y)
-    amplitude = data.step_amplitude
     jumps = np.flatnonzero(np.diff(data.u) != 0.0)
     if jumps.size != 1:
         raise IdentValueError("u", "a single step (the release)", f"{jumps.size} changes")
+    modes: tuple[Literal["rest", "estimate"], ...] = (
+        (initial_state,) if initial_state != "auto"
+        else ("rest", "estimate") if data.release_time_s is not None else ("rest",))
+    outcomes: dict[str, _Outcome] = {}
+    failure: FitFailed | None = None
+    for mode in modes:
+        try:   # the rest fit's friction is one more start of the estimate's (local minima)
+            outcomes[mode] = _fit_from(data, y, method, friction, substeps, fit_release, mode, outcomes.get("rest"))
+        except FitFailed as exc:
+            failure = failure or exc
+    if not outcomes:
+        assert failure is not None
+        raise failure
+    chosen = _choose(outcomes, np.asarray(data.t) >= outcomes.get("estimate", outcomes[next(iter(outcomes))]).p[3])
+    return _result(outcomes[chosen], data, y, method, substeps, friction, float(data.t[jumps[0] + 1]), chosen)
+
+
+def _choose(outcomes: dict[str, _Outcome], after: NDArray[np.bool_]) -> Literal["rest", "estimate"]:
+    """The release from rest, unless the estimated state lowers the cost over the samples from
+    the stated release on (`after`: the estimate's, which leaves the hand's samples before it
+    out) by more than noise explains (N ln(cost_rest / cost_estimate) > `CHOICE_CHI2`), or is
+    the only fit left."""
+    if "rest" not in outcomes:
+        return "estimate"
+    if "estimate" not in outcomes:
+        return "rest"
+    rest = float(np.sum(outcomes["rest"].fun[after] ** 2))
+    estimate = float(np.sum(outcomes["estimate"].fun[after] ** 2))
+    better = estimate > 0.0 and int(np.sum(after)) * float(np.log(rest / estimate)) > CHOICE_CHI2
+    return "estimate" if better else "rest"
+
+
+def _fit_from(data: IdData, y: FloatArray, method: Method, friction: bool, substeps: int, fit_release: bool,
+              mode: Literal["rest", "estimate"], other: _Outcome | None = None) -> _Outcome:
+    """One least-squares fit: the linear model, then (friction) the dry-friction model from it,
+    and from `other`'s wn, ζ, f and rest level when given (another start's fit)."""
+    amplitude = data.step_amplitude
+    jumps = np.flatnonzero(np.diff(data.u) != 0.0)
     # unknown: start where u steps (whoever built `data` placed the step at the release)
     release0 = data.release_time_s if data.release_time_s is not None else float(data.t[int(jumps[0]) + 1])
-    fixed = None if fit_release else release0
-    start = start_values(data.t, y, amplitude, release0)
-    # a release the loader found is bounded near it; a step the caller placed in u may be a
-    # guess (the motion's onset is then the start), bounded by the window only
-    bounds = (release_bounds(data.t, release0, start[0]) if data.release_time_s is not None
-              else (float(data.t[0]), float(data.t[-1])))
-    start[3] = float(np.clip(start[3], *bounds))
+    start = np.append(start_values(data.t, y, amplitude, release0), [0.0, 0.0])
+    if mode == "estimate":
+        final = start[4] + start[2] * amplitude
+        start[4], start[6] = release_state(data.t, y, release0, start[0])
+        start[2] = (final - start[4]) / amplitude
+        bounds = (release0, release0)
+    else:
+        # a release the loader found is bounded near it; a step the caller placed in u may be a
+        # guess (the motion's onset is then the start), bounded by the window only
+        bounds = (release_bounds(data.t, release0, start[0]) if data.release_time_s is not None
+                  else (float(data.t[0]), float(data.t[-1])))
+        if not fit_release:
+            bounds = (release0, release0)
+        start[3] = float(np.clip(start[3], *bounds))
+    free = np.array([True, True, True, bounds[0] < bounds[1], True, False, mode == "estimate"])
     # with friction the linear start is RK4's: Euler's inflated ζ would be a worse start
     linear_method: Method = "rk4" if friction else method
     if linear_method == "euler":
-        start[1] = euler_zeta(start[0], start[1], _sample_step(data.t) / substeps)
+        start[1] = euler_zeta(start[0], start[1], sample_step(data.t) / substeps)
     _check_start(data.t, y, amplitude, linear_method, substeps, start)
-    outcome = _least_squares(data.t, y, amplitude, linear_method, substeps, False, start, fixed, bounds)
+    outcome = _least_squares(data.t, y, amplitude, linear_method, substeps, False, start, free, bounds)
     if friction:
         # the dry-friction fit starts from the linear fit, with f = 0⁺ and with f from the
-        # envelope regression |e_{j+1}| = ρ |e_j| - 2 f / wn²; the lower cost wins
+        # envelope regression |e_{j+1}| = ρ |e_j| - 2 f / wn²; the lower cost win
         linear = outcome.p
-        tries = [np.append(linear, 1e-3 * linear[0] ** 2 * abs(linear[2] * amplitude)),
-                 np.append(linear, envelope_friction(data.t, y, release0, linear[0]))]
-        outcomes = [_least_squares(data.t, y, amplitude, method, substeps, True, p0, fixed, bounds)
-                    for p0 in tries]
+        free[5] = True
+        tries = [1e-3 * linear[0] ** 2 * abs(linear[2] * amplitude), envelope_friction(data.t, y, release0, linear[0])]
+        starts = [np.concatenate([linear[:5], [f0], linear[6:]]) for f0 in tries]
+        if other is not None:
+            rest_level = other.p[4] + other.p[2] * amplitude
+            starts.append(np.array([other.p[0], other.p[1], (rest_level - linear[4]) / amplitude, linear[3],
+                                    linear[4], other.p[5], linear[6]]))
+        outcomes = [_least_squares(data.t, y, amplitude, method, substeps, True, p0, free, bounds) for p0 in starts]
         outcome = min(outcomes, key=lambda o: o.cost)
-    _check_outcome(outcome, bounds if fixed is None else (fixed, fixed), method)
-    return _result(outcome, data, y, method, substeps, friction, float(data.t[jumps[0] + 1]))
+    _check_outcome(outcome, bounds, method)
+    return outcome
 
 
 def release_bounds(t: FloatArray, release0: float, wn: float) -> tuple[float, float]:
@@ -327,26 +340,6 @@ def _check_outcome(outcome: _Outcome, bounds: tuple[float, float], method: Metho
                           "steps at the release by the pull; or fit with fit_release=False")
 
 
-def euler_zeta(wn: float, zeta: float, h: float) -> float:
-    """The ζ with which explicit Euler at step h (s) decays like the true ring: the start of
-    an Euler fit, whose answer is biased that way (the module docstring).
-
-    Euler's pole 1 + hλ has |1 + hλ|² = 1 - 2ζ_E wn h + (wn h)²; the ring decays by
-    e^{-2ζ wn h} per step in energy, so ζ_E = (1 + (wn h)² - e^{-2ζ wn h}) / (2 wn h)
-    (≈ ζ + wn h/2 for small wn h). Starting from the physical ζ instead, Euler's amplitude
-    grows by √(1 + (wn h)²) per step, past any float on a long record at a coarse rate.
-    """
-    x = wn * h
-    if not x > 0.0:
-        return zeta
-    return float((1.0 + x * x - np.exp(-2.0 * zeta * x)) / (2.0 * x))
-
-
-def _sample_step(t: FloatArray) -> float:
-    """The median sample step (s) of the time base."""
-    return float(np.median(np.diff(t))) if t.size > 1 else 0.0
-
-
 def _check_start(t: FloatArray, y: FloatArray, amplitude: float, method: Method, substeps: int,
                  start: FloatArray) -> None:
     """Refuse, with what to do, a start whose simulation is not finite (the optimiser would
@@ -356,7 +349,7 @@ def _check_start(t: FloatArray, y: FloatArray, amplitude: float, method: Method,
             _response(start, t, amplitude, method, substeps, False))))
     if finite:
         return
-    wn_h = float(start[0]) * _sample_step(t) / substeps
+    wn_h = float(start[0]) * sample_step(t) / substeps
     raise FitFailed(f"the start values (wn {start[0]:.4g} rad/s, zeta {start[1]:.3g}) give a non-finite "
                     f"{method} simulation at wn·h = {wn_h:.3g} per step: expected a start from a ring "
                     "sampled well above its frequency; check the record's rate and motion, or fit with "
@@ -379,24 +372,24 @@ class _Outcome:
 
 
 def _least_squares(t: FloatArray, y: FloatArray, amplitude: float, method: Method, substeps: int,
-                   friction: bool, start: FloatArray, fixed_release: float | None,
+                   friction: bool, start: FloatArray, free: NDArray[np.bool_],
                    release_range: tuple[float, float]) -> _Outcome:
-    """Trust-region least squares, bounded in the release time only (`release_range`, s):
-    bounds on the other parameters stalled the friction fit in local minima."""
+    """Trust-region least squares over the `free` parameters of p = (wn, ζ, g, t_r, o, f, v0),
+    the others held at `start`; bounded in the release time only (`release_range`, s): bounds
+    on the other parameters stalled the friction fit in local minima."""
     from scipy.optimize import least_squares  # deferred: keeps `import ident` fast
-    free = np.ones(start.size, dtype=bool)
-    if fixed_release is not None:
-        free[3] = False
-        start = start.copy()
-        start[3] = fixed_release
+    free = free.copy()
 
     def full(q: FloatArray) -> FloatArray:
         p = start.copy()
         p[free] = q
         return p
 
+    # with the state at the release estimated, the samples before it are the hand's: no model
+    counted = t >= release_range[0] if free[6] else np.ones(t.size, dtype=bool)
+
     def residual(q: FloatArray) -> FloatArray:
-        return np.asarray(_response(full(q), t, amplitude, method, substeps, friction) - y)
+        return np.asarray(np.where(counted, _response(full(q), t, amplitude, method, substeps, friction) - y, 0.0))
 
     # stick events make the friction model's output jump with its parameters: difference
     # over a wider step (10⁻³ relative) so the Jacobian sees the trend, not the jumps
@@ -405,39 +398,28 @@ def _least_squares(t: FloatArray, y: FloatArray, amplitude: float, method: Metho
     low[3], high[3] = release_range
     result = least_squares(residual, start[free], bounds=(low[free], high[free]), method="trf", x_scale="jac",
                            diff_step=1e-3 if friction else 1e-7, xtol=1e-12, ftol=1e-12, max_nfev=400)
-    names = tuple(n for n, keep in zip(PARAMETER_NAMES[:start.size], free, strict=True) if keep)
+    names = tuple(n for n, keep in zip(PARAMETER_NAMES, free, strict=True) if keep)
     return _Outcome(full(result.x), np.asarray(result.jac), np.asarray(result.fun), names,
                     float(result.cost), int(result.nfev), bool(result.success), str(result.message))
 
 
-def envelope_friction(t: FloatArray, y: FloatArray, release0: float, wn: float) -> float:
-    """Dry-friction start value f (m/s²) from successive extrema |e_j| of y - y_final:
-    with Coulomb friction |e_{j+1}| = ρ |e_j| - 2 f / wn², a straight line in |e_j|."""
-    after = t > release0
-    e = y[after] - float(np.mean(y[after][-max(5, int(after.sum()) // 10):]))
-    crossings = _significant_crossings(e, swing_floor(y))
-    peaks = np.array([np.max(np.abs(e[a:b + 1])) for a, b in itertools.pairwise(crossings)])
-    if peaks.size < 3:
-        return 0.0
-    _slope, intercept = np.polyfit(peaks[:-1], peaks[1:], 1)
-    return float(max(-intercept * wn * wn / 2.0, 0.0))
-
-
 def _result(outcome: _Outcome, data: IdData, y: FloatArray, method: Method, substeps: int,
-            friction: bool, step_time: float) -> SimpleFit:
+            friction: bool, step_time: float, mode: Literal["rest", "estimate"]) -> SimpleFit:
     p, jac, residuals = outcome.p, outcome.jac, outcome.fun
     s2 = float(residuals @ residuals) / max(1, residuals.size - jac.shape[1])
     covariance = s2 * np.linalg.pinv(jac.T @ jac)
     std = {name: float(np.sqrt(max(covariance[i, i], 0.0))) for i, name in enumerate(outcome.names)}
-    y_hat = y + residuals
+    y_hat = _response(p, np.asarray(data.t), data.step_amplitude, method, substeps, friction)
+    counted = np.asarray(data.t) >= p[3] if mode == "estimate" else np.ones(y.size, dtype=bool)
     display = None
     if friction:
         display = (p[4] + euler_coulomb(p[0], p[1], p[5], p[2] * data.step_amplitude, np.asarray(data.t),
-                                        p[3], substeps))[:, None]
+                                        p[3], substeps, p[6]))[:, None]
     return SimpleFit(wn=float(p[0]), zeta=float(p[1]), gain=float(p[2]), release_time_s=float(p[3]),
                      offset=float(p[4]), friction=abs(float(p[5])) if friction else None, method=method,
                      substeps=substeps, names=outcome.names, covariance=covariance, std_errors=std,
-                     fit_percent=tuple(fit_percent(y, y_hat)), residuals=-residuals[:, None],
+                     fit_percent=tuple(fit_percent(y[counted], y_hat[counted])), residuals=(y - y_hat)[:, None],
                      input_delay_s=float(p[3]) - step_time, t=np.asarray(data.t),
                      y_hat=y_hat[:, None], nfev=outcome.nfev, success=outcome.success,
-                     message=outcome.message, euler_display=display)
+                     message=outcome.message, euler_display=display, release_velocity=float(p[6]),
+                     initial_state=mode)

@@ -8,6 +8,16 @@ cost is the projected residual ‖P⊥(p) (y - U Φ θ_p)‖² (Golub & Pereyra)
 weighted by 1/σ_j (their noise std), which makes this the maximum-likelihood estimate for
 independent white output noise, i.e. the prediction-error estimate with noise model H = 1.
 
+With the initial state estimated (`Problem.initial_velocity`, a flicked cart: let go moving at a
+known release t_r, as MATLAB pem's InitialState='estimate'), each output also gets the free
+response of every mode from zero position and unit velocity at t_r, q_i(τ) = e^{-σ_i τ}
+sin(ω_i τ)/ω_i (the basis's own state-2 columns), with free coefficients v_ij (m/s): the
+velocities of the modes at the release. Those columns span what the s-terms c1_i of the
+numerator do on a free response, so the two cannot be told apart from the data; the step's
+c1_i are then set to 0 and the initial velocities carry them. The release is not iterated on
+(a free trajectory can be started at any of its points): `fixed_release_s` is required, and
+the samples before it (the hand's, which no model here describes) carry no cost.
+
 The Jacobian is taken by finite differences of the projected residual in these continuous
 parameters (at most 1 + 2m columns); it is well conditioned at any sampling rate because
 nothing here is a discrete polynomial coefficient. Covariance: s²(JᵀJ)⁻¹ with J the
@@ -42,6 +52,7 @@ class Problem:
     dc_gain: tuple[float | None, ...]
     fit_offset: bool = True
     fixed_release_s: float | None = None
+    initial_velocity: bool = False
 
 
 @dataclass(frozen=True)
@@ -60,6 +71,7 @@ class Solution:
     nfev: int
     success: bool
     message: str
+    velocity: FloatArray | None = None   # (n_out, m) m/s per mode at the release (initial state estimated)
 
 
 def _split(problem: Problem, p: FloatArray) -> tuple[float, FloatArray, FloatArray]:
@@ -81,25 +93,44 @@ def basis(problem: Problem, t_r: float, sigma: FloatArray, omega: FloatArray) ->
 def solve_linear(problem: Problem, t_r: float, sigma: FloatArray,
                  omega: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
     """(theta (n_out, 1+2m), offset (n_out,), residuals (N, n_out)) for fixed modes."""
+    theta, offset, residuals, _ = solve_linear_state(problem, t_r, sigma, omega)
+    return theta, offset, residuals
+
+
+def solve_linear_state(problem: Problem, t_r: float, sigma: FloatArray, omega: FloatArray
+                       ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray | None]:
+    """`solve_linear` and the initial velocities (n_out, m) m/s (None unless estimated)."""
     phi = basis(problem, t_r, sigma, omega)
     n, n_out = problem.y.shape
     size = phi.shape[1]
+    m = len(sigma)
+    free_response = modal.step_basis(problem.t, t_r, sigma, omega)[:, 2::2] if problem.initial_velocity else None
     theta = np.zeros((n_out, size))
     offset = np.zeros(n_out)
+    velocity = np.zeros((n_out, m)) if problem.initial_velocity else None
     residuals = np.empty((n, n_out))
+    counted = (problem.t >= t_r) if problem.initial_velocity else np.ones(n, dtype=bool)
     for j in range(n_out):
         rows, rhs = modal.constraint_rows(sigma, omega, problem.relative_degree[j], problem.dc_gain[j])
+        if problem.initial_velocity:   # the s-terms are the initial velocities' (module docstring)
+            rows = np.vstack([rows, np.eye(size)[2::2]])
+            rhs = np.concatenate([rhs, np.zeros(m)])
         particular, null = modal.constrained_parametrisation(rows, rhs, size)
         target = problem.y[:, j] - phi @ particular
         design = phi @ null
+        if free_response is not None:
+            design = np.column_stack([design, free_response])
         if problem.fit_offset:
             design = np.column_stack([np.ones(n), design])
+        design, target = design * counted[:, None], target * counted
         coef = _least_squares_small(design, target)
         residuals[:, j] = target - design @ coef
         beta = coef[1:] if problem.fit_offset else coef
         offset[j] = coef[0] if problem.fit_offset else 0.0
+        if velocity is not None:
+            velocity[j], beta = beta[beta.size - m:], beta[:beta.size - m]
         theta[j] = particular + null @ beta
-    return theta, offset, residuals
+    return theta, offset, residuals, velocity
 
 
 def _least_squares_small(design: FloatArray, target: FloatArray) -> FloatArray:
@@ -122,8 +153,11 @@ def n_linear_parameters(problem: Problem, sigma: FloatArray, omega: FloatArray) 
     """Free linear parameters: numerator/feedthrough coefficients left by the constraints, offsets."""
     count = 0
     for j in range(problem.y.shape[1]):
-        rows, rhs = modal.constraint_rows(sigma, omega, problem.relative_degree[j], problem.dc_gain[j])
-        count += modal.constrained_parametrisation(rows, rhs, 1 + 2 * len(sigma))[1].shape[1]
+        rows, _ = modal.constraint_rows(sigma, omega, problem.relative_degree[j], problem.dc_gain[j])
+        if problem.initial_velocity:
+            rows = np.vstack([rows, np.eye(1 + 2 * len(sigma))[2::2]])
+            count += len(sigma)
+        count += modal.constrained_parametrisation(rows, np.zeros(rows.shape[0]), 1 + 2 * len(sigma))[1].shape[1]
         count += 1 if problem.fit_offset else 0
     return count
 
@@ -163,11 +197,11 @@ def fit(problem: Problem, release_s: float, sigma: FloatArray, omega: FloatArray
                            gtol=1e-10, max_nfev=max_nfev)
     p = result.x
     t_r, sig, om = _split(problem, p)
-    theta, offset, residuals = solve_linear(problem, t_r, sig, om)
+    theta, offset, residuals, velocity = solve_linear_state(problem, t_r, sig, om)
     weighted = residuals * problem.weights
     dof = max(1, weighted.size - len(p) - n_linear_parameters(problem, sig, om))
     s2 = float(np.sum(weighted ** 2)) / dof
     jac = central_jacobian(problem, p)
     covariance = np.asarray(s2 * np.linalg.pinv(jac.T @ jac), dtype=np.float64)
     return Solution(t_r, sig, om, theta, offset, residuals, covariance, free_release,
-                    float(result.cost), int(result.nfev), bool(result.success), str(result.message))
+                    float(result.cost), int(result.nfev), bool(result.success), str(result.message), velocity)

@@ -95,13 +95,16 @@ def linear_step_map(A: FloatArray, B: FloatArray, h: float, method: Method) -> t
 
 
 def linear_step_response(A: FloatArray, B: FloatArray, t: FloatArray, release_time_s: float,
-                         step: float, method: Method, substeps: int = 1) -> FloatArray:
-    """States (N, n) of x' = A x + B u for u = step·H(t - t_r), from rest, simulated with
-    `method` on the grid: one partial step from t_r to the first sample after it, then the
-    sample steps (each split in `substeps`). Uniform grids use Φ^k by eigen-decomposition."""
+                         step: float, method: Method, substeps: int = 1,
+                         initial: FloatArray | None = None) -> FloatArray:
+    """States (N, n) of x' = A x + B u for u = step·H(t - t_r), simulated with `method` on the
+    grid from x(t_r) = `initial` (n,) (default: rest, 0): one partial step from t_r to the first
+    sample after it, then the sample steps (each split in `substeps`). Samples before t_r hold
+    `initial`. Uniform grids use Φ^k by eigen-decomposition."""
     t = np.asarray(t, dtype=np.float64)
     n = A.shape[0]
-    states = np.zeros((t.size, n))
+    x = np.zeros(n) if initial is None else np.asarray(initial, dtype=np.float64).reshape(n).copy()
+    states = np.tile(x, (t.size, 1))
     first = int(np.searchsorted(t, release_time_s, side="left"))
     if first >= t.size:
         return states
@@ -109,7 +112,6 @@ def linear_step_response(A: FloatArray, B: FloatArray, t: FloatArray, release_ti
     equilibrium = -np.linalg.solve(A, u_vec)
     h0 = t[first] - release_time_s
     phi0, gamma0 = linear_step_map(A, B, h0 / substeps, method)
-    x = np.zeros(n)
     for _ in range(substeps):
         x = phi0 @ x + gamma0[:, 0] * step
     states[first] = x
@@ -135,13 +137,14 @@ def linear_step_response(A: FloatArray, B: FloatArray, t: FloatArray, release_ti
 
 
 def euler_coulomb(wn: float, zeta: float, friction: float, r: float, t: FloatArray,
-                  release_time_s: float, substeps: int = 1) -> FloatArray:
-    """Positions (N,) of x'' = -2ζwn x' - wn²(x - r) - f sign(x') from rest at 0, released
-    at t_r, explicit Euler with the stick condition of the module docstring."""
+                  release_time_s: float, substeps: int = 1, velocity: float = 0.0) -> FloatArray:
+    """Positions (N,) of x'' = -2ζwn x' - wn²(x - r) - f sign(x') from x = 0, released at t_r
+    with velocity `velocity` (m/s; 0: from rest, a flick otherwise), explicit Euler with the
+    stick condition of the module docstring."""
     t = np.asarray(t, dtype=np.float64)
     out = np.zeros(t.size)
     first = int(np.searchsorted(t, release_time_s, side="left"))
-    x = v = 0.0
+    x, v = 0.0, float(velocity)
     c, k, f = 2.0 * zeta * wn, wn * wn, abs(friction)
     previous = release_time_s
     for i in range(first, t.size):
