@@ -106,9 +106,11 @@ class Student:
             self.advance(self.sim.t + 0.1)
 
 
-def make_record(seed: int, handling: bool = False) -> Record:
+def make_record(seed: int, handling: bool = False, rate: str | None = None) -> Record:
+    """Draw one record; `rate` (one of RATES) overrides the drawn rate, every other draw unchanged."""
     rng = np.random.default_rng([10, seed, int(handling)])
-    rate = str(rng.choice(RATES))
+    drawn = str(rng.choice(RATES))
+    rate = rate or drawn
     m1, m2 = rng.uniform(0.5, 3.0, 2)
     k1, k2, k3 = rng.uniform(100.0, 800.0, 3)
     pulled = int(rng.integers(0, 2))
@@ -134,7 +136,9 @@ def make_record(seed: int, handling: bool = False) -> Record:
     t_start = -rng.uniform(0.2, 1.0) if moving else 0.0
     st = Student(rng, chain, pulled, hand, t_start)
     # plan in a generous grid; trimmed to the record at the end
-    st.grid = _time_base(rng, rate, t_start, 120.0)
+    st.grid = _time_base(rng, drawn, t_start, 120.0)  # drawn first: the later draws do not depend on `rate`
+    if rate != drawn:
+        st.grid = _time_base(np.random.default_rng([10, seed, 99]), rate, t_start, 120.0)
     st.out = np.full((len(st.grid), 2), np.nan)
     events: list[str] = []
     if moving:  # the tail of a release made before the record began
@@ -161,6 +165,9 @@ def make_record(seed: int, handling: bool = False) -> Record:
     counts = np.round((x + offs) * COUNTS_PER_M + rng.normal(0, 0.1, x.shape)).astype(np.int64)
     for r in releases:
         r["cut"] = bool(r["ring_until"] > t_end) if "ring_until" in r else None
+    if releases:
+        releases[0]["after_motion_start"] = moving
+        releases[-1]["cut_truth"] = _cut_truth(t, x[:, pulled], releases[-1]["wn"])
     info["events"] = events
     return Record(seed, t, counts, releases, info)
 
@@ -190,6 +197,7 @@ def _touch(st: Student, rng: np.random.Generator, when: float) -> None:
 def _one_release(st: Student, rng: np.random.Generator, i: int, releases: list[dict[str, Any]],
                  events: list[str]) -> None:
     back_to_back = i > 0 and rng.random() < 0.4
+    nudged = False
     if back_to_back:
         st.advance(releases[-1]["t_r"] + rng.uniform(1.5, 3.5))
         events.append(f"release {i + 1}: grabbed while ringing")
@@ -197,6 +205,7 @@ def _one_release(st: Student, rng: np.random.Generator, i: int, releases: list[d
         _quiet(st, rng, 0.2, 2.0)
         if rng.random() < 0.3:
             _nudge(st, rng)
+            nudged = True
             events.append(f"release {i + 1}: nudge before")
             _quiet(st, rng, 0.4, 1.5)
     x, v, a = st.state()
@@ -229,15 +238,30 @@ def _one_release(st: Student, rng: np.random.Generator, i: int, releases: list[d
     wn = float(np.sqrt(((st.chain.k1 + st.chain.k2) if st.pulled == 0 else (st.chain.k2 + st.chain.k3))
                        / st.chain.carts[st.pulled].m))
     rel = {"t_r": float(t_r), "kind": kind, "x_r": float(xr), "v_r": float(vr),
-           "accel_jump_m_s2": float(abs(a_hand - a_free)), "back_to_back": back_to_back, "wn": wn}
+           "accel_jump_m_s2": float(abs(a_hand - a_free)), "back_to_back": back_to_back, "wn": wn,
+           "nudge_before": nudged, "touch_after": False, "after_motion_start": False}
     releases.append(rel)
     if rng.random() < 0.3:
         when = t_r + rng.uniform(2.0, 5.0)
         _touch(st, rng, when)
+        rel["touch_after"] = True
         events.append(f"release {i + 1}: other cart moved at {when:.2f} s")
     # how long it rings (for 'cut'): simulate ahead on a copy is costly; the next step knows
     st.advance(t_r + 1e-6)
     rel["ring_until"] = _ring_end(st)
+
+
+def _cut_truth(t: np.ndarray, x: np.ndarray, wn: float) -> bool | None:
+    """Is the last release cut by the record's end? True when the pulled cart still swings by more
+    than 5 mm over the last period, False when it has rested (within 0.3 mm) for the last second,
+    None in between (not judged)."""
+    last = x[t >= t[-1] - 2 * np.pi / wn]
+    still = x[t >= t[-1] - 1.0]
+    if np.ptp(last) > 0.005:
+        return True
+    if np.ptp(still) < 0.0003:
+        return False
+    return None
 
 
 def _ring_end(st: Student) -> float:
@@ -282,3 +306,10 @@ def csv_text(rec: Record) -> str:
     rows = "".join(f"{t:.3f},{c1 / COUNTS_PER_M:.9g},{c2 / COUNTS_PER_M:.9g}\n"
                    for t, (c1, c2) in zip(rec.t.tolist(), rec.counts.tolist()))
     return "time_s,pos1_m,pos2_m\n" + rows
+
+
+def tsv_text(rec: Record) -> str:
+    """The ECP lab app's export: tab-separated, a header, counts, time in s with 3 decimals."""
+    rows = "".join(f"{k + 1}\t{t:.3f}\t{c1}\t{c2}\t0\n" for k, (t, (c1, c2)) in
+                   enumerate(zip(rec.t.tolist(), rec.counts.tolist())))
+    return "Sample\tTime\tEncoder 1 Pos\tEncoder 2 Pos\tControl Effort\n" + rows

@@ -43,6 +43,7 @@ class Case:
     y: np.ndarray  # (N, n_columns) m, what the encoder(s) read
     x: np.ndarray  # (N, n_columns) m, the noiseless positions (same offsets)
     truth: dict[str, Any] = field(default_factory=dict)
+    u: np.ndarray | None = None  # (N,) a recorded input column (a motor's duty), if any
 
 
 def _rng(family: str, seed: int) -> np.random.Generator:
@@ -168,13 +169,17 @@ def _one_cart(family: str, seed: int, rng: np.random.Generator, p: dict[str, Any
 
 
 def _coupled(family: str, seed: int, rng: np.random.Generator, p: dict[str, Any]) -> Case:
-    """A main cart with a second mass on it: light and stiff, or a partly pinned cart."""
+    """A main cart with a second mass on it: light and stiff, a partly pinned cart, or anything between."""
     m, k = p["m"], p["k"]
     for _ in range(1000):
         if family == "coupled_light":
             m2 = m * rng.uniform(0.03, 0.15)
             kc = k * rng.uniform(0.3, 2.0)
             kp = kc * rng.uniform(0.0, 0.5)
+        elif family == "coupled_span":  # issue 11 item 3: light and stiff to comparable, partly pinned
+            m2 = m * float(np.exp(rng.uniform(np.log(0.03), np.log(1.5))))
+            kc = k * rng.uniform(0.3, 2.0)
+            kp = kc * float(np.exp(rng.uniform(np.log(0.2), np.log(20.0))))
         else:
             m2 = m * rng.uniform(0.5, 1.5)
             kc = rng.uniform(100.0, 800.0)

@@ -14,7 +14,8 @@ quadratic drag per unit mass, `F_i` dry friction: kinetic `fk_i` (N) opposing th
 velocity, static `fs_i ≥ fk_i` holding a stopped cart while the other forces stay below it.
 `H_i` is a hand: either a position constraint (the cart follows a hand path `p(t)`, its
 equation is not integrated) or a soft spring-damper to a wandering hand position `h(t)`,
-`H = -kh (x - h(t)) - ch (v - h'(t))` (a loosely held cart). One cart is the chain with
+`H = -kh (x - h(t)) - ch (v - h'(t))` (a loosely held cart). A motor's force `G u` may be
+added to a cart (`Cart.force`, constant within a `run`: a pulse is three runs). One cart is the chain with
 `m2` absent (`k2` is then a spring to the wall).
 """
 
@@ -42,6 +43,8 @@ class Cart:
     kh: float = 0.0
     ch: float = 0.0
     h: Path | None = None
+    # an applied force (a motor through its rack), N: constant within a run, set between runs
+    force: float = 0.0
 
 
 @dataclass
@@ -72,6 +75,7 @@ class Chain:
             if cart.h is not None:
                 hp, hv = cart.h(t)
                 f[i] -= cart.kh * (x[i] - hp) + cart.ch * (v[i] - hv)
+            f[i] += cart.force
         return f
 
 
@@ -157,7 +161,9 @@ class Simulator:
         else:
             sol = solve_ivp(rhs, (self.t, t_end), s0, method="DOP853", rtol=1e-10, atol=1e-12,
                             events=events or None, dense_output=True, max_step=0.01)
-            sol_t = float(sol.t[-1])
+            # at the span's end take t_end itself (sol.t[-1] may fall an ulp short, and an input
+            # switched on at t_end would then be seen as an event at once, again and again)
+            sol_t = float(t_end) if sol.status == 0 else float(sol.t[-1])
             state = sol.y[:, -1]
             sel = (t_out >= self.t) & (t_out <= sol_t)
             for k in np.flatnonzero(sel):
