@@ -108,6 +108,10 @@ class RunAnalysis:
 
     @property
     def release_time_s(self) -> float | None:
+        """The release the data state (the finder's, a run's metadata), else the fitted one: a
+        flicked cart is let go moving there; a model from rest would move it to the extreme."""
+        if self.data.release_time_s is not None:
+            return self.data.release_time_s
         if self.pem is not None and self.pem.release_time_s is not None:
             return float(self.pem.release_time_s)
         if self.diagnosis is not None:

@@ -140,16 +140,26 @@ def simple_blocks(results: list[CaseResult]) -> list[Block]:
     blocks: list[Block] = [
         Heading(2, "2. Simple identification (RK4 and Euler simulation)"),
         Para("The physical model `x'' + 2ζ wn x' + wn² (x - g r) = 0` is simulated with "
-             "fourth-order Runge-Kutta and with explicit Euler on the sample grid, and `wn`, "
-             "`ζ`, the gain `g` and the release time are fitted by minimising the output error. "
-             "Fit % is MATLAB `compare`'s `100 (1 - |y - ŷ| / |y - mean(y)|)`."),
+             "fourth-order Runge-Kutta and with explicit Euler on the sample grid, from the "
+             "cart's state at the release `t_r` (the state-space recursion from initial "
+             "conditions), and `wn`, `ζ` and the gain `g` are fitted by minimising the output "
+             "error. A cart held still and released starts from rest (its release time is then "
+             "fitted too); a flicked cart is let go moving, so the model starts at the release "
+             "the data state from the cart's position there with an estimated velocity `v0`. "
+             "The gain is the fitted travel to the spring's rest over the pull `r` the release "
+             "states: a free response alone cannot tell the DC gain, and with a pull measured "
+             "from the same record `g ≈ 1` only says the fitted rest is the record's. "
+             "Fit % is MATLAB `compare`'s `100 (1 - |y - ŷ| / |y - mean(y)|)`, from the release on. "
+             "The model's `t_r` is where each simulation starts: the release the data state "
+             "(the runs table's) for a flick, the fitted one for a release from rest."),
     ]
     rows = [(r.case, str(s.output), s.method.upper() if s.method == "rk4" else "Euler",
-             f"`{s.tf.text}`", _f(s.wn_rad_s), _f(s.zeta, 3), _f(s.gain), _pct(s.fit_percent))
+             f"`{s.tf.text}`", _f(s.wn_rad_s), _f(s.zeta, 3), _f(s.gain),
+             "–" if s.release_time_s is None else f"{s.release_time_s:.4f} s", _pct(s.fit_percent))
             for r in results for s in r.report.simple]
     if rows:
         blocks.append(Table(("case", "cart", "method", "G(s)", "wn (rad/s)", "ζ", "gain",
-                             "fit"), tuple(rows)))
+                             "model's t_r", "fit"), tuple(rows)))
     else:
         blocks.append(Para("No simple identification succeeded on these runs."))
     for r in results:
