@@ -9,8 +9,9 @@
 - `quantization_edges`: a linear cart read on a lattice of exactly 10 µm (even seeds) or 2 mm
   (odd seeds), noise before it (the readings on the lattice exactly) or after it.
 - `coulomb+force_pulse`: a cart with viscous and dry friction at rest, pushed by a motor
-  `F = G u(t)`, `u` a rectangular duty pulse (200–800 counts, 3–6 s) written as an `effort`
-  column; the step it gives is 1–4 cm. `ident diagnose --input effort`: dry friction, no mode.
+  `F = G u(t)`, `u` a rectangular duty pulse (200–800 counts, 3–6 s, switched at a sample and
+  held to the next, as the controller logs what it applies) written as an `effort` column; the
+  step it gives is 1–4 cm. `ident diagnose --input effort`: dry friction, no mode.
 - `coulomb_rate_only`: the `coulomb` family's physics written without a time column;
   `ident diagnose --rate-hz R`.
 """
@@ -79,14 +80,17 @@ def _force_pulse(family: str, seed: int, rng: np.random.Generator, p: dict[str, 
     step = float(rng.choice([-1.0, 1.0]) * rng.uniform(0.01, 0.04))  # G U / k
     duty = float(np.round(rng.uniform(200, 800)))
     gain = k * step / duty  # N per count
-    t1 = rng.uniform(1.0, 3.0)
-    t2 = t1 + rng.uniform(3.0, 6.0)
+    dt = 1.0 / p["rate_hz"]
+    # the duty switches at a sample (the controller applies what it logs, held to the next sample)
+    t1 = float(np.ceil(rng.uniform(1.0, 3.0) / dt) * dt)
+    t2 = float(t1 + np.ceil(rng.uniform(3.0, 6.0) / dt) * dt)
     p["duration_s"] = t2 + rng.uniform(3.0, 6.0)
     n_cycles = rng.uniform(4.0, 25.0)
     fk = k * abs(step) / (4 * n_cycles)
     cart = Cart(m=m, c=2 * p["zeta"] * np.sqrt(k * m), fk=fk, fs=fk * rng.uniform(1.0, 1.5))
     chain = Chain([cart], k1=k)
-    t = np.arange(0.0, p["duration_s"], 1.0 / p["rate_hz"])
+    t = np.arange(0.0, p["duration_s"], dt)
+    t1, t2 = float(t[np.argmin(np.abs(t - t1))]), float(t[np.argmin(np.abs(t - t2))])  # the grid's own instants
     sim = Simulator(chain, np.zeros(1), np.zeros(1), 0.0)
     x = np.full((len(t), 1), np.nan)
     for t_end, force in ((t1, 0.0), (t2, gain * duty), (float(t[-1]) + 1e-9, 0.0)):  # the pulse: three runs
