@@ -20,11 +20,11 @@ from ident.diagnose.baseline import base_spec, fit_baseline
 from ident.diagnose.bounds import assemble
 from ident.diagnose.evidence import EvidenceResult
 from ident.diagnose.fitting import FitResult, evaluate, fit, held_out_cost
-from ident.diagnose.friction_fit import fit_friction
+from ident.diagnose.friction_fit import fit_friction, fit_static_friction
 from ident.diagnose.held_fit import fit_held_cart
 from ident.diagnose.lattice import Lattice, lattice_likelihood_gain, reading_noise
 from ident.diagnose.models import ModelSpec, smoothed_staircase
-from ident.diagnose.problem import Bounds, FloatArray, Problem, best_on_grid, best_rows, ranked_rows
+from ident.diagnose.problem import Bounds, FloatArray, Problem, best_on_grid, best_rows
 
 
 def available(effect: str, current: ModelSpec, prob: Problem, ev: EvidenceResult) -> bool:
@@ -63,17 +63,6 @@ class Trial:
     look_elsewhere: float = 0.0
 
 
-#: Breakaway levels (in kinetic levels) a static friction's fit starts from.
-STATIC_GRID = (1.02, 1.05, 1.1, 1.15, 1.2, 1.3, 1.4, 1.5, 1.7, 2.0, 2.5)
-def static_rows(carts: int) -> list[FloatArray]:
-    """Breakaway ratios to start from: `STATIC_GRID` on every cart and, with two carts, on one
-    cart with the other's breakaway at its kinetic level (each cart rubs on its own surface)."""
-    rows = [np.full(carts, r) for r in STATIC_GRID]
-    if carts == 2:
-        rows += [np.array([r, 1.0]) for r in STATIC_GRID] + [np.array([1.0, r]) for r in STATIC_GRID]
-    return rows
-
-
 #: Function evaluations of the quick (screening) fit and of the refinement.
 SCREEN_NFEV = 10
 REFINE_NFEV = 25
@@ -94,11 +83,7 @@ def screen(prob: Problem, current: FitResult, effect: str, ev: EvidenceResult, w
     if effect == "held_cart_motion":
         result = fit_held_cart(spec, prob, theta0, lower, upper, typical, at, wn2, SCREEN_NFEV)
     elif effect == "static_friction":
-        # where a cart sticks moves discontinuously with the breakaway level: the fit from the
-        # best two of a grid (the best alone may hold the others' parameters in a local minimum)
-        fits = [fit(spec, row, lower, upper, typical, prob.dt, prob.y, prob.train, max_nfev=SCREEN_NFEV)
-                for row in ranked_rows(spec, prob, theta0, spec.block(effect), static_rows(prob.carts), 2)]
-        result = min(fits, key=lambda r: r.sse_train)
+        result = fit_static_friction(spec, prob, theta0, lower, upper, typical, SCREEN_NFEV)
     elif effect == "coulomb_friction":
         # the envelope's start (a free ringing) and a short grid (a forced or short run)
         f_max = wn2 * prob.amplitude

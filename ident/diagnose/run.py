@@ -36,6 +36,7 @@ from ident.diagnose.candidates import Problem, fit_baseline
 from ident.diagnose.drift import drift_basis, drift_spacing, slow_residual
 from ident.diagnose.evidence import EvidenceResult, collect
 from ident.diagnose.fitting import FitResult
+from ident.diagnose.held_fit import held_input
 from ident.diagnose.identifiable import identifiable_friction, identifiable_model, one_encoder, typical_scale
 from ident.diagnose.lattice import find_lattice, find_noisy_lattice, lattice_candidates, lattice_worth_points
 from ident.diagnose.models import EFFECTS, effect_names
@@ -122,6 +123,10 @@ def diagnose(t: FloatArray, y: FloatArray, carts: int | None = None, step_m: flo
     n_lin = len(LINEAR_NAMES[carts])
     wn_modes = np.array([w for w, _ in modes(base.theta[None, :n_lin], carts)])
     prob, base = _with_drift(prob, base, float(wn_modes[0]))
+    if other is not None:   # the held cart's reading as an input: its noise filtered away
+        smooth = held_input(y_all[win.start:, other], win.decimation)
+        prob = dataclasses.replace(prob, held=smooth)
+        base = dataclasses.replace(base, spec=dataclasses.replace(base.spec, held=smooth))
     rest = base.theta[n_lin + 2 * carts:n_lin + 3 * carts]
     ev = collect(prob.tau, prob.y, base.prediction, rest, wn_modes, lattice)
     if lattice is None or lattice.levels == 0:   # no exact encoder steps: fainter lattices too
