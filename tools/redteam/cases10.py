@@ -291,7 +291,12 @@ def _handling(st: Student, rng: np.random.Generator, events: list[str], duration
             d1, hold = rng.uniform(1.0, 2.0), rng.uniform(0.3, 1.5)
             out = quintic(t0, t0 + d1, (x, 0, 0), (x + d, 0, 0))
             back = quintic(t0 + d1 + hold, t0 + 2 * d1 + hold, (x + d, 0, 0), (x, 0, 0))
-            st.hand_path(lambda t, o=out, b=back, tb=t0 + d1 + hold: o(t) if t < tb else b(t), t0 + 2 * d1 + hold)
+            tb = t0 + d1 + hold
+
+            def pull(t: float, o: Path = out, b: Path = back, tb: float = tb) -> tuple[float, float]:
+                return o(t) if t < tb else b(t)
+
+            st.hand_path(pull, t0 + 2 * d1 + hold)
             st.sim.v[st.pulled] = 0.0
         events.append(f"{what} at {st.sim.t:.2f} s")
 

@@ -13,6 +13,9 @@ Families, drawn from the physics (`physics.py`, solve_ivp with the stops as even
   wn, ζ, F/m and the gain within 1 %.
 - `euler_coulomb_static`: the same with static friction 1–1.5 × kinetic (the rig's physics; the
   simple model has one friction level): reported beside it, judged at 1 % too.
+- `euler_cli`: `euler_coulomb`'s cases (the same draws) written as `time_s,pos1_m` and given to
+  `ident fit FILE --method euler --json` as a user types it, with the friction option if
+  `ident fit --help` lists one (an option whose name holds "friction"); judged like the API.
 - `pem_growing`: a linear cart whose ring grows (ζ < 0, 1.5–3 × over the record): not a spring
   cart, but what an unstable estimate looks like; `ident.pem(data, 2)` must flag it
   (docs/ident.md: `model.stable` False, `model.unstable_modes` named, `model.success` False).
@@ -29,6 +32,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import re
 import subprocess
 import sys
 import tempfile
@@ -44,7 +48,8 @@ from output import publish
 from physics import Cart, Chain, Simulator
 
 REPO = Path(__file__).resolve().parents[2]
-FAMILIES = ("euler_coulomb", "euler_coulomb_static", "pem_growing", "pem_pulse")
+FAMILIES = ("euler_coulomb", "euler_coulomb_static", "euler_cli", "pem_growing", "pem_pulse")
+IDENT = [sys.executable, "-c", "import sys; from ident.cli import main; sys.argv[0] = 'ident'; sys.exit(main())"]
 TOL_PCT = 1.0  # issue 11 item 5
 PEM_ORDERS = (2, 4, 6)
 
@@ -160,6 +165,7 @@ def score_euler(case: dict[str, Any], got: Any, err: str) -> dict[str, Any]:
         res.update(ok=False, problems=[f"fit_simple failed: {err}"])
         return res
     errs = {k: abs(got[k] - tr[k]) / abs(tr[k]) * 100 for k in ("wn", "zeta", "friction", "gain")}
+    errs = {k: (v if np.isfinite(v) else float("inf")) for k, v in errs.items()}  # no friction reported
     res.update(got=got, err_pct=errs, ok=all(v <= TOL_PCT for v in errs.values()))
     bad = {k: v for k, v in errs.items() if v > TOL_PCT}
     if bad:
@@ -199,8 +205,43 @@ def score_pem(case: dict[str, Any], got: Any, err: str) -> dict[str, Any]:
     return res
 
 
+def _env() -> dict[str, str]:
+    return dict(os.environ, OPENBLAS_NUM_THREADS="1", PYTHONPATH=str(REPO))
+
+
+def friction_option() -> str | None:
+    """`ident fit`'s option that asks the simple fit for dry friction, if it has one."""
+    proc = subprocess.run([*IDENT, "fit", "--help"], capture_output=True, text=True, env=_env(), timeout=300)
+    found = re.findall(r"--[a-z0-9-]*friction[a-z0-9-]*", proc.stdout)
+    return found[0] if found else None
+
+
+def _cli(case: dict[str, Any], tmp: Path) -> tuple[Any, str]:
+    """`ident fit CSV --method euler --json [--friction]`: the simple fit's result in the simple fit's names."""
+    f = tmp / f"{case['family']}_{case['seed']}.csv"
+    np.savetxt(f, np.column_stack([case["t"], case["y"]]), delimiter=",", header="time_s,pos1_m", comments="",
+               fmt="%.10g")
+    opt = friction_option()
+    proc = subprocess.run([*IDENT, "fit", str(f), "--method", "euler", "--json", "-q", *([opt] if opt else [])],
+                          capture_output=True, text=True, env=_env(), timeout=900)
+    if proc.returncode != 0:
+        return None, (proc.stderr.strip().splitlines() or [f"exit {proc.returncode}"])[-1]
+    simple = json.loads(proc.stdout)["simple"][0]
+    got = {"wn": simple["wn_rad_s"], "zeta": simple["zeta"], "gain": simple["gain"],
+           "friction": simple.get("coulomb_accel_m_s2") or float("nan"), "fit_percent": simple["fit_percent"],
+           "friction_option": opt, "window_s": json.loads(proc.stdout).get("duration_s")}
+    return got, ""
+
+
 def run_case(family: str, seed: int, tmp: Path, rate: float | None) -> dict[str, Any]:
-    if family.startswith("euler"):
+    if family == "euler_cli":
+        case = euler_case("euler_coulomb", seed, rate)
+        case["family"] = family
+        got, err = _cli(case, tmp)
+        res = score_euler(case, got, err)
+        if got is not None and got["friction_option"] is None:
+            res["problems"].append("`ident fit --help` lists no option for the simple fit's dry friction")
+    elif family.startswith("euler"):
         case = euler_case(family, seed, rate)
         res = score_euler(case, *_user(case, "euler", tmp))
     elif family == "pem_growing":
