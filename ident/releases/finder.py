@@ -17,7 +17,9 @@ Steps (arrays in, `Release` records out):
    cart (a touch), not a release;
 5. `instant`: the release instant, between samples, where the free response begins;
 6. the free response ends where the next hand episode on the pulled cart begins (the next
-   release or a touch) or at the end of the record, cut when the cart still rings there.
+   release or a touch), where the free carts move again after they had come to rest (a touch
+   too weak for a hand episode, `restart`) or at the end of the record, cut when the cart
+   still rings there.
 A record that starts in motion has no hand episode before its first free stretch: that
 stretch is the tail of an earlier release, not a release of this record.
 """
@@ -30,11 +32,12 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ident.errors import IdentDimensionError
-from ident.releases.hand import HAND_SIGMAS, FreeModel, fit_free_model
+from ident.releases.hand import HAND_SIGMAS, STICK_ALLOWANCE, FreeModel, fit_free_model
 from ident.releases.instant import release_instant
-from ident.releases.misfit import free_misfit
-from ident.releases.motion import FloatArray, Motion, motion, turning_indices
+from ident.releases.misfit import free_misfit, rest
+from ident.releases.motion import FloatArray, Motion, motion, turning_indices, typical_speed
 from ident.releases.record import EndedBy, Release
+from ident.releases.restart import moved_after_rest
 
 #: A cart whose amplitude is below this fraction of the pulled cart's is held.
 HELD_FRACTION = 0.25
@@ -71,6 +74,9 @@ STEADY_SPREAD = 0.2
 SUSTAINED_SIGMAS = 2.5
 #: ... and beyond this many times its median over the samples where the cart moves.
 TYPICAL_MISFITS = 3.0
+#: A cart is stuck where its smoothed position stays within this many noise stds over a
+#: smoothing window (`_stuck`).
+STUCK_SIGMAS = 4.0
 
 
 def find_releases(t: NDArray[np.float64], y: NDArray[np.float64],
@@ -98,9 +104,9 @@ def find_releases(t: NDArray[np.float64], y: NDArray[np.float64],
         # a free response's own misfit (an effect of the state the model lacks) is no hand
         episodes = [e for e in hand_episodes(m, model) if not free_misfit(m, model, *e)]
         pushes = [p for p in sustained_pushes(m, model) if not free_misfit(m, model, *p)]
-        # where a hand begins to act, conservatively: the derivatives' smoothing (T/20 each
-        # side) and the sustained pushes' moving average (T/8 each side) see it late
-        stops += [(j, max(0, a - m.samples(m.period_s / 20))) for a, _ in episodes]
+        # where a hand begins to act, conservatively: the derivatives' smoothing (half a window
+        # each side) and the sustained pushes' moving average (T/8 each side) see it late
+        stops += [(j, max(0, a - m.window // 2)) for a, _ in episodes]
         # a hand moving a held cart (a touch) pushes this one through the spring: seen by the
         # model without the held carts; with none, those are the pushes above (the free
         # response's own misfit is no touch either: it had ended cubic-spring windows within
@@ -113,7 +119,7 @@ def find_releases(t: NDArray[np.float64], y: NDArray[np.float64],
             nxt = min([episodes[k + 1][0]] if k + 1 < len(episodes) else [m.n_samples])
             # (one that only trails the episode by the moving average's width is the episode)
             nxt = min([nxt] + [max(p, b + m.samples(m.period_s / 4)) for p, q in pushes
-                               if q > b + m.samples(m.period_s / 2)])
+                               if q > b + m.samples(m.period_s / 2) and _pushes_after(m, model, b, p, q)])
             if is_release(m, model, a, b, nxt, free, min_amplitude_m):
                 found.append((release_instant(m, model, a, b), j, model))
     found = _one_per_event(m, sorted(found, key=lambda f: f[0]))
@@ -122,6 +128,12 @@ def find_releases(t: NDArray[np.float64], y: NDArray[np.float64],
         start = min(int(np.ceil((when - m.t[0]) / m.dt - 1e-9)), m.n_samples - 1)
         later = [a for c, a in stops if c == j and a > start + m.samples(0.5 * m.period_s)]
         end = min(later, default=m.n_samples - 1)
+        # a touch too weak for a hand episode still moves carts that had come to rest (with a
+        # held cart read, its moves are seen directly, and a stuck cart it drags through the
+        # spring as its hand wanders is the held cart's effect on the free response)
+        # (a hand episode sees such a move late: where the carts left their rest counts)
+        if not held:
+            end = min(end, moved_after_rest(m, free, start, m.n_samples - 1) or end)
         releases.append(_record(m, model, number, when, start, end, names, free,
                                 _ended_by(end, m, [_index(m, s) for s, _, _ in found])))
     return releases
@@ -135,14 +147,13 @@ def free_columns(m: Motion) -> list[int]:
 
 def hand_episodes(m: Motion, model: FreeModel) -> list[tuple[int, int]]:
     """(first, last) indices of the hand episodes: runs of `model.hand` joined across gaps
-    shorter than T/8, that last at least T/10 (a hand's push; not a blip where dry friction
-    flips) and move the cart (a cart stuck off its rest by dry friction shows a residual but
-    no motion), away from the smoothing's edge."""
-    edge = m.samples(0.05 * m.period_s) + 2
-    mask = model.hand.copy()
-    mask[:edge] = False
-    mask[-edge:] = False
-    runs = _runs(mask, m.samples(m.period_s / 8))
+    shorter than T/8 and ended before a tail of the free response's own misfit
+    (`_trim_misfit`), that last at least T/10 (a hand's push; not a blip where dry friction flips) and move the cart (a
+    cart stuck off its rest by dry friction shows a residual but no motion), away from the
+    smoothing's edge."""
+    edge = m.window // 2 + 2
+    mask = model.hand & _inside(m.n_samples, edge)
+    runs = _trim_misfit(m, model, _runs(mask, 1), _runs(mask, m.samples(m.period_s / 8)))
     x = m.x[:, model.column]
     floor = 8.0 * float(m.noise_m[model.column])
     shortest = m.samples(m.period_s / 10)
@@ -151,6 +162,20 @@ def hand_episodes(m: Motion, model: FreeModel) -> list[tuple[int, int]]:
     held = STILL_HOLD_BANDS * abs(model.dry) + HAND_SIGMAS * model.scale
     return [(a, b) for a, b in runs if b - a >= shortest
             and (float(np.ptp(x[a:b + 1])) > floor or float(np.max(np.abs(model.residual[a:b + 1]))) > held)]
+
+
+def _trim_misfit(m: Motion, model: FreeModel, pieces: list[tuple[int, int]],
+                 joined: list[tuple[int, int]]) -> list[tuple[int, int]]:
+    """The `joined` runs ended at their last piece (of `pieces`, the unjoined runs) that is
+    not the free response's own misfit (`free_misfit`): a second mode's misfit right after a
+    hold, joined to the hold across gaps, carried its episode past the let-go. (Only the
+    tail: a nudge of a ringing cart may begin with a weak push.)"""
+    off = m.x[:, model.column] - rest(m, model)
+    out = []
+    for a, b in joined:
+        hand = [q for p, q in pieces if a <= p and q <= b and not free_misfit(m, model, p, q, off)]
+        out.append((a, max(hand) if hand else b))
+    return out
 
 
 def sustained_pushes(m: Motion, model: FreeModel) -> list[tuple[int, int]]:
@@ -162,9 +187,13 @@ def sustained_pushes(m: Motion, model: FreeModel) -> list[tuple[int, int]]:
     # a push; nor is the record's typical misfit
     excess = np.abs(model.residual) if model.push_allowance is None else \
         np.maximum(np.abs(model.residual) - model.push_allowance, 0.0)
-    mean = np.convolve(excess, np.ones(width) / width, mode="same")
     v = m.v[:, model.column]
-    moving = np.abs(v) > 0.05 * float(np.percentile(np.abs(v), 95))
+    # nor is static friction holding a stuck cart off its rest (|r| up to f_s = k·|x - rest|:
+    # a Coulomb cart that stopped 1-2 mm off its rest had ended its window as a touch)
+    stuck = _stuck(m, model.column)
+    excess[stuck] = np.maximum(np.abs(model.residual[stuck]) - STICK_ALLOWANCE * abs(model.dry), 0.0)
+    mean = np.convolve(excess, np.ones(width) / width, mode="same")
+    moving = np.abs(v) > 0.05 * typical_speed(v)
     typical = float(np.median(mean[moving])) if np.any(moving) else 0.0
     mask = mean > max(SUSTAINED_SIGMAS * model.scale, TYPICAL_MISFITS * typical)
     edge = width
@@ -174,6 +203,36 @@ def sustained_pushes(m: Motion, model: FreeModel) -> list[tuple[int, int]]:
     floor = 8.0 * float(m.noise_m[model.column])
     shortest = m.samples(m.period_s / 8)
     return [(a, b) for a, b in _runs(mask, 1) if b - a >= shortest and float(np.ptp(x[a:b + 1])) > floor]
+
+
+def _stuck(m: Motion, column: int) -> NDArray[np.bool_]:
+    """(N,) True where the cart does not move: its smoothed position stays within
+    `STUCK_SIGMAS` noise stds (peak to peak) over a smoothing window around the sample (a
+    hand moving a stuck cart slowly, at a centimetre a second, moves it by far more)."""
+    from scipy.ndimage import maximum_filter1d, minimum_filter1d  # deferred: keeps `import ident` fast
+    x = m.x[:, column]
+    spread = maximum_filter1d(x, m.window) - minimum_filter1d(x, m.window)
+    return np.asarray(spread <= STUCK_SIGMAS * float(m.noise_m[column]))
+
+
+def _pushes_after(m: Motion, model: FreeModel, last: int, first: int, end: int) -> bool:
+    """Whether the sustained push [first, end] pushes after the hand episode ending at `last`:
+    of a push that began before the episode's end plus the moving average's half-width (T/8),
+    only what follows that counts, and not where it is the free response's own misfit (a
+    cubic spring's or a second mode's right after a hold, joined to the hold's force by the
+    moving average: the whole push is too long to be a misfit)."""
+    after = last + m.samples(m.period_s / 8)
+    if first >= after:
+        return True
+    return end - after >= m.samples(m.period_s / 8) and not free_misfit(m, model, after, end)
+
+
+def _inside(n: int, edge: int) -> NDArray[np.bool_]:
+    """(n,) True but for `edge` samples at each end."""
+    inside = np.ones(n, dtype=bool)
+    inside[:edge] = False
+    inside[n - edge:] = False
+    return inside
 
 
 def _runs(mask: NDArray[np.bool_], join: int) -> list[tuple[int, int]]:

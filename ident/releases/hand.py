@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from ident.releases.motion import FloatArray, Motion
+from ident.releases.motion import FloatArray, Motion, typical_speed
 
 #: Tukey bisquare tuning constant (95 % efficiency for Gaussian residuals).
 TUKEY_C = 4.685
@@ -147,7 +147,7 @@ def fit_free_model(m: Motion, column: int, others: tuple[int, ...] = (),
 
 def _fit(m: Motion, column: int, others: tuple[int, ...], slow: tuple[int, ...]) -> FreeModel:
     v = m.v[:, column]
-    speed = float(np.percentile(np.abs(v), 95))
+    speed = typical_speed(v)
     v_smooth = max(0.02 * speed, 3.0 * float(m.noise_m[column]) / m.dt / 10.0, 1e-9)
     basis = regressors(m, column, others, v_smooth, slow, max(speed, 1e-9))
     target = m.a[:, column]

@@ -2,7 +2,7 @@
 
 The hand episodes (`hand`) come from accelerations smoothed over a tenth of a period, which
 blurs where a force ends by half that window. Here the same free equation of motion is
-evaluated with derivatives over a window four times shorter (a 25th of a period, at least
+evaluated with derivatives over a window 2.5 times shorter (a 25th of a period, at least
 5 samples), which is noisier but sharp, and the release is the sample after the last one,
 after the episode's peak force and before the first stretch of T/12 where it stays
 below the limit, where that finer residual |r| exceeds

@@ -12,15 +12,19 @@ A hand that takes a cart swinging by A must stop it: at least the spring's force
 extreme, `finder.HAND_FORCE_FRACTION`·ω²·A per unit mass (the rule a releasing hand
 already meets). An episode that stays below that, lasts under half a period (the cart keeps
 swinging through it: a hold stops it) and leaves no more swing than the cart had (a hand
-that gave it energy is a push) is the free response's misfit, not a hand. No I/O.
+that gave it energy is a push) is the free response's misfit, not a hand. A longer one (a
+second mode beating with the first, a cubic's misfit twice a cycle joined by the pushes'
+moving average) is judged so half a period at a time. No I/O.
 """
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 
 from ident.releases.hand import FreeModel, period_average
-from ident.releases.motion import Motion
+from ident.releases.motion import FloatArray, Motion
 
 #: A hand that takes a swinging cart pushes with at least this fraction of ω²·A (the swing's
 #: spring force per unit mass); the same fraction a releasing hand meets (`finder`).
@@ -31,17 +35,33 @@ MAX_MISFIT_PERIODS = 0.5
 SWING_MARGIN = 1.1
 
 
-def free_misfit(m: Motion, model: FreeModel, first: int, last: int) -> bool:
+def free_misfit(m: Motion, model: FreeModel, first: int, last: int, off: FloatArray | None = None) -> bool:
     """Whether the episode [first, last] (indices) of `model.column` is the free response's
-    own misfit: within a swing of amplitude A (the largest |x - rest| over the period before
-    `first`, m; `rest`), shorter than `MAX_MISFIT_PERIODS`·T, its largest |residual| (m/s²) below
-    `TAKE_FORCE_FRACTION`·k·A, and the swing over the period after `last` at most
-    `SWING_MARGIN`·A (measured alike)."""
+    own misfit (`misfit_part`), judged `MAX_MISFIT_PERIODS` of a period at a time when it is
+    longer: a misfit that stays above the hand's limit for cycles (a second mode beating
+    with the first, a cubic spring's twice a cycle joined by a moving average) is below a
+    hand's force in each part, and the cart swings on through it with no more swing than
+    before; a hand that holds or moves the cart is above it in some part. `off` (N,) m is
+    x - `rest` when known (it is computed otherwise)."""
+    step = m.samples(MAX_MISFIT_PERIODS * m.period_s)
+    parts = max(1, int(np.ceil((last - first) / step)))
+    bounds = np.linspace(first, last, parts + 1).round().astype(int)
+    off = m.x[:, model.column] - rest(m, model) if off is None else off
+    return all(misfit_part(m, model, int(lo), int(hi), off) for lo, hi in itertools.pairwise(bounds))
+
+
+def misfit_part(m: Motion, model: FreeModel, first: int, last: int, off: FloatArray) -> bool:
+    """Whether the part [first, last] (indices) of an episode of `model.column` is the free
+    response's own misfit: within a swing of amplitude A (the largest |x - rest| over the
+    period before `first`, at least half a period of record, m; `rest`), no longer than
+    `MAX_MISFIT_PERIODS`·T, its largest |residual| (m/s²) below `TAKE_FORCE_FRACTION`·k·A,
+    and the swing over the period after `last` at most `SWING_MARGIN`·A (measured alike);
+    `off` (N,) m is x - `rest`."""
     period = m.samples(m.period_s)
-    if first < period or last - first > m.samples(MAX_MISFIT_PERIODS * m.period_s):
+    # (half a period before is enough when the record starts later: a hold's offset is A)
+    if first < period // 2 or last - first > m.samples(MAX_MISFIT_PERIODS * m.period_s):
         return False
-    off = m.x[:, model.column] - rest(m, model)
-    before = float(np.max(np.abs(off[first - period:first + 1])))
+    before = float(np.max(np.abs(off[max(0, first - period):first + 1])))
     after = float(np.max(np.abs(off[last:last + period + 1])))
     if after > SWING_MARGIN * before:
         return False

@@ -22,6 +22,10 @@ SMOOTHING_FRACTION = 0.1
 #: A velocity-spectrum peak slower than the turning points by more than this ratio is a slow
 #: push, not the oscillation (`dominant_period`).
 SLOW_PEAK_RATIO = 0.65
+#: ... and one faster than them by more than this ratio is noise.
+FAST_PEAK_RATIO = 0.5
+#: A cart moves where its speed exceeds this fraction of its near-largest (`typical_speed`).
+MOVING_FRACTION = 0.05
 
 
 @dataclass(frozen=True)
@@ -73,7 +77,11 @@ def dominant_period(y: FloatArray, dt: float) -> float:
     record whose hand moved the cart slowly (a pull over most of a second, then a second of
     ringing) can put that peak at the pull's slow bump: when the widest column's turning
     points (`turning_period`) come at less than `SLOW_PEAK_RATIO` of that period, the
-    peak is searched again above the frequency they imply (less a third).
+    peak is searched again above the frequency they imply (less a third). A peak faster than
+    the turning points by more than `FAST_PEAK_RATIO` is the noise's (the difference of white
+    noise or of a coarse lattice's steps grows with frequency: a long record that rings for
+    a few cycles at 600 Hz put it at the top of the band): it is searched again below
+    that.
     """
     vel = np.diff(y, axis=0)
     if vel.shape[0] < 3:
@@ -88,7 +96,24 @@ def dominant_period(y: FloatArray, dt: float) -> float:
         again = spectral_peaks(vel, dt, 1, min_rad_s=2.0 * np.pi / (1.5 * turns), max_rad_s=top, fill=False)
         if again.size:
             return float(2.0 * np.pi / again[0])
+    if turns is not None and period < FAST_PEAK_RATIO * turns:
+        again = spectral_peaks(vel, dt, 1, min_rad_s=2.0 * np.pi * MIN_FREQUENCY_HZ,
+                               max_rad_s=min(top, 2.0 * np.pi / (FAST_PEAK_RATIO * turns)), fill=False)
+        if again.size:
+            return float(2.0 * np.pi / again[0])
     return period
+
+
+def typical_speed(v: FloatArray) -> float:
+    """The speed (m/s) of a cart's swing from its velocity `v` (N,): the 95th percentile of
+    |v| over the samples where it moves (|v| beyond `MOVING_FRACTION` of its 99.9th
+    percentile). Not over the whole record: a cart that dry friction stops within a few
+    cycles of a long record is still for most of it, and the percentile of every sample
+    is then the velocity noise of a stuck cart (a free model fitted on "moving" samples of
+    noise explains nothing: red-team Coulomb cases stuck from 2-3 s of 10-20 s)."""
+    speed = np.abs(v)
+    moving = speed > MOVING_FRACTION * float(np.percentile(speed, 99.9))
+    return float(np.percentile(speed[moving], 95)) if np.any(moving) else 0.0
 
 
 def turning_period(y: FloatArray, dt: float) -> float | None:
@@ -141,13 +166,13 @@ def motion(t: FloatArray, y: FloatArray) -> Motion:
     t_u, y_u = uniform(np.asarray(t, dtype=np.float64), np.asarray(y, dtype=np.float64).reshape(len(t), -1))
     dt = float(t_u[1] - t_u[0])
     period = dominant_period(y_u, dt)
+    noise = measurement_noise(np.asarray(y, dtype=np.float64).reshape(len(t), -1))
     window = max(5, 2 * round(SMOOTHING_FRACTION * period / dt / 2) + 1)
     window = min(window, y_u.shape[0] - (1 - y_u.shape[0] % 2))
     x = savgol_filter(y_u, window, 3, axis=0, mode="interp")
     v = savgol_filter(y_u, window, 3, deriv=1, delta=dt, axis=0, mode="interp")
     a = savgol_filter(y_u, window, 3, deriv=2, delta=dt, axis=0, mode="interp")
-    return Motion(t_u, y_u, x, v, a, dt, period,
-                  measurement_noise(np.asarray(y, dtype=np.float64).reshape(len(t), -1)), window)
+    return Motion(t_u, y_u, x, v, a, dt, period, noise, window)
 
 
 def measurement_noise(y: FloatArray) -> FloatArray:
