@@ -21,7 +21,7 @@ as the end of a hand force joined to the free response:
       t <  t0:  x = f(t) + F_r d1(t - t0) + S d2(t - t0)
 
   is the free motion plus the cart's response to a hand force `F_r + S (t0 - t)` that ends
-  at t0 (linear over the 0.3 half-period before it; `hand_response`, ≈ F_r τ²/2 + S τ³/6);
+  at t0 (linear over the 0.2 half-period before it, `HAND_WINDOW`; `hand_response`, ≈ F_r τ²/2 + S τ³/6);
   linear in the free coefficients and (F_r, S) for a given t0, t0 by a grid an eighth of a
   sample apart, then finer. A quartic hand (the previous model) also follows the first free
   samples and dated real flicks 8-29 ms late. From a still hold the onset fit is kept unless
@@ -43,6 +43,10 @@ from daq.onset import OnsetFit, fit_onset
 from daq.ringing import FreeFit, Turn, basis, fit_free, motion_sign, slide_back
 
 Array = npt.NDArray[np.float64]
+# the hand's force is fitted as linear in time over this fraction of a half-period before the
+# release: a force is linear only after its peak (real flicks: 30-100 ms before let-go, 0.15-0.5
+# half-period); over 0.3 the peak entered the window and dated flicks up to 25 ms early
+HAND_WINDOW = 0.2
 
 
 @dataclass(frozen=True, slots=True)
@@ -248,7 +252,7 @@ def date_release(t: Array, y: Array, vs: Array, free: FreeFit, t_coarse: float,
     """Fine release instant near `t_coarse`: a linear hand force ending at t0 joined to the free
     response (module docstring); shapes (N,)."""
     step = float(np.median(np.diff(t)))
-    back = max(0.3 * half_s, 5 * step)
+    back = max(HAND_WINDOW * half_s, 5 * step)
     lo, hi = t_coarse - back, t_coarse + back + 0.5 * half_s
     keep = (t >= lo) & (t <= hi)
     tw, yw, vw = _even_clock(t[keep]), y[keep], vs[keep]
@@ -296,7 +300,7 @@ def hand_response(s: Array, sigma: float, omega: float) -> tuple[Array, Array]:
         d2 = -s/Ω² + 2σ/Ω⁴ + e^{-σs} (A cos ωs + B sin ωs),
              A = -2σ/Ω⁴,  B = (1/Ω² - 2σ²/Ω⁴)/ω,  Ω² = σ² + ω²          ≈ -s³/6
 
-    The spring acts on the hand's push too: over the ~0.3 half-period the hand is fitted, ω²s²
+    The spring acts on the hand's push too: over the 0.2-0.3 half-period the hand is fitted, ω²s²
     reaches ~1, and the bare polynomials α s² + β s³ would date the release ~1 ms early.
     """
     om2 = sigma ** 2 + omega ** 2

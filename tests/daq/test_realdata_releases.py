@@ -171,9 +171,6 @@ def _period(t: Array, y: Array, t0: float) -> float:
     return float(2.0 * np.median(np.diff(t[window][peaks]))) if peaks.size >= 3 else 0.4
 
 
-@pytest.mark.xfail(strict=True, reason="one of the seven real flicks (14-Feb-2025_09_22_43 at 4.90 s) is dated 25 ms "
-                   "before the judge: the hand's force drops from 8 to 2-3 m/s² there and a 1-3 m/s² tail lasts "
-                   "20-28 ms more; the other six are within -15..+1 ms")
 def test_every_real_hand_release_instant_is_within_20_ms_of_the_judge(realdata_dir: Path, tmp_path: Path) -> None:
     offsets = _offsets(realdata_dir, tmp_path)
     for name, t0, judged in offsets:
