@@ -284,20 +284,31 @@ def _fit_from(data: IdData, y: FloatArray, method: Method, friction: bool, subst
         start[1] = euler_zeta(start[0], start[1], sample_step(data.t) / substeps)
     _check_start(data.t, y, amplitude, linear_method, substeps, start)
     outcome = _least_squares(data.t, y, amplitude, linear_method, substeps, False, start, free, bounds)
+    travel = float(np.sign(start[2])) or 1.0
     if friction:
-        # the dry-friction fit starts from the linear fit, with f = 0⁺ and with f from the
-        # envelope regression |e_{j+1}| = ρ |e_j| - 2 f / wn²; the lower cost win
+        # a linear fit that ran off is refused before the friction fits start from it: their fine
+        # grid grows with wn (a flick fitted from rest ran wn to 1.5e4 rad/s: 400 s)
+        _check_outcome(outcome, bounds, linear_method, travel)
+        # the dry-friction fit starts from the linear fit with f = 0⁺, and from the linear fit
+        # with ζ and f of the envelope regression |e_{j+1}| = ρ |e_j| - (1 + ρ) f / wn²; the
+        # lower cost wins (the cost jumps with each stick: local minima)
         linear = outcome.p
         free[5] = True
-        tries = [1e-3 * linear[0] ** 2 * abs(linear[2] * amplitude), envelope_friction(data.t, y, release0, linear[0])]
-        starts = [np.concatenate([linear[:5], [f0], linear[6:]]) for f0 in tries]
+        starts = [np.concatenate([linear[:5], [1e-3 * linear[0] ** 2 * abs(linear[2] * amplitude)], linear[6:]])]
+        envelope = envelope_friction(data.t, y, release0, linear[0])
+        if envelope is not None:
+            # and the cart's measured state at the release: the linear fit's trades with the
+            # decay it lacks (a velocity on a clean hold, and the level 13 % of the pull off)
+            rest_level = linear[4] + linear[2] * amplitude
+            starts.append(np.array([linear[0], envelope[0], (rest_level - start[4]) / amplitude, linear[3],
+                                    start[4], envelope[1], start[6]]))
         if other is not None:
             rest_level = other.p[4] + other.p[2] * amplitude
             starts.append(np.array([other.p[0], other.p[1], (rest_level - linear[4]) / amplitude, linear[3],
                                     linear[4], other.p[5], linear[6]]))
         outcomes = [_least_squares(data.t, y, amplitude, method, substeps, True, p0, free, bounds) for p0 in starts]
         outcome = min(outcomes, key=lambda o: o.cost)
-    _check_outcome(outcome, bounds, method)
+    _check_outcome(outcome, bounds, method, travel)
     return outcome
 
 
@@ -316,10 +327,12 @@ def release_bounds(t: FloatArray, release0: float, wn: float) -> tuple[float, fl
     return low, max(high, np.nextafter(low, np.inf))
 
 
-def _check_outcome(outcome: _Outcome, bounds: tuple[float, float], method: Method) -> None:
+def _check_outcome(outcome: _Outcome, bounds: tuple[float, float], method: Method, travel: float) -> None:
     """Refuse a fit that ran off: non-finite parameters, wn ≤ 0, a release outside `bounds`
-    or a gain that is not positive (a pull released from rest moves toward the spring's rest,
-    so X/U > 0)."""
+    or a gain whose sign is not `travel`'s, the sign of the data's own travel over the pull
+    (final level less the level at the release, over U): a released cart moves toward the
+    spring's rest, so g U has that sign (g < 0 is right when U was given with the other sign
+    than the pull's; a gain of the wrong sign is a fit that ran off)."""
     wn, _zeta, gain, release = (float(v) for v in outcome.p[:4])
     low, high = bounds
     problems = []
@@ -332,8 +345,9 @@ def _check_outcome(outcome: _Outcome, bounds: tuple[float, float], method: Metho
         problems.append(f"release {release:.4f} s, expected inside [{low:.4f}, {high:.4f}] s "
                         "(where the data can place it: a quarter period around a found release, "
                         "else the window)")
-    if not gain > 0.0:
-        problems.append(f"gain {gain:.4g}, expected > 0 (the cart released toward its rest)")
+    if not gain * travel > 0.0:
+        problems.append(f"gain {gain:.4g}, expected {'> 0' if travel > 0 else '< 0'} (the cart released toward "
+                        "its rest: the sign of the data's travel over the pull)")
     if problems:
         raise FitFailed(f"the {method} simple fit ran off ({outcome.message}): " + "; ".join(problems)
                         + ": check that the window holds the release and the ring after it, and that u "
