@@ -30,6 +30,9 @@ def add_parser(subparsers: Any) -> None:
     add_release_options(parser)
     parser.add_argument("--step-m", type=float, default=None,
                         help="pull distance (m); default: a raw record's release's own signed pull, else 0.15")
+    parser.add_argument("--friction", action="store_true",
+                        help="fit the Euler simulation with dry friction (Coulomb, m/s²; its parameters from the "
+                             "converged simulation, the handout's Euler recursion beside them)")
     parser.add_argument("--order", type=int, default=None, help="PEM order (default: 2 per cart)")
     parser.add_argument("--noise-model", choices=("oe", "innovation"), default="oe",
                         help="PEM noise model: output error (white noise) or innovation form with K")
@@ -102,7 +105,8 @@ def fit_path(args: argparse.Namespace, number: int | None = None) -> Any:
                              input_col=args.input_col, rate_hz=args.rate_hz)
     methods: tuple[Method, ...] = ("rk4", "euler", "pem") if args.method == "all" else (args.method,)
     settings = FitSettings(methods=methods, carts=args.carts, order=args.order,
-                           noise_model=args.noise_model, step_input=args.input_col is None)
+                           noise_model=args.noise_model, step_input=args.input_col is None,
+                           friction=args.friction)
     who = RunIdentity(run_id=run_id_of(Path(args.path)), worker="ident-fit")
     return fit_file(args.path, who, options=options, settings=settings, diagnose=False,
                     release=number, select=select_or_whole)

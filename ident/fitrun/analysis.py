@@ -48,7 +48,8 @@ class FitSettings:
 
     `carts` 1 or 2 overrides the case found from the motion; `order` overrides 2 per cart;
     the simple identification (RK4/Euler) runs for one cart driven by the release step only
-    (`step_input` False: the input is a recorded column, e.g. a motor's control effort).
+    (`step_input` False: the input is a recorded column, e.g. a motor's control effort);
+    `friction` fits the Euler simulation with dry friction (`fit_simple(..., friction=True)`).
     """
 
     methods: tuple[Method, ...] = ("rk4", "euler", "pem")
@@ -56,6 +57,7 @@ class FitSettings:
     order: int | None = None
     noise_model: NoiseModel = "oe"
     step_input: bool = True
+    friction: bool = False
 
     def __post_init__(self) -> None:
         if self.carts not in (None, 1, 2):
@@ -207,7 +209,8 @@ def analyse_fits(data: IdData, settings: FitSettings = FitSettings()) -> RunAnal
             if method not in settings.methods:
                 continue
             result = _timed("simple", timings, errors,
-                            lambda m=method: fit_simple_result(cart_data, m, moving[0]))  # type: ignore[misc]
+                            lambda m=method: fit_simple_result(cart_data, m, moving[0],  # type: ignore[misc]
+                                                               settings.friction and m == "euler"))
             if result is not None:
                 simple.append(result)
     model = y_hat = None
@@ -274,9 +277,10 @@ def _diagnose(data: IdData, carts: int) -> Diagnosis:
     return diagnose(data.t, data.y, carts=carts, source=data.name)
 
 
-def fit_simple_result(data: IdData, method: SimpleMethod, output: int) -> SimpleResult:
-    """The simple identification (`ident.simple.fit_simple`) as a `SimpleResult`."""
-    fit = fit_simple(data, method=method)
+def fit_simple_result(data: IdData, method: SimpleMethod, output: int, friction: bool = False) -> SimpleResult:
+    """The simple identification (`ident.simple.fit_simple`; `friction`: Euler with dry
+    friction) as a `SimpleResult`."""
+    fit = fit_simple(data, method=method, friction=friction)
     y_hat = np.asarray(fit.simulate(data.u, data.t))
     return SimpleResult(method=method, output=output, wn_rad_s=float(fit.wn),
                         zeta=float(fit.zeta), gain=float(fit.gain),

@@ -24,7 +24,8 @@ def _simple_lines(fit: SimpleFitRec) -> list[str]:
     return [_head(f"simple {fit.method}", fit.release_time_s, fit.converged),
             _mode_line(1, fit.wn_rad_s, fit.zeta, fit.wn_std, fit.zeta_std),
             f"  x{fit.output}: G(s) = {tf_text(fit.tf.num, fit.tf.den)}",
-            f"      fit {fit.fit_percent:.2f} %, DC gain {fit.gain:.4g}"]
+            f"      fit {fit.fit_percent:.2f} %, DC gain {fit.gain:.4g}"
+            + ("" if fit.coulomb_accel_m_s2 is None else f", dry friction {fit.coulomb_accel_m_s2:.4g} m/s²")]
 
 
 def _pem_lines(pem: PemFitRec) -> list[str]:
