@@ -48,13 +48,14 @@ class Kill9Result:
     seed: int
     kill_after_s: float
     samples_before_kill: int      # in the salvaged .part
-    lost_s: float                 # last published sample - last sample kept
+    lost_s: float                 # last sample received from the bus - last sample kept; negative when
+                                  # the file is ahead: batches still in the killed daq's send queue die with it
     holes: int                    # steps != one period inside the file
     recovered: bool               # .part gone, .mcap complete, status "recovered", same samples
 
     @property
     def ok(self) -> bool:
-        return self.recovered and self.holes == 0 and 0.0 <= self.lost_s <= 0.5
+        return self.recovered and self.holes == 0 and self.lost_s <= 0.5
 
 
 def kill9_trial(workdir: Path, seed: int, kill_after_s: float) -> Kill9Result:
@@ -84,7 +85,7 @@ def kill9_trial(workdir: Path, seed: int, kill_after_s: float) -> Kill9Result:
         wait_until(lambda: time.monotonic() >= deadline, kill_after_s + 5, "the kill moment", proc)
         proc.send_signal(signal.SIGKILL)
         proc.wait(timeout=10)
-        # Everything the daq sent before it died has arrived once its liveliness token is gone.
+        # What the daq got onto the wire before it died has arrived once its liveliness token is gone.
         wait_until(lambda: not list(session.liveliness().get(keys.daq_alive(bench), timeout=0.5)), 10,
                    "the killed daq's liveliness token to go")
         sub.undeclare()

@@ -33,7 +33,7 @@ def test_kill_9_at_random_moments_loses_at_most_half_a_second_and_restart_recove
     for result in results:
         assert result.samples_before_kill > 0, result
         assert result.holes == 0, result
-        assert 0.0 <= result.lost_s <= 0.5, result
+        assert result.lost_s <= 0.5, result   # negative: the file is ahead of what reached the bus
         assert result.recovered, result
     # The moments really differ (seeded, not hand-picked).
     assert len({r.kill_after_s for r in results}) == 3
