@@ -35,6 +35,9 @@ STICK_ALLOWANCE = 2.5
 #: ... and this fraction of the modelled acceleration |a| is model error, not a hand (a hand
 #: that lets a cart go held it with a force comparable with the spring's: far above it).
 MODEL_FRACTION = 0.02
+#: A fit of a cart alone whose k_jj lies outside this range of the record's ringing
+#: ω² = (2π/T)² is not its free motion (`_best_fit`).
+STIFFNESS_RANGE = (0.25, 4.0)
 #: A free response's own misfit (`state_misfit`): this many times the record's median share
 #: of the swing's acceleration, at most this share (a hand that lets a cart go held it with
 #: at least `finder.HAND_FORCE_FRACTION` of the spring's force).
@@ -155,7 +158,7 @@ def _fit(m: Motion, column: int, others: tuple[int, ...], slow: tuple[int, ...])
     if np.count_nonzero(moving) < basis.shape[1] * 4:
         moving = np.ones(m.n_samples, dtype=bool)
     n_k = 1 + len(others)
-    coef, scale = _physical_fit(m, basis, target, moving, n_k)
+    coef, scale = _physical_fit(m, basis, target, moving, n_k, all(i in slow for i in others))
     resid = target - basis @ coef
     # and a small share of the modelled force: the free model is fitted on the whole record,
     # so its error grows with the swing (a cart swinging further than most of the record)
@@ -202,13 +205,13 @@ def state_misfit(m: Motion, column: int, spring: FloatArray, k: float, resid: Fl
 
 
 def _physical_fit(m: Motion, basis: FloatArray, target: FloatArray, moving: NDArray[np.bool_],
-                  n_k: int) -> tuple[FloatArray, float]:
+                  n_k: int, alone: bool = False) -> tuple[FloatArray, float]:
     """`_best_fit`, refitted without viscous or dry friction while the fit makes either
     negative (a force along the motion is no friction: a short record whose hand pulled the
     cart slowly for as long as it rang can buy such a fit of the pull)."""
     keep = list(range(basis.shape[1]))
     while True:
-        part, scale = _best_fit(m, basis[:, keep], target, moving)
+        part, scale = _best_fit(m, basis[:, keep], target, moving, alone)
         coef = np.zeros(basis.shape[1])
         coef[keep] = part
         negative = [i for i in (n_k, n_k + 1) if i in keep and coef[i] < 0.0]
@@ -217,20 +220,31 @@ def _physical_fit(m: Motion, basis: FloatArray, target: FloatArray, moving: NDAr
         keep.remove(negative[-1])
 
 
-def _best_fit(m: Motion, basis: FloatArray, target: FloatArray, moving: NDArray[np.bool_]
-              ) -> tuple[FloatArray, float]:
+def _best_fit(m: Motion, basis: FloatArray, target: FloatArray, moving: NDArray[np.bool_],
+              alone: bool = False) -> tuple[FloatArray, float]:
     """The robust fit (`_irls`) from all moving samples, or from the inliers of the best
     least-squares fit on one stretch of 1.5 periods (least median of |residual| over the
     moving samples), whichever leaves the smaller median |residual|: a short record with a
     long pull or hold drags a fit started from every sample off the free motion, while a
-    stretch of free motion fits the rest of the free motion."""
+    stretch of free motion fits the rest of the free motion. A cart `alone` (no other free
+    cart's position enters) rings at its own frequency: a fit whose k_jj lies outside
+    `STIFFNESS_RANGE` of the record's ω² is not its free motion (two free carts' modes may
+    lie far from either cart's own frequency)."""
+    wn2 = (2.0 * np.pi / m.period_s) ** 2
+
     def spread(c: FloatArray) -> float:
+        # a cart's own stiffness (column 0) far from the ringing's ω² explains a slow pull,
+        # not the free motion (a run file that ends on a long pull-hold)
+        if alone and not STIFFNESS_RANGE[0] <= float(c[0]) / wn2 <= STIFFNESS_RANGE[1]:
+            return np.inf
         return float(np.median(np.abs(target - basis @ c)[moving]))
 
     coef, scale = _irls(basis, target, moving, moving)
     best, best_spread = coef, spread(coef)
-    for width, lo in [(w, lo) for w in (m.samples(1.5 * m.period_s), m.samples(0.75 * m.period_s))
-                      for lo in range(0, max(1, m.n_samples - w + 1), max(1, w // 2))]:
+    # (a stretch has at least 5 samples per coefficient: at 50 Hz a period may have 8)
+    least = 5 * basis.shape[1]
+    widths = sorted({max(m.samples(f * m.period_s), least) for f in (1.5, 0.75)}, reverse=True)
+    for width, lo in [(w, lo) for w in widths for lo in range(0, max(1, m.n_samples - w + 1), max(1, w // 2))]:
         part = np.zeros(m.n_samples, dtype=bool)
         part[lo:lo + width] = True
         part &= moving
