@@ -63,7 +63,7 @@ from daq.detector_events import (
     Settled,
 )
 from daq.onset import OnsetFit, fit_onset
-from daq.release_dating import Samples, date_ringing_release, fit_onset_at
+from daq.release_dating import Samples, date_ringing_release, fit_onset_at, free_span
 from daq.ringing import RingingLimits, Turn, Zigzag, is_ringing
 
 __all__ = ["METHOD", "SPAN_S", "Armed", "DetectorSettings", "Disarmed", "Event", "OnsetFit", "Rejected",
@@ -349,8 +349,9 @@ class ReleaseDetector:
             a, b, t_c = turns[-3], turns[-2], turns[-1]
             half = 0.5 * (t_c.t_s - a.t_s)
             # the free response is fitted from a quarter half-period after B (after any release
-            # near B) over three quarters of a period
-            due = (b.t_s + 1.75 * half, c, a, b, t_c)
+            # near B) over three quarters of a period (at least 16 samples: `free_span`)
+            step = (self._history[-1][0] - self._history[0][0]) / max(len(self._history) - 1, 1)
+            due = (b.t_s + 0.25 * half + free_span(half, step), c, a, b, t_c)
             if self._dating is None or due[0] < self._dating[0]:
                 self._dating = due
             return

@@ -47,6 +47,7 @@ Array = npt.NDArray[np.float64]
 # release: a force is linear only after its peak (real flicks: 30-100 ms before let-go, 0.15-0.5
 # half-period); over 0.3 the peak entered the window and dated flicks up to 25 ms early
 HAND_WINDOW = 0.2
+FREE_MIN_SAMPLES = 16
 
 
 @dataclass(frozen=True, slots=True)
@@ -142,6 +143,14 @@ def spring_of(turns: tuple[Turn, Turn, Turn]) -> tuple[float, float]:
     return sigma, math.pi / half
 
 
+def free_span(half_s: float, step_s: float) -> float:
+    """How long the free response is fitted (s): three quarters of a period, and at least
+    `FREE_MIN_SAMPLES` samples (a stiff spring at 50 Hz has 4 samples a half-period: six samples
+    for the free model's seven unknowns fit exactly, and the slide-back then stops at the first
+    sample more, a turn, a half-period late)."""
+    return max(1.5 * half_s, FREE_MIN_SAMPLES * step_s)
+
+
 def date_ringing(s: Samples, t_now: float, channel: int, turns: tuple[Turn, Turn, Turn],
                  settings: DetectorSettings, first_t: float) -> Released | Rejected:
     """Fit the free response after B, slide the fit back while it holds; date where it began."""
@@ -151,7 +160,7 @@ def date_ringing(s: Samples, t_now: float, channel: int, turns: tuple[Turn, Turn
     sigma0 = spring_of(turns)[0]
     t, y = s.t, s.pos[:, channel]
     t_from = b.t_s + 0.25 * half
-    span = 1.5 * half
+    span = free_span(half, float(np.median(np.diff(t[-20:]))))
     window = (t >= t_from) & (t <= t_from + span)
     vs = motion_sign(t, y)
     free = fit_free(t[window], y[window], vs[window], sigma0, math.pi / half)
