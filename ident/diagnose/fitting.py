@@ -6,7 +6,7 @@ computed as ONE batched simulation of all perturbed parameter rows. The paramete
 covariance is `σ² (JᵀJ)⁻¹` with `σ² = SSE / (n - p)` at the solution (Gauss-Newton).
 
 Blocked cross-validation (`BLOCKS` contiguous blocks after a first stretch of the window that
-anchors the release state): for block b the model
+anchors the release state, spread over the motion: a stuck tail goes into the last block): for block b the model
 is refitted with the cost taken outside b — one Gauss-Newton step from the whole-window fit,
 `Δ_b = argmin |J_{-b} Δ + r_{-b}|²` with the Jacobian at the solution — and simulated through
 the WHOLE window from the window start (the state stays continuous); the cost is the squared
@@ -135,22 +135,45 @@ def fit(spec: ModelSpec, theta0: FloatArray, lower: FloatArray, upper: FloatArra
                      result.n_train, int(free.size), cv_pred)
 
 
-def block_edges(n: int) -> NDArray[np.int_]:
-    """Sample edges of the `BLOCKS` held-out blocks (BLOCKS + 1 values; before the first edge
-    is the anchoring stretch, never held out)."""
-    return np.linspace(0, n, BLOCKS + 2).astype(int)[1:]
+#: A sample moves when some output is farther than this share of its peak-to-peak from its
+#: final level (the median of the last tenth of the window).
+MOVING_SHARE = 0.02
 
 
-def held_out_samples(n: int) -> NDArray[np.bool_]:
-    """(n,) the samples of the held-out blocks (all after the anchoring stretch)."""
-    inside = np.zeros(n, dtype=bool)
-    inside[int(block_edges(n)[0]):] = True
+def motion_end(y: FloatArray) -> int:
+    """Samples of `y` (N, c) m up to the last one that moves (`MOVING_SHARE`), at least N/6.
+
+    A dry-friction cart can stop within the first sixth of a long record (a 16 s record whose
+    cart sticks after 2.6 s, a held cart wandering on): blocks of equal time would then all
+    lie in the stuck tail, where an effect of the motion (the held cart's coupling: 99.7 % of
+    the misfit removed, all of it before the stop) cannot show, and would be refused."""
+    n = y.shape[0]
+    final = np.median(y[-max(n // 10, 1):], axis=0)
+    away = np.any(np.abs(y - final) > MOVING_SHARE * np.ptp(y, axis=0), axis=1)
+    last = int(np.flatnonzero(away)[-1]) + 1 if away.any() else n
+    return max(last, n // 6)
+
+
+def block_edges(y: FloatArray) -> NDArray[np.int_]:
+    """Sample edges of the `BLOCKS` held-out blocks of `y` (N, c) (BLOCKS + 1 values; before
+    the first edge is the anchoring stretch, never held out): the anchor is the first
+    1/(BLOCKS + 1) of the motion (`motion_end`), the blocks split the rest of the window
+    equally (a still tail keeps blocks of its own: a slow drift of the rest shows there)."""
+    n = y.shape[0]
+    anchor = motion_end(y) // (BLOCKS + 1)
+    return np.linspace(anchor, n, BLOCKS + 1).astype(int)
+
+
+def held_out_samples(y: FloatArray) -> NDArray[np.bool_]:
+    """(N,) the samples of the held-out blocks of `y` (N, c) (all after the anchoring stretch)."""
+    inside = np.zeros(y.shape[0], dtype=bool)
+    inside[int(block_edges(y)[0]):] = True
     return inside
 
 
 def held_out_cost(cv_prediction: FloatArray, y: FloatArray, train: NDArray[np.bool_]) -> float:
     """Σ over the held-out blocks of the squared residual of a cross-validated prediction (N, c)."""
-    inside = held_out_samples(y.shape[0]) & train
+    inside = held_out_samples(y) & train
     total = float(np.sum((cv_prediction[inside] - y[inside]) ** 2))
     return total if np.isfinite(total) else float("inf")
 
@@ -179,7 +202,7 @@ def _blocked_cv(spec: ModelSpec, res: FitResult, full: Callable[[FloatArray], Fl
     # the first of BLOCKS + 1 stretches is never held out: it fixes the release state
     # (x0, v0), which the rest of a record determines only through a chaotic extrapolation
     # backwards across every stick of a dry-friction cart
-    edges = block_edges(n)
+    edges = block_edges(y)
     outside = np.ones((BLOCKS, n), dtype=bool)
     for b in range(BLOCKS):
         outside[b, edges[b]:edges[b + 1]] = False
