@@ -246,8 +246,10 @@ def _held(family: str, seed: int, rng: np.random.Generator, p: dict[str, Any]) -
     return _finish(family, seed, rng, p, t, x, [0, 1])
 
 
-def _two_cart(family: str, seed: int, rng: np.random.Generator, p: dict[str, Any]) -> Case:
-    """Two carts, Coulomb on both, read through cart 1's encoder only."""
+def _two_cart(family: str, seed: int, rng: np.random.Generator, p: dict[str, Any],
+              both_encoders: bool = False) -> Case:
+    """Two carts, Coulomb (static 1–1.5 × kinetic) on both, read through cart 1's encoder only,
+    or through both encoders."""
     m1, m2 = p["m"], rng.uniform(0.5, 3.0)
     k1, k2, k3 = (rng.uniform(100.0, 800.0) for _ in range(3))
     z1, z2 = p["zeta"], rng.uniform(0.005, 0.05)
@@ -263,6 +265,8 @@ def _two_cart(family: str, seed: int, rng: np.random.Generator, p: dict[str, Any
     p.update(m2=m2, k1=k1, k2=k2, k3=k3, coulomb_accel_m_s2=fk1 / m1, coulomb_accel_m_s2_cart2=fk2 / m2,
              release_time_s=t_r, zeta2=z2)
     p.pop("zeta")  # a chain has no single ζ to compare
+    if both_encoders:
+        return _finish(family, seed, rng, p, t, x, [0, 1])
     return _finish(family, seed, rng, p, t, x[:, :1], [0])
 
 

@@ -21,7 +21,7 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-from cases11 import Case, _common, _finish, _one_cart, _release, _rng
+from cases11 import Case, _common, _finish, _one_cart, _rng, _two_cart
 from physics import Cart, Chain, Simulator
 
 FAMILIES_B = ("two_cart_coulomb_y12", "coupled_span", "quantization_edges", "coulomb+force_pulse",
@@ -40,7 +40,7 @@ def make_case_b(family: str, seed: int) -> Case:
     p = _common(rng)
     p["family"] = family
     if family == "two_cart_coulomb_y12":
-        return _two_cart_both(family, seed, rng, p)
+        return _two_cart(family, seed, rng, p, both_encoders=True)
     if family == "quantization_edges":
         p["quantum_m"] = 1e-5 if seed % 2 == 0 else 2e-3
         return _one_cart(family, seed, rng, p)
@@ -51,26 +51,6 @@ def make_case_b(family: str, seed: int) -> Case:
         case.family = family
         return case
     raise ValueError(f"family: expected one of {FAMILIES_B}, got {family!r}")
-
-
-def _two_cart_both(family: str, seed: int, rng: np.random.Generator, p: dict[str, Any]) -> Case:
-    """Two carts, Coulomb (static 1–1.5 × kinetic) on both, both encoders written."""
-    m1, m2 = p["m"], rng.uniform(0.5, 3.0)
-    k1, k2, k3 = (rng.uniform(100.0, 800.0) for _ in range(3))
-    z1, z2 = p["zeta"], rng.uniform(0.005, 0.05)
-    amp = p.setdefault("pull_m", rng.uniform(0.03, 0.15)) if p["kind"] == "hold" else p.setdefault(
-        "flick_m", rng.uniform(0.03, 0.05))
-    n1, n2 = rng.uniform(4.0, 25.0), rng.uniform(4.0, 25.0)
-    fk1, fk2 = (k1 + k2) * amp / (4 * n1), k2 * amp / (4 * n2)
-    chain = Chain([Cart(m=m1, c=2 * z1 * np.sqrt((k1 + k2) * m1), fk=fk1, fs=fk1 * rng.uniform(1.0, 1.5)),
-                   Cart(m=m2, c=2 * z2 * np.sqrt((k2 + k3) * m2), fk=fk2, fs=fk2 * rng.uniform(1.0, 1.5))],
-                  k1=k1, k2=k2, k3=k3)
-    t = np.arange(0.0, p["duration_s"], 1.0 / p["rate_hz"])
-    x, t_r = _release(chain, rng, p, t, 0, x_rest_other=0.0)
-    p.update(m2=m2, k1=k1, k2=k2, k3=k3, coulomb_accel_m_s2=fk1 / m1, coulomb_accel_m_s2_cart2=fk2 / m2,
-             release_time_s=t_r, zeta2=z2)
-    p.pop("zeta")  # a chain has no single ζ to compare
-    return _finish(family, seed, rng, p, t, x, [0, 1])
 
 
 def _force_pulse(family: str, seed: int, rng: np.random.Generator, p: dict[str, Any]) -> Case:
