@@ -38,7 +38,7 @@ def fit_baseline(prob: Problem, fixed: dict[str, float]) -> FitResult:
             upper = np.concatenate([upper, np.full(n_in, np.inf)])
             typical = np.concatenate([typical, np.maximum(np.abs(gain), 1e-6)])
         result = fit(spec, theta0, lower, upper, typical, prob.dt, prob.y, prob.train, max_nfev=50,
-                     cross_validate=True)
+                     cross_validate=True, anchor=prob.anchor)
         if best is None or result.sse_train < best.sse_train:
             best = result
     assert best is not None

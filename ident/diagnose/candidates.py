@@ -24,7 +24,7 @@ from ident.diagnose.friction_fit import fit_friction, fit_static_friction
 from ident.diagnose.held_fit import fit_held_cart
 from ident.diagnose.lattice import Lattice, lattice_likelihood_gain, reading_noise
 from ident.diagnose.models import ModelSpec, smoothed_staircase
-from ident.diagnose.problem import Bounds, FloatArray, Problem, best_on_grid, best_rows
+from ident.diagnose.problem import Bounds, FloatArray, Problem, best_on_grid, best_rows, ranked_rows
 
 
 def available(effect: str, current: ModelSpec, prob: Problem, ev: EvidenceResult) -> bool:
@@ -82,6 +82,11 @@ def screen(prob: Problem, current: FitResult, effect: str, ev: EvidenceResult, w
         theta0 = best_on_grid(spec, prob, theta0, at, tuple(wn2 * g for g in (0.3, 1, 3, 10, 30, 50)))
     if effect == "held_cart_motion":
         result = fit_held_cart(spec, prob, theta0, lower, upper, typical, at, wn2, SCREEN_NFEV)
+    elif effect == "cubic_stiffness":
+        rows = _cubic_rows(spec, prob, theta0, at, ev, wn2, lower, upper)
+        fits = [fit(spec, row, lower, upper, typical, prob.dt, prob.y, prob.train, max_nfev=SCREEN_NFEV)
+                for row in rows]
+        result = min(fits, key=lambda r: r.sse_train)
     elif effect == "static_friction":
         result = fit_static_friction(spec, prob, theta0, lower, upper, typical, SCREEN_NFEV)
     elif effect == "coulomb_friction":
@@ -93,6 +98,44 @@ def screen(prob: Problem, current: FitResult, effect: str, ev: EvidenceResult, w
     else:
         result = fit(spec, theta0, lower, upper, typical, prob.dt, prob.y, prob.train, max_nfev=SCREEN_NFEV)
     return Trial(effect, result, lower, upper, typical)
+
+
+#: Cubic coefficients a screening fit starts from, in the frequency drift's estimate (evidence).
+CUBIC_GRID = (0.5, 0.75, 1.0, 1.3)
+
+
+def _cubic_rows(spec: ModelSpec, prob: Problem, theta0: FloatArray, at: int, ev: EvidenceResult, wn2: float,
+                lower: FloatArray, upper: FloatArray) -> list[FloatArray]:
+    """The best two starts of a cubic spring: κ on `CUBIC_GRID` times the frequency drift's
+    κ₀ = (4/3) d(ω²)/d(A²), each with the linear stiffness as fitted and with it moved to where
+    the linear fit's one frequency sits on the Duffing law ω² = wn² + (3/4) κ A².
+
+    The linear baseline rings at the swings' average frequency; a cubic added at that
+    stiffness puts every cycle off by (3/4) κ Ā², and over tens of cycles the phase error
+    holds a local fit far from the truth (red team cubic_softening seed 200, a 27 % softening:
+    κ₀ -6072 for -6033 /m²s², the fit from the baseline's wn ended at -2399). Ā² weighs the
+    half-cycle extrema A_j by A_j² (a least-squares fit's weight): Σ A⁴ / Σ A²."""
+    amps = ev.extrema[:, 1] if ev.extrema.size else np.array([0.5 * prob.amplitude])
+    mean_a2 = float(np.sum(amps ** 4) / max(float(np.sum(amps ** 2)), 1e-300))
+    k0 = float(theta0[at])
+    values = [float(np.clip(g * k0, lower[at], upper[at])) for g in CUBIC_GRID]
+    rows = []
+    for kappa in values:
+        for shift in (0.0, 1.0):
+            row = theta0.copy()
+            row[at] = kappa
+            scale = max(1.0 - shift * 0.75 * kappa * mean_a2 / max(wn2, 1e-12), 0.25)
+            _scale_stiffness(row, spec.carts, scale)
+            rows.append(np.clip(row, lower, upper))
+    return ranked_rows(spec, prob, rows[0], slice(0, rows[0].size), rows, 2)
+
+
+def _scale_stiffness(theta: FloatArray, carts: int, factor: float) -> None:
+    """Multiply the linear part's stiffness (wn² of one cart, every k/m of a chain) by `factor`."""
+    if carts == 1:
+        theta[0] *= np.sqrt(factor)
+    else:
+        theta[:4] *= factor
 
 
 def _screen_lattice(prob: Problem, current: FitResult, spec: ModelSpec, lattice: Lattice, bounds: Bounds) -> Trial:
@@ -129,7 +172,7 @@ def refine(prob: Problem, trial: Trial) -> FitResult:
     """
     if trial.cv_base is None or trial.result.likelihood_gain is None:
         return fit(trial.result.spec, trial.result.theta, trial.lower, trial.upper, trial.typical, prob.dt, prob.y,
-                   prob.train, max_nfev=REFINE_NFEV, cross_validate=True)
+                   prob.train, max_nfev=REFINE_NFEV, cross_validate=True, anchor=prob.anchor)
     result = fit(trial.result.spec, trial.result.theta, trial.lower, trial.upper, trial.typical, prob.dt, prob.y,
                  prob.train, max_nfev=REFINE_NFEV)
     q, offset, blur = result.theta[result.spec.block("quantization")]
@@ -141,7 +184,7 @@ def refine(prob: Problem, trial: Trial) -> FitResult:
     # held-out predictions, not the lattice's proposal, which its look-elsewhere term charges.)
     gain_cv = lattice_likelihood_gain(prob.y[prob.train], trial.cv_base[prob.train], q, offset,
                                       trial.reading_noise_m) - trial.look_elsewhere
-    return dataclasses.replace(result, sse_val=held_out_cost(read, prob.y, prob.train), cv_prediction=read,
+    return dataclasses.replace(result, sse_val=held_out_cost(read, prob.y, prob.train, prob.anchor), cv_prediction=read,
                                likelihood_gain=(trial.result.likelihood_gain[0], gain_cv))
 
 
@@ -161,7 +204,14 @@ def without(prob: Problem, trial: Trial, result: FitResult, refit: int = 0) -> F
     if not refit:
         return evaluate(bare, result.theta[keep], prob.dt, prob.y, prob.train)
     return fit(bare, result.theta[keep], trial.lower[keep], trial.upper[keep], trial.typical[keep], prob.dt, prob.y,
-               prob.train, max_nfev=REFINE_NFEV, cross_validate=refit == 2)
+               prob.train, max_nfev=REFINE_NFEV, cross_validate=refit == 2, anchor=prob.anchor)
+
+
+def revalidate(prob: Problem, trial: Trial, result: FitResult) -> FitResult:
+    """`result` fitted on from where it is within the trial's bounds, with the blocked
+    cross-validation of a refit without an effect (`without(..., 2)`), so that the two compare."""
+    return fit(result.spec, result.theta, trial.lower, trial.upper, trial.typical, prob.dt, prob.y, prob.train,
+               max_nfev=REFINE_NFEV, cross_validate=True, anchor=prob.anchor)
 
 
 def _lattice_for(prob: Problem, current: FitResult, ev: EvidenceResult) -> Lattice | None:
@@ -187,4 +237,4 @@ def effect_parameters(result: FitResult, effect: str) -> tuple[dict[str, float],
 
 
 __all__ = ["Problem", "Trial", "available", "base_spec", "effect_parameters", "evaluate", "fit_baseline",
-           "refine", "screen", "without"]
+           "refine", "revalidate", "screen", "without"]

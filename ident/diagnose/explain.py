@@ -14,7 +14,7 @@ FloatArray = NDArray[np.float64]
 _WHAT = {
     "coulomb_friction": "dry (Coulomb) friction",
     "quadratic_drag": "quadratic (velocity-squared) drag",
-    "cubic_stiffness": "a hardening (cubic) spring",
+    "cubic_stiffness": "a hardening (cubic) spring",   # κ > 0; a softening one is named in `explanation`
     "quantization": "encoder quantization",
     "coupled_mode": "a second resonance (an imperfectly pinned cart or a track mode)",
     "presliding": "pre-sliding (Dahl) friction: a stiff, saturating friction at small amplitude",
@@ -114,6 +114,8 @@ def explanation(report: DiagnosisReport, base_lin: FloatArray) -> str:
                 f"explains. Damping ratio {base[key]:.4f}.")
     what, sign = _WHAT[report.cause], _signs(report)
     chosen = next(e for e in report.effects if e.effect == report.cause)
+    if report.cause == "cubic_stiffness" and chosen.parameters.get("cubic_per_m2_s2", 0.0) < 0.0:
+        what = "a softening (cubic) spring"   # κ < 0: the spring's stiffness falls with the stretch
     params = ", ".join(f"{k} = {v:.4g}" for k, v in chosen.parameters.items()
                        if not k.startswith(("mode_cos", "mode_sin", "lattice_offset")))
     others = [e for e in report.effects if e.effect != report.cause]

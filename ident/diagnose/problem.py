@@ -20,7 +20,9 @@ class Problem:
     """Work samples of the window: `tau` (N,) s, `y` (N, carts) m, `dt` s, `train` (N,) the
     samples every fit uses (all of them), the largest swing `amplitude` (m), `held` (N,) the
     held cart's motion from its first sample (m) or None, `inputs` (N, m) or None, `drift`
-    (N, K) the rest drift's spline basis on knots `drift_spacing_s` apart (`drift`) or None."""
+    (N, K) the rest drift's spline basis on knots `drift_spacing_s` apart (`drift`) or None,
+    `anchor` the work samples before the blocked cross-validation's first held-out block (one
+    period of the main mode; 0: the first sixth of the motion, `fitting.block_edges`)."""
 
     tau: FloatArray
     y: FloatArray
@@ -32,6 +34,7 @@ class Problem:
     inputs: FloatArray | None = None
     drift: FloatArray | None = None
     drift_spacing_s: float = 0.0
+    anchor: int = 0
 
 
 def best_rows(spec: ModelSpec, prob: Problem, theta: FloatArray, where: slice,
@@ -57,8 +60,9 @@ def ranked_rows(spec: ModelSpec, prob: Problem, theta: FloatArray, where: slice,
         if name in spec.fixed:
             rows[:, i] = spec.fixed[name]
     with np.errstate(all="ignore"):
+        # a diverging start (a strong softening cubic's far rows) costs inf, not a warning
         pred = spec.predict(rows, prob.dt, prob.y.shape[0])
-    cost = np.nan_to_num(np.sum((pred - prob.y[None]) ** 2, axis=(1, 2)), nan=np.inf)
+        cost = np.nan_to_num(np.sum((pred - prob.y[None]) ** 2, axis=(1, 2)), nan=np.inf)
     return [np.asarray(rows[k], dtype=np.float64) for k in np.argsort(cost, kind="stable")[:count]]
 
 

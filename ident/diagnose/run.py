@@ -32,6 +32,7 @@ from numpy.typing import NDArray
 from ident import progress, summary
 from ident.diagnose import candidates as cands
 from ident.diagnose import explain
+from ident.diagnose.backward import eliminate
 from ident.diagnose.candidates import Problem, fit_baseline
 from ident.diagnose.drift import drift_basis, drift_spacing, slow_residual
 from ident.diagnose.evidence import EvidenceResult, collect
@@ -112,7 +113,8 @@ def diagnose(t: FloatArray, y: FloatArray, carts: int | None = None, step_m: flo
     held = None if other is None else y_all[idx, other] - y_all[idx[0], other]
     prob = Problem(t_arr[idx] - t_arr[win.start], y_arr[idx], float(t_arr[1] - t_arr[0]) * win.decimation,
                    np.ones(idx.size, dtype=bool), carts, float(np.max(np.ptp(y_arr[idx], axis=0))),
-                   held, None if u_arr is None else u_arr[idx] - u_arr[idx[0]])
+                   held, None if u_arr is None else u_arr[idx] - u_arr[idx[0]],
+                   anchor=_anchor(win, float(t_arr[1] - t_arr[0]) * win.decimation))
     fixed = _fixed_rest(win, carts, step_m)
     progress.stage("diagnosis: the linear baseline")
     base = fit_baseline(prob, fixed)
@@ -138,6 +140,10 @@ def diagnose(t: FloatArray, y: FloatArray, carts: int | None = None, step_m: flo
         lambda trial: _staged(f"diagnosis: fitting {trial.effect}", lambda: cands.refine(prob, trial)), carts,
         lambda trial, result, refit: cands.without(prob, trial, result, refit))
     steps, first_round, base = selection.steps, selection.first_round, selection.baseline
+    if selection.last is not None and len(steps) > 1:
+        progress.stage("diagnosis: backward elimination")
+        steps = eliminate(steps, selection.last, lambda trial, result, refit: cands.without(prob, trial, result, refit),
+                          lambda trial, result: cands.revalidate(prob, trial, result), carts).steps
     ext = steps[-1].judgement.result if steps else base
     effects = _ranked(prob, steps, y_arr, hold_level(y_arr)[2])
     cause = next((e.effect for e in effects if e.material), "none")
@@ -163,6 +169,19 @@ def _with_drift(prob: Problem, base: FitResult, wn: float) -> tuple[Problem, Fit
     prob = dataclasses.replace(prob, drift=basis, drift_spacing_s=spacing)
     spec = dataclasses.replace(base.spec, drift=basis, fixed={**base.spec.fixed, "drift_spacing_s": spacing})
     return prob, dataclasses.replace(base, spec=spec)
+
+
+#: Work samples the blocked cross-validation's anchoring stretch holds at least.
+MIN_ANCHOR = 10
+
+
+def _anchor(win: Window, dt: float) -> int:
+    """The cross-validation's anchoring stretch (`fitting.block_edges`): one period of the
+    window's main mode (`MIN_ANCHOR` samples at least), enough to fix the release state; 0 (a
+    sixth of the window) when the window has no period (a force input's whole record)."""
+    if not np.isfinite(win.period_s) or win.period_s <= 0:
+        return 0
+    return max(round(win.period_s / dt), MIN_ANCHOR)
 
 
 def _staged(label: str, work: Callable[[], _T]) -> _T:

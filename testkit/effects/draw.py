@@ -15,11 +15,12 @@ Families (an effect, `none`, or a pair):
   (`encoders=1`) cart 1's only (then cart 2's friction is scored as f2 / k2 in metres, the only
   form cart 1's reading fixes: `coulomb_cart2_per_coupling_m`);
 - quadratic_drag: q = r·3/(4A), r ∈ [0.03, 0.15], the same per mass on every cart;
-- cubic_stiffness: γ = ±r·8/(3A²), r ∈ [0.005, 0.05] (hardening and softening: the
-  frequency moves by about ±r at A); one cart: its spring pulls k (e + γ e³), reported as
-  κ = wn² γ (`cubic_per_m2_s2`); two carts: a = -κ (x_i - rest_i)³ on each cart, κ = wn² γ
-  (the diagnosis' documented two-cart effect), or with `cubic_law="springs"` every spring
-  k (e + γ e³), reported as γ (`cubic_rel_per_m2`);
+- cubic_stiffness: γ = ±r·8/(3A²), r ∈ [0.005, 0.12] (hardening and softening: the
+  frequency moves by about ±r at A, the stiffness by ±γA² up to 32 % there: a soft spring's
+  restoring force k(e + γe³) still grows up to the swing, |γ|A² < 1/3); one cart: its spring
+  pulls k (e + γ e³), reported as κ = wn² γ (`cubic_per_m2_s2`); two carts: a = -κ (x_i - rest_i)³
+  on each cart, κ = wn² γ (the diagnosis' documented two-cart effect), or with
+  `cubic_law="springs"` every spring k (e + γ e³), reported as γ (`cubic_rel_per_m2`);
 - quantization: the encoder reads Q·round(y/Q), Q ∈ [10 µm, 2 mm] (log-uniform), an exact
   lattice or with white noise of 2–30 % of Q added after it;
 - coupled_mode: an extra mass behind the last cart, m_e/m ∈ [0.05, 1.5] (log-uniform: from a
@@ -192,7 +193,7 @@ def add_cubic(rng: np.random.Generator, spec: Spec, law: str = "carts") -> None:
     `law="carts"`: a = -κ (x_i - rest_i)³ on each cart (the diagnosis' documented two-cart
     effect, so that its coefficient can be scored); `law="springs"`: every spring k (e + γ e³),
     reported as γ (`cubic_rel_per_m2`)."""
-    r = rng.choice([-1.0, 1.0]) * rng.uniform(0.005, 0.05)
+    r = rng.choice([-1.0, 1.0]) * rng.uniform(0.005, 0.12)
     gamma = float(r * 8 / (3 * spec.amplitude ** 2))
     if spec.carts == 1 or law == "springs":
         spec.effects["cubic_rel"] = gamma
@@ -225,11 +226,16 @@ def mode_amplitudes(rig: Rig, z: FloatArray, observed: tuple[int, ...]) -> tuple
 
 
 def release_state(rig: Rig, spec: Spec) -> FloatArray:
-    """The state at the release: the pulled cart where the hand lets go, the others at rest
-    under it (an approximation for a flick, used only to judge which modes show)."""
-    phase = Phase(0.0, 1.0, {spec.layout.pulled: hands.hold(spec.release.x)})
-    z = initial_state(rig, phase)
-    z[rig.n + spec.layout.pulled] = spec.release.v
+    """The state at the release (used to judge which modes show): a pull-hold's static
+    equilibrium under the hold; a flick's state where the hand lets go, simulated through the
+    flick (a slow flick carries a stiffly coupled extra mass along and leaves its mode nearly
+    unexcited: taking the others at rest there had counted a mode that never rang as shown)."""
+    first = phases(spec, spec.release.t_r + 1.0)[0]
+    z = initial_state(rig, first)
+    if spec.release.kind == "flick":
+        _, ends = simulate(rig, [first], np.array([first.start]), z)
+        z = ends[0]
+        z[spec.layout.pulled], z[rig.n + spec.layout.pulled] = spec.release.x, spec.release.v
     return z
 
 

@@ -1,0 +1,43 @@
+"""A cubic spring that changes the stiffness by up to a third at the swing is fitted within 5 %.
+
+The issue asks for cubic stiffness, hardening and softening, over the physical range. The
+fit started the cubic at the frequency drift's estimate κ₀ but kept the linear fit's
+stiffness, which rings at the swings' average frequency: with the cubic added, every cycle was
+then off by (3/4) κ Ā² and over tens of cycles the phase error held the fit in a local
+minimum (red team cubic_softening seed 200: a 27 % softening fitted as -3841 for -6033 /m²s²,
+fit 86 % against a noise floor of 99.2 %); its bound also allowed only a 17 % change at the
+swing. Cases: `testkit.effects` one-cart cubic runs over the family's whole range (|γ| A² up
+to 0.32), those that change the stiffness by more than 15 % at the release amplitude.
+"""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+import pytest
+
+from ident.diagnose import diagnose
+from testkit.effects import judge, make_case
+
+
+def _strong(seed: int) -> bool:
+    truth = make_case(seed, "cubic_stiffness", carts=1, record_s=1.0).truth
+    gamma_a2 = truth.parameters["cubic_per_m2_s2"] / truth.details["wn_rad_s"] ** 2 * truth.details["amplitude_m"] ** 2
+    return bool(abs(gamma_a2) > 0.15)
+
+
+@pytest.mark.slow
+def test_a_strong_cubic_spring_is_named_with_its_coefficient_within_5_percent() -> None:
+    stream = (int(s) for s in np.random.default_rng(20261128).integers(0, 2**31, 100))
+    seeds = list(itertools.islice((s for s in stream if _strong(s)), 5))
+    assert len(seeds) == 5
+    wrong = []
+    for seed in seeds:
+        case = make_case(seed, "cubic_stiffness", carts=1)
+        report = diagnose(case.observed.t, case.observed.y, carts=1).report
+        verdict = judge(case, report)
+        if not verdict.right:
+            wrong.append(f"seed {seed}: cause {report.cause}, errors {verdict.errors}, "
+                         f"fit {report.extended.fit_percent:.2f} %")
+    assert not wrong, "\n".join(wrong)
