@@ -14,7 +14,8 @@ as the final model against the final model without it, refitted and cross-valida
 
 Of those that fail, the weakest (least LR_cv) is dropped and the pass is repeated on the
 smaller model, until every earlier effect passes (at most one pass per accepted effect). An
-encoder lattice is the sensor's and is not judged again. No I/O here.
+encoder lattice is the sensor's and is not judged again, nor is an effect another one refines
+(Coulomb friction under static or pre-sliding friction: `REQUIRES`). No I/O here.
 """
 
 from __future__ import annotations
@@ -74,7 +75,7 @@ def _weakest(steps: list[Step], last: Trial, without: Without, revalidate: Reval
     """(step index, judgement, final model refitted without it) of the earlier effect of least
     held-out ratio among those the final model does not need; None when all are needed."""
     final = steps[-1].judgement.result
-    candidates = [s for s in steps[:-1] if s.judgement.effect != "quantization"]
+    candidates = [s for s in steps[:-1] if _removable(s.judgement.effect, final.spec.effects)]
     if not candidates:
         return None
     # an encoder lattice's likelihood gain belongs to the lattice step: the carts' effects are
@@ -85,13 +86,23 @@ def _weakest(steps: list[Step], last: Trial, without: Without, revalidate: Reval
     worst: tuple[int, Judgement, FitResult] | None = None
     for at, step in enumerate(steps[:-1]):
         effect = step.judgement.effect
-        if effect == "quantization":
+        if not _removable(effect, final.spec.effects):
             continue
         reduced = without(dataclasses.replace(last, effect=effect), final, 2)
         judgement = judge(effect, reduced, plain, carts)
         if not judgement.passes and (worst is None or judgement.lr_cv < worst[1].lr_cv):
             worst = at, judgement, reduced
     return worst
+
+
+#: Effects that refine another and cannot stand without it (`candidates.available`).
+REQUIRES = {"presliding": "coulomb_friction", "static_friction": "coulomb_friction"}
+
+
+def _removable(effect: str, effects: tuple[str, ...]) -> bool:
+    """Whether `effect` may be judged for dropping: an effect of the carts that no other effect
+    of the model refines (a breakaway level is a multiple of the Coulomb level)."""
+    return effect != "quantization" and not any(REQUIRES.get(e) == effect for e in effects)
 
 
 def _bounds_without(last: Trial, final: FitResult, effect: str) -> Trial:

@@ -46,7 +46,7 @@ from ident.diagnose.still import Outputs, moving_outputs
 from ident.diagnose.window import MAX_WORK_SAMPLES, Window, find_window, hold_level
 from ident.errors import IdentDimensionError, IdentValueError
 from ident.physics.chain import LINEAR_NAMES, modes
-from ident.physics.measures import fit_percent
+from ident.physics.measures import fit_percent, noise_std
 from schemas.diagnosis import Candidate, DiagnosisReport, EffectFit, Evidence, ModelFit
 
 _T = TypeVar("_T")
@@ -114,7 +114,7 @@ def diagnose(t: FloatArray, y: FloatArray, carts: int | None = None, step_m: flo
     prob = Problem(t_arr[idx] - t_arr[win.start], y_arr[idx], float(t_arr[1] - t_arr[0]) * win.decimation,
                    np.ones(idx.size, dtype=bool), carts, float(np.max(np.ptp(y_arr[idx], axis=0))),
                    held, None if u_arr is None else u_arr[idx] - u_arr[idx[0]],
-                   anchor=_anchor(win, float(t_arr[1] - t_arr[0]) * win.decimation))
+                   anchor=_anchor(win, float(t_arr[1] - t_arr[0]) * win.decimation, y_arr[idx]))
     fixed = _fixed_rest(win, carts, step_m)
     progress.stage("diagnosis: the linear baseline")
     base = fit_baseline(prob, fixed)
@@ -175,13 +175,34 @@ def _with_drift(prob: Problem, base: FitResult, wn: float) -> tuple[Problem, Fit
 MIN_ANCHOR = 10
 
 
-def _anchor(win: Window, dt: float) -> int:
-    """The cross-validation's anchoring stretch (`fitting.block_edges`): one period of the
-    window's main mode (`MIN_ANCHOR` samples at least), enough to fix the release state; 0 (a
-    sixth of the window) when the window has no period (a force input's whole record)."""
+def _anchor(win: Window, dt: float, y: FloatArray) -> int:
+    """The cross-validation's anchoring stretch (`fitting.block_edges`) for the work samples
+    `y` (N, c): one period of the window's main mode (`MIN_ANCHOR` samples at least), enough to
+    fix the release state of carts that ring freely; 0 (a sixth of the window) when the window
+    has no period (a force input's whole record) or its carts end stuck.
+
+    A cart that sticks has its release state fixed by the rest of the record only through a
+    chaotic extrapolation back across every stick: a held-out block right after one period
+    then judges how a refit without it extrapolates, not the effect (generated Coulomb runs with
+    a held cart, seeds 144445060 and 1568247562: the held cart's gain 6-30 % off with the short
+    anchor)."""
     if not np.isfinite(win.period_s) or win.period_s <= 0:
         return 0
-    return max(round(win.period_s / dt), MIN_ANCHOR)
+    period = max(round(win.period_s / dt), MIN_ANCHOR)
+    return 0 if _ends_stuck(y, period) else period
+
+
+def _ends_stuck(y: FloatArray, period: int) -> bool:
+    """Whether every output's last `period` samples stay within 6 noise σ (second-difference
+    estimate, `noise_std`) plus the reading's step (the smallest nonzero change) of their
+    median: a cart held by dry friction, not one still ringing."""
+    tail = y[-period:]
+    if tail.shape[0] < 5:
+        return False
+    sigma = noise_std(y)
+    steps = np.abs(np.diff(tail, axis=0))
+    step = np.array([float(np.min(c[c > 0])) if np.any(c > 0) else 0.0 for c in steps.T])
+    return bool(np.all(np.max(np.abs(tail - np.median(tail, axis=0)), axis=0) <= 6.0 * sigma + step))
 
 
 def _staged(label: str, work: Callable[[], _T]) -> _T:

@@ -122,3 +122,15 @@ def test_a_model_read_through_a_lattice_is_revalidated_before_the_comparison() -
     out = eliminate(steps, _trial(lattice_spec, "quantization"), _without({"coupled_mode": 0.6}, []), revalidate, 1)
     assert revalidated == [read]
     assert out.dropped == [] and [s.judgement.effect for s in out.steps] == ["coupled_mode", "quantization"]
+
+
+def test_an_effect_another_one_refines_is_not_judged_for_dropping() -> None:
+    # static friction is a multiple of the Coulomb level: while it stays, the friction cannot go,
+    # however little the final model would miss without it (a model of static friction without
+    # a Coulomb level cannot be simulated)
+    steps = _chain(["coulomb_friction", "static_friction", "cubic_stiffness"], [1.0, 0.7, 0.6, 0.5])
+    calls: list[tuple[str, int]] = []
+    out = eliminate(steps, _trial(steps[-1].judgement.result.spec, "cubic_stiffness"),
+                    _without({"coulomb_friction": 0.5, "static_friction": 0.7}, calls), _no_revalidation, 1)
+    assert [s.judgement.effect for s in out.steps] == ["coulomb_friction", "static_friction", "cubic_stiffness"]
+    assert ("coulomb_friction", 2) not in calls and ("static_friction", 2) in calls
