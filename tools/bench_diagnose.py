@@ -39,6 +39,7 @@ from typing import Any
 import numpy as np
 
 from testkit.effects import FAMILIES, PAIRS, Case, judge, make_case
+from testkit.effects.draw import CUBIC_R_MAX_FULL
 
 ROOT = Path(__file__).resolve().parents[1]
 #: what a diagnosis may raise on a bad case (pydantic's ValidationError is a ValueError)
@@ -67,7 +68,7 @@ def case_seeds(seed: int, family: str, n: int) -> list[int]:
 def run_family(family: str, n: int, seed: int, encoder_m: float | None = None) -> list[dict[str, Any]]:
     rows: list[dict[str, Any]] = []
     for k, case_seed in enumerate(case_seeds(seed, family, n)):
-        case = make_case(case_seed, family, encoder_m=encoder_m)
+        case = make_case(case_seed, family, encoder_m=encoder_m, cubic_r_max=CUBIC_R_MAX_FULL)
         try:
             report, elapsed = diagnose_case(case)
         except CASE_ERRORS as exc:  # a crash is a result of the benchmark, not its end

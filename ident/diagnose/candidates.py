@@ -121,7 +121,8 @@ def _cubic_rows(spec: ModelSpec, prob: Problem, theta0: FloatArray, at: int, ev:
     κ₀ -6072 for -6033 /m²s², the fit from the baseline's wn ended at -2399). Ā² weighs the
     half-cycle extrema A_j by A_j² (a least-squares fit's weight): Σ A⁴ / Σ A²."""
     amps = ev.extrema[:, 1] if ev.extrema.size else np.array([0.5 * prob.amplitude])
-    mean_a2 = float(np.sum(amps ** 4) / max(float(np.sum(amps ** 2)), 1e-300))
+    amps = amps[np.isfinite(amps)]
+    mean_a2 = float(np.sum(amps ** 4) / max(float(np.sum(amps ** 2)), 1e-300)) if amps.size else 0.0
     k0 = float(theta0[at])
     values = [float(np.clip(g * k0, lower[at], upper[at])) for g in CUBIC_GRID]
     rows = []
@@ -131,7 +132,10 @@ def _cubic_rows(spec: ModelSpec, prob: Problem, theta0: FloatArray, at: int, ev:
             row[at] = kappa
             scale = max(1.0 - shift * 0.75 * kappa * mean_a2 / max(wn2, 1e-12), 0.25)
             _scale_stiffness(row, spec.carts, scale)
-            rows.append(np.clip(row, lower, upper))
+            if np.all(np.isfinite(row)):   # a start the evidence cannot place is not tried
+                rows.append(np.clip(row, lower, upper))
+    if not rows:
+        return [theta0]
     return ranked_rows(spec, prob, rows[0], slice(0, rows[0].size), rows, 2)
 
 

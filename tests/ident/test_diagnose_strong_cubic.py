@@ -6,7 +6,7 @@ stiffness, which rings at the swings' average frequency: with the cubic added, e
 then off by (3/4) κ Ā² and over tens of cycles the phase error held the fit in a local
 minimum (red team cubic_softening seed 200: a 27 % softening fitted as -3841 for -6033 /m²s²,
 fit 86 % against a noise floor of 99.2 %); its bound also allowed only a 17 % change at the
-swing. Cases: `testkit.effects` one-cart cubic runs over the family's whole range (|γ| A² up
+swing. Cases: `testkit.effects` one-cart cubic runs over the physical range (`CUBIC_R_MAX_FULL`: |γ| A² up
 to 0.32), those that change the stiffness by more than 15 % at the release amplitude.
 """
 
@@ -19,10 +19,11 @@ import pytest
 
 from ident.diagnose import diagnose
 from testkit.effects import judge, make_case
+from testkit.effects.draw import CUBIC_R_MAX_FULL
 
 
 def _strong(seed: int) -> bool:
-    truth = make_case(seed, "cubic_stiffness", carts=1, record_s=1.0).truth
+    truth = make_case(seed, "cubic_stiffness", carts=1, record_s=1.0, cubic_r_max=CUBIC_R_MAX_FULL).truth
     gamma_a2 = truth.parameters["cubic_per_m2_s2"] / truth.details["wn_rad_s"] ** 2 * truth.details["amplitude_m"] ** 2
     return bool(abs(gamma_a2) > 0.15)
 
@@ -34,7 +35,7 @@ def test_a_strong_cubic_spring_is_named_with_its_coefficient_within_5_percent() 
     assert len(seeds) == 5
     wrong = []
     for seed in seeds:
-        case = make_case(seed, "cubic_stiffness", carts=1)
+        case = make_case(seed, "cubic_stiffness", carts=1, cubic_r_max=CUBIC_R_MAX_FULL)
         report = diagnose(case.observed.t, case.observed.y, carts=1).report
         verdict = judge(case, report)
         if not verdict.right:
