@@ -99,13 +99,70 @@ def _check_finite(name: str, arr: FloatArray) -> None:
                               f"at sample {index}")
 
 
+#: Samples over which a coarse clock's stamps are averaged (`even_stamps`).
+EVEN_SPAN = 201
+#: A clock whose tick is below this fraction of the sample step is fine enough as it is (and an
+#: evened clock's own steps, two values tick/EVEN_SPAN apart, are never taken for a coarse one).
+MIN_TICK = 0.02
+EVENED_NOTE = "time stamps of a coarse clock evened out to the sample times (ident.data.even_stamps)"
+
+
+def even_stamps(t: FloatArray) -> FloatArray:
+    """The sample times (N,) s of a device that stamps a coarse clock on evenly taken samples,
+    evened out; any other `t` returned as it is (the same object).
+
+    The ECP-210's Teensy stamps whole milliseconds on samples taken every ~1.128 ms: steps of
+    1 and 2 ms, each stamp up to a millisecond behind its sample. Taken as sample times they
+    put up to v·1 ms of error on every position (0.5 mm, 28 counts, at 0.5 m/s) and that
+    much noise on every derivative and residual. Such a clock shows as steps of exactly two
+    values one tick apart, each a whole number of ticks, the tick at least `MIN_TICK` of a
+    step. Its stamps are replaced by their
+    moving average over `EVEN_SPAN` samples (the least-squares line of each span at its
+    middle, so a clock that drifts is followed) and, within half a span of either end, by the
+    line through the first or last span, never outside the stamps' own span. The average
+    keeps the stamps' time base (their mean offset from the samples stays). A record with a
+    missing sample (a third step value) is left as it is. Temporaries: two arrays of N.
+    """
+    n = t.shape[0]
+    if n < 2 * EVEN_SPAN:
+        return t
+    steps = np.diff(t)
+    low, high = float(steps.min()), float(steps.max())
+    tick = high - low
+    if not low > 0.0 or not tick > MIN_TICK * high:
+        return t
+    ticks = low / tick
+    if abs(ticks - round(ticks)) > 1e-6 * max(1.0, ticks):
+        return t
+    steps -= low
+    if not np.all((steps < 1e-9 * high) | (steps > tick - 1e-9 * high)):
+        return t
+    del steps
+    half = EVEN_SPAN // 2
+    out = np.empty(n + 1)
+    out[0] = 0.0
+    np.cumsum(t - t[0], out=out[1:])
+    out[half:n - half] = out[EVEN_SPAN:] - out[:n + 1 - EVEN_SPAN]   # span sums (numpy buffers the overlap)
+    out = out[:n]
+    out[half:n - half] *= 1.0 / EVEN_SPAN
+    out[half:n - half] += t[0]
+    k = np.arange(EVEN_SPAN, dtype=np.float64)
+    for first, ends in ((0, k[:half]), (n - EVEN_SPAN, k[EVEN_SPAN - half:])):
+        slope, intercept = np.polyfit(k, t[first:first + EVEN_SPAN], 1)
+        out[first + ends.astype(np.intp)] = intercept + slope * ends
+    np.clip(out, t[0], t[-1], out=out)
+    return out
+
+
 @dataclass(frozen=True)
 class IdData:
     """One run: time `t` (N,) s, input `u` (N,), outputs `y` (N, n_outputs) m.
 
     `release_time_s` (float, not rounded to a sample) is the release instant when known
     (from the run's metadata); `pulled_cart` is 1 or 2 when known. Construct as
-    `IdData(t, u, y)`; arrays are validated and copied read-only.
+    `IdData(t, u, y)`; arrays are validated and copied read-only. Stamps of a coarse clock
+    (`even_stamps`: the ECP Teensy's whole ms on ~1.13 ms samples) are taken as the sample
+    times they stand for, evened out, and `notes` says so.
     """
 
     t: FloatArray
@@ -119,6 +176,12 @@ class IdData:
 
     def __post_init__(self) -> None:
         t, u, y = check_arrays(self.t, self.u, self.y)
+        stamps, t = t, even_stamps(t)
+        if t is not stamps:
+            object.__setattr__(self, "notes", (*self.notes, EVENED_NOTE))
+            if self.release_time_s is not None and stamps[0] <= self.release_time_s <= stamps[-1]:
+                # a release within the stamps stays within the evened times (they move less than a tick)
+                object.__setattr__(self, "release_time_s", float(np.clip(self.release_time_s, t[0], t[-1])))
         for attr, arr in (("t", t), ("u", u), ("y", y)):
             if arr.flags.writeable or not arr.flags.owndata:
                 arr = arr.copy()   # ours alone, read-only (a read-only array that owns its data is shared:
@@ -223,6 +286,18 @@ def _grid_deviation(t: FloatArray) -> float:
     return float(np.max(np.abs(t - (intercept + slope * k))) / slope)
 
 
+def uniform_grid(t: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """(the sample times `even_stamps(t)`, a uniform grid from their first over their span).
+
+    The grid's step is the median step of the times, or for an evened clock (whose steps are
+    even but not equal) their mean step; the grid never passes the last time.
+    """
+    times = even_stamps(t)
+    ts = float(np.median(np.diff(times))) if times is t else float(times[-1] - times[0]) / (times.shape[0] - 1)
+    n = int(np.floor((times[-1] - times[0]) / ts + 1e-9)) + 1
+    return times, np.minimum(times[0] + ts * np.arange(n), times[-1])
+
+
 def make_uniform(data: IdData, method: Literal["auto", "grid", "linear"] = "auto") -> IdData:
     """Return `data` on a uniform time grid, stating what was done in `notes`.
 
@@ -231,7 +306,8 @@ def make_uniform(data: IdData, method: Literal["auto", "grid", "linear"] = "auto
       of an 8.85 ms period);
     - `linear`: resample `u` and `y` by linear interpolation onto `t0 + k·Ts` with `Ts` the
       median step (right for missing samples and truly irregular clocks; it low-passes a
-      little: error ≤ h²/8·max|y''|);
+      little: error ≤ h²/8·max|y''|) (a coarse clock's stamps were evened out when `data`
+      was built: `IdData`);
     - `auto`: `grid` when every stamp is within `GRID_TOLERANCE`·Ts of the grid, else `linear`.
     The input is resampled with zero-order hold (it is a step), not interpolated.
     """
@@ -243,11 +319,10 @@ def make_uniform(data: IdData, method: Literal["auto", "grid", "linear"] = "auto
         note = f"time stamps replaced by the least-squares grid, Ts = {ts:.6g} s"
         return IdData(grid, data.u, data.y, data.release_time_s, data.pulled_cart, data.name,
                       (*data.notes, note), data.columns)
-    ts = float(np.median(np.diff(data.t)))
-    n = int(np.floor((data.t[-1] - data.t[0]) / ts + 1e-9)) + 1
-    grid = data.t[0] + ts * np.arange(n)
-    y = np.column_stack([np.interp(grid, data.t, col) for col in data.y.T])
-    hold = np.clip(np.searchsorted(data.t, grid, side="right") - 1, 0, data.n_samples - 1)
+    t, grid = uniform_grid(data.t)
+    ts = float(grid[1] - grid[0])
+    y = np.column_stack([np.interp(grid, t, col) for col in data.y.T])
+    hold = np.clip(np.searchsorted(t, grid, side="right") - 1, 0, data.n_samples - 1)
     note = f"resampled by linear interpolation onto a uniform grid, Ts = {ts:.6g} s"
     return IdData(grid, data.u[hold], y, data.release_time_s, data.pulled_cart, data.name,
                   (*data.notes, note), data.columns)

@@ -10,6 +10,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from ident.data import uniform_grid
 from ident.physics.measures import noise_std, spectral_peaks
 
 FloatArray = NDArray[np.float64]
@@ -57,15 +58,15 @@ class Motion:
 
 
 def uniform(t: FloatArray, y: FloatArray) -> tuple[FloatArray, FloatArray]:
-    """`(t, y)` on a uniform grid from `t[0]` with the median step (linear interpolation when
-    the steps differ by more than 1 %: the ECP Teensy's 1 ms / 2 ms steps), same time base."""
+    """`(t, y)` on a uniform grid, same time base: as they are when the steps differ by no
+    more than 1 %, else linearly interpolated onto `ident.data.uniform_grid` (which evens out
+    a coarse clock's stamps first: the ECP Teensy's whole ms on ~1.13 ms samples)."""
     dt = np.diff(t)
     step = float(np.median(dt))
     if float(np.max(np.abs(dt - step))) <= 0.01 * step:
         return t, y
-    n = int(np.floor((t[-1] - t[0]) / step + 1e-9)) + 1
-    grid = np.minimum(t[0] + step * np.arange(n), t[-1])
-    return grid, np.column_stack([np.interp(grid, t, col) for col in y.T])
+    times, grid = uniform_grid(t)
+    return grid, np.column_stack([np.interp(grid, times, col) for col in y.T])
 
 
 def dominant_period(y: FloatArray, dt: float) -> float:

@@ -64,14 +64,7 @@ def test_every_labelled_hand_release_is_found_once_and_timed(realdata_dir: Path,
         assert float(before["end_time_s"]) < float(after["release_time_s"]) - 0.1   # type: ignore[arg-type]
 
 
-#: where the hand's force ends later than `ident releases` dates it (the judge of
-#: testkit/release_judge.py: 9.063 s and 4.924 s, finder -33 and -28 ms)
-_LATE_FORCE_END = {"07-Feb-2025_11_29_09.txt", "14-Feb-2025_09_22_43.txt"}
-
-
-@pytest.mark.parametrize("name", [pytest.param(n, marks=pytest.mark.xfail(
-    strict=True, reason="the judge dates the end of the hand's force; ident releases is 28-33 ms before it here"))
-    if n in _LATE_FORCE_END else n for n in sorted(HAND_RELEASES)])
+@pytest.mark.parametrize("name", sorted(HAND_RELEASES))
 def test_every_labelled_hand_release_is_within_20_ms_of_the_judge(realdata_dir: Path, name: str,
                                                                   capsys: pytest.CaptureFixture[str]) -> None:
     path = realdata_dir / FOLDER_2025 / name
