@@ -32,7 +32,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ident.errors import IdentDimensionError
-from ident.releases.hand import HAND_SIGMAS, STICK_ALLOWANCE, FreeModel, fit_free_model
+from ident.releases.hand import HAND_SIGMAS, STICK_ALLOWANCE, FreeModel, drift, fit_free_model
 from ident.releases.instant import release_instant
 from ident.releases.misfit import free_misfit, rest
 from ident.releases.motion import FloatArray, Motion, motion, turning_indices, typical_speed
@@ -77,6 +77,9 @@ TYPICAL_MISFITS = 3.0
 #: A cart is stuck where its smoothed position stays within this many noise stds over a
 #: smoothing window (`_stuck`).
 STUCK_SIGMAS = 4.0
+#: A hand episode's force is counted as lasting while its residual stays beyond this many
+#: scales (on top of the allowance): a hysteresis below the hand's limit (`HAND_SIGMAS`).
+LASTING_SIGMAS = 2.0
 
 
 def find_releases(t: NDArray[np.float64], y: NDArray[np.float64],
@@ -148,7 +151,9 @@ def free_columns(m: Motion) -> list[int]:
 def hand_episodes(m: Motion, model: FreeModel) -> list[tuple[int, int]]:
     """(first, last) indices of the hand episodes: runs of `model.hand` joined across gaps
     shorter than T/8 and ended before a tail of the free response's own misfit
-    (`_trim_misfit`), that last at least T/10 (a hand's push; not a blip where dry friction flips) and move the cart (a
+    (`_trim_misfit`), whose force lasts at least T/10 (a hand's push; not a blip where dry
+    friction flips: counted while above `LASTING_SIGMAS` scales, `_lasting`, since a flick
+    read through a coarse lattice may pass the hand's limit only at its peak) and move the cart (a
     cart stuck off its rest by dry friction shows a residual but no motion), away from the
     smoothing's edge."""
     edge = m.window // 2 + 2
@@ -160,8 +165,27 @@ def hand_episodes(m: Motion, model: FreeModel) -> list[tuple[int, int]]:
     # a hand holding the cart still (a record that starts while the hand holds it) moves
     # nothing but pushes harder than dry friction can hold it
     held = STILL_HOLD_BANDS * abs(model.dry) + HAND_SIGMAS * model.scale
-    return [(a, b) for a, b in runs if b - a >= shortest
+    lasting = _lasting(m, model)
+    return [(a, b) for a, b in runs if _extent(lasting, a, b) >= shortest
             and (float(np.ptp(x[a:b + 1])) > floor or float(np.max(np.abs(model.residual[a:b + 1]))) > held)]
+
+
+def _lasting(m: Motion, model: FreeModel) -> NDArray[np.bool_]:
+    """Where the residual exceeds `LASTING_SIGMAS` scales beyond the allowance: how long a
+    force whose peak passed the hand's limit lasts."""
+    allowance = model.allowance if model.allowance is not None else 0.0
+    limit = LASTING_SIGMAS * model.scale + allowance
+    r = model.residual
+    return np.asarray(np.abs(r - drift(r, model.hand, m.samples(2.0 * m.period_s))) > limit)
+
+
+def _extent(lasting: NDArray[np.bool_], a: int, b: int) -> int:
+    """Samples from the start to the end of the run of `lasting` about [a, b] (at least b - a)."""
+    before = np.flatnonzero(~lasting[:a])
+    after = np.flatnonzero(~lasting[b + 1:])
+    first = int(before[-1]) + 1 if before.size else 0
+    last = b + int(after[0]) if after.size else lasting.size - 1
+    return max(b - a, last - first)
 
 
 def _trim_misfit(m: Motion, model: FreeModel, pieces: list[tuple[int, int]],

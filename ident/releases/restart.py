@@ -58,6 +58,8 @@ def moved_after_rest(m: Motion, columns: list[int], start: int, end: int) -> int
     # away for a quarter period (a noise flip across a lattice line is back within a window)
     away = np.any(off > DEPART_SIGMAS, axis=1).astype(np.float64)
     last = m.samples(PERSIST_PERIODS * m.period_s)
+    if away.size < last:   # the rest lasts to the end: too little left to leave it for long
+        return None
     held = np.convolve(away, np.ones(last), mode="valid") >= last
     gone = np.flatnonzero(held)
     if gone.size == 0:
