@@ -87,9 +87,10 @@ def effect_names(effect: str, carts: int, outputs: int | None = None, knots: int
 @dataclass(frozen=True)
 class ModelSpec:
     """A model: its effects (in `EFFECTS` order), cart count, measured inputs and parameter
-    names; `fixed` maps parameter name -> value; `inputs` (N, m) force inputs, `held` (N,) the held
-    cart's measured motion from its first sample, `drift` (N, K) the rest drift's spline basis
-    (all on the work grid)."""
+    names; `fixed` maps parameter name -> value; `inputs` (N, m) force inputs held over each
+    step and switching within it at `input_switch` (N, m) (`ident.physics.free.switched_input`),
+    `held` (N,) the held cart's measured motion from its first sample, `drift` (N, K) the rest
+    drift's spline basis (all on the work grid)."""
 
     effects: tuple[str, ...]
     carts: int
@@ -98,6 +99,7 @@ class ModelSpec:
     held: FloatArray | None = None
     outputs: int = 0
     drift: FloatArray | None = None
+    input_switch: FloatArray | None = None
 
     @property
     def observed(self) -> int:
@@ -111,6 +113,7 @@ class ModelSpec:
     def cut(self, n: int) -> ModelSpec:
         """The same model on the first `n` work samples (its measured inputs cut)."""
         return dataclasses.replace(self, inputs=None if self.inputs is None else self.inputs[:n],
+                                   input_switch=None if self.input_switch is None else self.input_switch[:n],
                                    held=None if self.held is None else self.held[:n],
                                    drift=None if self.drift is None else self.drift[:n])
 
@@ -156,13 +159,23 @@ class ModelSpec:
         rest = theta[:, nl + 2 * c:nl + 3 * c]
         z0 = np.concatenate([x0 - rest, v0], axis=1)
         terms, u = self._terms(theta, lin, n_samples)
-        x = (simulate_free(lin, z0, dt, n_samples, c, terms, u) + rest[:, None, :])[:, :, :self.observed]
+        x = (simulate_free(lin, z0, dt, n_samples, c, terms, u, self._switch(u)) + rest[:, None, :])[:, :, :self.observed]
         if "coupled_mode" in self.effects:
             x = x + _extra_mode(theta[:, self.block("coupled_mode")], dt, n_samples, self.observed)
         if "quantization" in self.effects:
             q = theta[:, self.block("quantization")]
             x = smoothed_staircase(x, q[:, 0], q[:, 1], q[:, 2])
         return x
+
+    def _switch(self, u: FloatArray | None) -> FloatArray | None:
+        """Where each input column of `u` switches within a step: the measured force inputs
+        (first) are held (`input_switch`); the held cart's motion and the rest drift are
+        smooth, linear between samples (NaN)."""
+        if u is None or self.input_switch is None:
+            return None
+        out = np.full(u.shape, np.nan)
+        out[:, :self.n_inputs] = self.input_switch.reshape(u.shape[0], -1)
+        return out
 
     def _terms(self, theta: FloatArray, lin: FloatArray, n: int) -> tuple[NonlinearTerms, FloatArray | None]:
         c, p = self.carts, theta.shape[0]

@@ -19,7 +19,8 @@ Bounds = tuple[FloatArray, FloatArray, FloatArray, FloatArray]
 class Problem:
     """Work samples of the window: `tau` (N,) s, `y` (N, carts) m, `dt` s, `train` (N,) the
     samples every fit uses (all of them), the largest swing `amplitude` (m), `held` (N,) the
-    held cart's motion from its first sample (m) or None, `inputs` (N, m) or None, `drift`
+    held cart's motion from its first sample (m) or None, `inputs` (N, m) or None (force inputs,
+    switching within a step at `input_switch` (N, m): `ident.physics.free.switched_input`), `drift`
     (N, K) the rest drift's spline basis on knots `drift_spacing_s` apart (`drift`) or None,
     `anchor` the work samples before the blocked cross-validation's first held-out block (one
     period of the main mode; 0: the first sixth of the motion, `fitting.block_edges`)."""
@@ -35,6 +36,7 @@ class Problem:
     drift: FloatArray | None = None
     drift_spacing_s: float = 0.0
     anchor: int = 0
+    input_switch: FloatArray | None = None
 
 
 def best_rows(spec: ModelSpec, prob: Problem, theta: FloatArray, where: slice,

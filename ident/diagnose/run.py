@@ -46,6 +46,7 @@ from ident.diagnose.still import Outputs, moving_outputs
 from ident.diagnose.window import MAX_WORK_SAMPLES, Window, find_window, hold_level
 from ident.errors import IdentDimensionError, IdentValueError
 from ident.physics.chain import LINEAR_NAMES, modes
+from ident.physics.free import switched_input
 from ident.physics.measures import fit_percent, noise_std
 from schemas.diagnosis import Candidate, DiagnosisReport, EffectFit, Evidence, ModelFit
 
@@ -111,10 +112,14 @@ def diagnose(t: FloatArray, y: FloatArray, carts: int | None = None, step_m: flo
     win = _window(t_arr, y_arr, carts, u_arr)
     idx = np.arange(win.start, t_arr.size, win.decimation)
     held = None if other is None else y_all[idx, other] - y_all[idx[0], other]
+    # a measured force input is held from sample to sample: so it is simulated, switching
+    # within a work step where the record's samples switch it (each step's impulse kept)
+    work_u = None if u_arr is None else switched_input(u_arr[win.start:], win.decimation)
     prob = Problem(t_arr[idx] - t_arr[win.start], y_arr[idx], float(t_arr[1] - t_arr[0]) * win.decimation,
                    np.ones(idx.size, dtype=bool), carts, float(np.max(np.ptp(y_arr[idx], axis=0))),
-                   held, None if u_arr is None else u_arr[idx] - u_arr[idx[0]],
-                   anchor=_anchor(win, float(t_arr[1] - t_arr[0]) * win.decimation, y_arr[idx]))
+                   held, None if work_u is None else work_u[0] - work_u[0][0],
+                   anchor=_anchor(win, float(t_arr[1] - t_arr[0]) * win.decimation, y_arr[idx]),
+                   input_switch=None if work_u is None else work_u[1])
     fixed = _fixed_rest(win, carts, step_m)
     progress.stage("diagnosis: the linear baseline")
     base = fit_baseline(prob, fixed)

@@ -157,29 +157,56 @@ def step_maps(lin: FloatArray, dt: float, carts: int, terms: NonlinearTerms, n_i
                     _per_cart(terms.cubic_per_m2_s2, p, carts), gin, float(dt), m, carts)
 
 
-def run_maps(maps: StepMaps, z0: FloatArray, n_samples: int,
-             u: FloatArray | None = None) -> tuple[FloatArray, FloatArray]:
+def run_maps(maps: StepMaps, z0: FloatArray, n_samples: int, u: FloatArray | None = None,
+             switch: FloatArray | None = None) -> tuple[FloatArray, FloatArray]:
     """Deviations (P, N, carts) on the grid from the state `z0` (P, 2c), and the state
-    (deviations, velocities) at the last sample (P, 2c)."""
+    (deviations, velocities) at the last sample (P, 2c). `u` (N, m) inputs at the samples,
+    linear between them, or held where `switch` (N, m) is finite (`switched_input`)."""
     # the compiled kernel imports numba (~0.5-1.5 s): loaded when a simulation first runs
     from ident.physics.kernel import simulate_rows
     p, c = maps.fk.shape
+    m = 0 if u is None else np.size(u) // n_samples
     u_arr = (np.zeros((n_samples, 0)) if u is None
-             else _owned(np.asarray(u, dtype=np.float64).reshape(n_samples, -1), (n_samples, np.size(u) // n_samples)))
+             else _owned(np.asarray(u, dtype=np.float64).reshape(n_samples, -1), (n_samples, m)))
+    held = np.full((n_samples, m), np.nan) if switch is None else _owned(switch, (n_samples, m))
     out = np.empty((p, n_samples, c))
     end = np.empty((p, 2 * c))
     with np.errstate(all="ignore"):
         simulate_rows(maps.phi, maps.gam, maps.phih, maps.gamh, maps.kt, _owned(z0, (p, 2 * c)), maps.fk, maps.fs,
-                      maps.sigma, maps.drag, maps.cubic, maps.kappa, maps.gin, u_arr, maps.dt, maps.substeps, out, end)
+                      maps.sigma, maps.drag, maps.cubic, maps.kappa, maps.gin, u_arr, held, maps.dt, maps.substeps,
+                      out, end)
     return out, end
 
 
 def simulate_free(lin: FloatArray, z0: FloatArray, dt: float, n_samples: int, carts: int,
-                  terms: NonlinearTerms, u: FloatArray | None = None) -> FloatArray:
+                  terms: NonlinearTerms, u: FloatArray | None = None,
+                  switch: FloatArray | None = None) -> FloatArray:
     """Deviations from rest x - s at τ_k = k·dt, shape (P, N, carts).
 
     `lin` (P, 2 or 6) linear parameters (see `chain`), `z0` (P, 2c) deviation and velocity
-    at τ = 0, `u` (N, m) inputs on the same grid (with `terms.input_gain`).
+    at τ = 0, `u` (N, m) inputs on the same grid (with `terms.input_gain`), linear between
+    samples, or held where `switch` (N, m) is finite (`switched_input`).
     """
     n_inputs = 0 if u is None else int(np.size(u) // n_samples)
-    return run_maps(step_maps(lin, dt, carts, terms, n_inputs), z0, n_samples, u)[0]
+    return run_maps(step_maps(lin, dt, carts, terms, n_inputs), z0, n_samples, u, switch)[0]
+
+
+def switched_input(u: FloatArray, decimation: int) -> tuple[FloatArray, FloatArray]:
+    """An input (N, m) held from each sample to the next (a controller's log of what it
+    applies) on every `decimation`-th sample, as `simulate_free` holds it: (values (n, m) at
+    those samples, switch (n, m)), where over the step from work sample k to k + 1 the input
+    is values[k] until the fraction switch[k] of the step and values[k + 1] after it, the
+    fraction that keeps the step's impulse (exact for one switch within the step; 1 where
+    nothing changes). n = ceil(N / decimation); the last step ends with the record."""
+    n, d = -(-u.shape[0] // decimation), decimation
+    part = u[:n * d]
+    if part.shape[0] < n * d:
+        part = np.concatenate([part, np.repeat(part[-1:], n * d - part.shape[0], axis=0)])
+    steps = part.reshape(n, d, -1)
+    values = np.array(steps[:, 0, :], dtype=np.float64)
+    mean = steps.mean(axis=1)
+    after = np.concatenate([values[1:], values[-1:]])
+    jump = after - values
+    with np.errstate(divide="ignore", invalid="ignore"):
+        phi = np.where(jump != 0.0, (after - mean) / jump, 1.0)
+    return values, np.clip(phi, 0.0, 1.0)

@@ -27,6 +27,21 @@ FloatArray = NDArray[np.float64]
 
 
 @numba.njit(cache=True)
+def _input_value(u: FloatArray, switch: FloatArray, k: int, q: int, frac: float, lo: float, hi: float) -> float:
+    """Input column q at fraction `frac` of the step from sample k - 1 to k: linear between
+    the samples where `switch[k - 1, q]` is NaN; else held, u[k - 1] until the switch
+    fraction φ = `switch[k - 1, q]` and u[k] from there (a force a controller applies,
+    switched between samples): over the sub-step [lo, hi] (fractions of the step) its mean,
+    which keeps the sub-step's impulse (linear interpolation had smeared an edge over the
+    whole step)."""
+    phi = switch[k - 1, q]
+    if np.isnan(phi):
+        return float(u[k - 1, q] + (u[k, q] - u[k - 1, q]) * frac)
+    before = min(max((phi - lo) / (hi - lo), 0.0), 1.0)
+    return float(u[k - 1, q] * before + u[k, q] * (1.0 - before))
+
+
+@numba.njit(cache=True)
 def _accel(z: FloatArray, w: FloatArray, inp: FloatArray, c: int, kt: FloatArray, drag: FloatArray,
            cubic: float, kappa: FloatArray, sigma: FloatArray, out: FloatArray) -> None:
     """Extra accelerations (beyond the linear chain) at state z into `out` (c,)."""
@@ -136,15 +151,16 @@ def _coulomb(z: FloatArray, wz: FloatArray, gam: FloatArray, kt: FloatArray, c: 
 @numba.njit(cache=True)
 def simulate_rows(phi: FloatArray, gam: FloatArray, phih: FloatArray, gamh: FloatArray, kt: FloatArray,
                   z0: FloatArray, fk: FloatArray, fs: FloatArray, sigma: FloatArray, drag: FloatArray,
-                  cubic: FloatArray, kappa: FloatArray, gin: FloatArray, u: FloatArray, dt: float, substeps: int,
-                  out: FloatArray, end: FloatArray) -> None:
+                  cubic: FloatArray, kappa: FloatArray, gin: FloatArray, u: FloatArray, switch: FloatArray,
+                  dt: float, substeps: int, out: FloatArray, end: FloatArray) -> None:
     """Deviations e (P, N, c) into `out`, and the last sample's state (P, 2c) into `end`,
     for every parameter row.
 
     phi/phih (P, n, n), gam/gamh (P, n, c): zero-order-hold maps over h and h/2; kt (P, c, c)
     mass-normalised stiffness; z0 (P, n); fk, fs, sigma, drag, kappa (P, c); cubic (P,); gin
-    (P, c, m) input gains; u (N, m) inputs at the samples (linear between them); dt the
-    sample step (s), split into `substeps`.
+    (P, c, m) input gains; u (N, m) inputs at the samples, linear between them where
+    `switch` (N, m) is NaN, else held (`_input_value`); dt the sample step (s), split into
+    `substeps`.
     """
     n_rows, n_samples, c = out.shape
     n = 2 * c
@@ -175,11 +191,11 @@ def simulate_rows(phi: FloatArray, gam: FloatArray, phih: FloatArray, gamh: Floa
         while k < n_samples:
             for j in range(substeps):
                 frac0 = j * step
-                # input at the sub-step start and middle (linear between samples)
+                # input at the sub-step start and middle (linear between samples, or held)
                 for i in range(c):
                     inp[i] = 0.0
                     for q in range(m_in):
-                        inp[i] += gin[p, i, q] * (u[k - 1, q] + (u[k, q] - u[k - 1, q]) * frac0)
+                        inp[i] += gin[p, i, q] * _input_value(u, switch, k, q, frac0, frac0, frac0 + step)
                 _matvec_add(phi[p], z, wz, False)
                 if smooth:
                     _accel(z, w, inp, c, kt[p], drag[p], cubic[p], kappa[p], sigma[p], acc)
@@ -189,7 +205,8 @@ def simulate_rows(phi: FloatArray, gam: FloatArray, phih: FloatArray, gamh: Floa
                     for i in range(c):
                         inp[i] = 0.0
                         for q in range(m_in):
-                            inp[i] += gin[p, i, q] * (u[k - 1, q] + (u[k, q] - u[k - 1, q]) * (frac0 + 0.5 * step))
+                            inp[i] += gin[p, i, q] * _input_value(u, switch, k, q, frac0 + 0.5 * step,
+                                                                  frac0, frac0 + step)
                     _accel(mid, w_mid, inp, c, kt[p], drag[p], cubic[p], kappa[p], sigma[p], acc)
                     _matvec_add(gam[p], acc, wz, True)
                 if coulomb:
