@@ -68,7 +68,9 @@ def _linear_starts(prob: Problem) -> list[FloatArray]:
         return out
     wn = spectral_peaks(np.diff(prob.y, axis=0), prob.dt, prob.carts, min_rad_s=1.0)
     c = prob.carts
-    state = np.concatenate([prob.y[0], np.zeros(c), prob.y[0]])
+    at_rest = np.zeros(c)   # a cart not read (two carts through one encoder) starts at its rest, 0
+    at_rest[:prob.y.shape[1]] = prob.y[0]
+    state = np.concatenate([at_rest, np.zeros(c), at_rest])
     if c == 1:
         return [np.concatenate([[wn[0], 0.05], state])]
     coupling = max(0.5 * (wn[1] ** 2 - wn[0] ** 2), 0.05 * wn[0] ** 2)

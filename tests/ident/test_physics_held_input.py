@@ -59,3 +59,35 @@ def test_the_switch_keeps_each_steps_impulse_and_marks_quiet_steps() -> None:
     # steps: [0 0 0 2] (switches 3/4 of the way), [2 2 2 2] (held to its end), [0 0 0 (0)]
     assert values[:, 0].tolist() == [0.0, 2.0, 0.0]
     assert switch[:, 0].tolist() == pytest.approx([0.75, 1.0, 1.0])
+
+
+def test_two_carts_read_through_one_encoder_with_a_motor_pulse_are_diagnosed() -> None:
+    """The chain wall -k1- cart 1 -k2- cart 2 -k3- wall, a motor pulse on cart 1, only cart 1's
+    encoder read (`ident diagnose --carts 2 --input`): the baseline's start had one rest and
+    one position for two carts and the fit raised IndexError. Simulated here by scipy's
+    solve_ivp (the pulse's two runs integrated apart), independent of ident."""
+    from scipy.integrate import solve_ivp
+
+    from ident.diagnose import diagnose
+
+    m1, m2, k1, k2, k3, c1, c2, gain = 1.2, 0.8, 300.0, 180.0, 250.0, 0.8, 0.5, 0.02   # gain N per count
+    rate, t_on, t_off, duty = 200.0, 1.0, 4.0, 500.0
+    t = np.arange(0.0, 8.0, 1.0 / rate)
+
+    def rhs(_t: float, z: np.ndarray, force: float) -> list[float]:
+        x1, x2, v1, v2 = z
+        return [v1, v2, (force - (k1 + k2) * x1 + k2 * x2 - c1 * v1) / m1, (k2 * x1 - (k2 + k3) * x2 - c2 * v2) / m2]
+
+    x = np.zeros((t.size, 2))
+    z = np.zeros(4)
+    for lo, hi, force in ((0.0, t_on, 0.0), (t_on, t_off, gain * duty), (t_off, t[-1] + 1e-9, 0.0)):
+        sel = (t >= lo) & (t < hi)
+        sol = solve_ivp(rhs, (lo, hi), z, t_eval=t[sel], args=(force,), rtol=1e-10, atol=1e-12, method="DOP853")
+        x[sel] = sol.y[:2].T
+        z = solve_ivp(rhs, (lo, hi), z, args=(force,), rtol=1e-10, atol=1e-12, method="DOP853").y[:, -1]
+    u = np.where((t >= t_on) & (t < t_off), duty, 0.0)
+    y = x[:, :1] + np.random.default_rng(2).normal(0.0, 2e-6, (t.size, 1))
+    report = diagnose(t, y, 2, 0.0, u=u).report
+    assert report.carts == 2
+    assert report.extended.fit_percent > 99.0, report.extended.fit_percent
+    assert "coupled_mode" not in [e.effect for e in report.effects]
