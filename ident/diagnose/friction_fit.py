@@ -23,8 +23,8 @@ def fit_friction(spec: ModelSpec, prob: Problem, theta0: FloatArray, lower: Floa
     stops depends discontinuously on the parameters; so each start is first fitted on the
     large-amplitude part of the run (until the half-cycle peaks fall below 30 % of the
     first), where the cost is smooth, then on every sample. Starts: the current damping, the
-    damping implied by the envelope ratio with friction on a grid, and (one cart) ζ and the
-    friction both read off the extrema of the ring (`_extrema_start`).
+    damping implied by the envelope ratio with friction on a grid, and (one cart driven by a
+    force input) ζ and the friction both read off the extrema of a ring (`_extrema_start`).
     """
     n_cut = _large_amplitude_samples(prob, ev)
     candidates = [theta0]
@@ -41,9 +41,11 @@ def fit_friction(spec: ModelSpec, prob: Problem, theta0: FloatArray, lower: Floa
         f_max = theta0[0] ** 2 * prob.amplitude
         candidates.append(best_rows(spec, prob, alt, slice(at, at + 1),
                                      [np.array([g * f_max]) for g in (0.003, 0.01, 0.03, 0.1)]))
-        # and both read off the ring's extrema, as the simple fit starts (a grid a factor 3
-        # apart from the viscous envelope's ζ left a motor pulse's friction 42-57 % off)
-        ring = _extrema_start(prob, float(theta0[0]))
+        # with a force input, also both read off the ring's extrema, as the simple fit starts
+        # (a grid a factor 3 apart from the viscous envelope's ζ left a motor pulse's friction
+        # 42-57 % off); not for a release, whose starts above suffice (with it, a generated
+        # held-cart flick's breakaway ratio landed 5.5 % off)
+        ring = _extrema_start(prob, float(theta0[0])) if prob.inputs is not None else None
         if ring is not None:
             row = theta0.copy()
             row[1] = float(np.clip(ring[0], 1e-4, 1.5))

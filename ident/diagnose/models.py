@@ -159,7 +159,8 @@ class ModelSpec:
         rest = theta[:, nl + 2 * c:nl + 3 * c]
         z0 = np.concatenate([x0 - rest, v0], axis=1)
         terms, u = self._terms(theta, lin, n_samples)
-        x = (simulate_free(lin, z0, dt, n_samples, c, terms, u, self._switch(u)) + rest[:, None, :])[:, :, :self.observed]
+        x = simulate_free(lin, z0, dt, n_samples, c, terms, u, self._switch(u)) + rest[:, None, :]
+        x = x[:, :, :self.observed]
         if "coupled_mode" in self.effects:
             x = x + _extra_mode(theta[:, self.block("coupled_mode")], dt, n_samples, self.observed)
         if "quantization" in self.effects:

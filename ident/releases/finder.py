@@ -151,9 +151,10 @@ def free_columns(m: Motion) -> list[int]:
 def hand_episodes(m: Motion, model: FreeModel) -> list[tuple[int, int]]:
     """(first, last) indices of the hand episodes: runs of `model.hand` joined across gaps
     shorter than T/8 and ended before a tail of the free response's own misfit
-    (`_trim_misfit`), whose force lasts at least T/10 (a hand's push; not a blip where dry
-    friction flips: counted while above `LASTING_SIGMAS` scales, `_lasting`, since a flick
-    read through a coarse lattice may pass the hand's limit only at its peak) and move the cart (a
+    (`_trim_misfit`), that last at least T/10 (a hand's push; not a blip where dry friction
+    flips; from rest, counted while the force stays above `LASTING_SIGMAS` scales,
+    `_from_rest_lasting`: a flick read through a coarse lattice may pass the hand's limit
+    only at its peak) and move the cart (a
     cart stuck off its rest by dry friction shows a residual but no motion), away from the
     smoothing's edge."""
     edge = m.window // 2 + 2
@@ -166,7 +167,8 @@ def hand_episodes(m: Motion, model: FreeModel) -> list[tuple[int, int]]:
     # nothing but pushes harder than dry friction can hold it
     held = STILL_HOLD_BANDS * abs(model.dry) + HAND_SIGMAS * model.scale
     lasting = _lasting(m, model)
-    return [(a, b) for a, b in runs if _extent(lasting, a, b) >= shortest
+    stuck = _stuck(m, model.column)
+    return [(a, b) for a, b in runs if (b - a >= shortest or _from_rest_lasting(m, lasting, stuck, a, b) >= shortest)
             and (float(np.ptp(x[a:b + 1])) > floor or float(np.max(np.abs(model.residual[a:b + 1]))) > held)]
 
 
@@ -179,13 +181,17 @@ def _lasting(m: Motion, model: FreeModel) -> NDArray[np.bool_]:
     return np.asarray(np.abs(r - drift(r, model.hand, m.samples(2.0 * m.period_s))) > limit)
 
 
-def _extent(lasting: NDArray[np.bool_], a: int, b: int) -> int:
-    """Samples from the start to the end of the run of `lasting` about [a, b] (at least b - a)."""
+def _from_rest_lasting(m: Motion, lasting: NDArray[np.bool_], stuck: NDArray[np.bool_], a: int, b: int) -> int:
+    """Samples from the start to the end of the run of `lasting` about [a, b] when the cart was
+    at rest (`stuck`) for the half period before it, else 0. Nothing in a free response starts
+    a cart at rest, so a force that starts it is a hand however briefly it passed the hand's
+    limit; inside a ringing, the free response's own misfit (a second mode) lasts too."""
     before = np.flatnonzero(~lasting[:a])
     after = np.flatnonzero(~lasting[b + 1:])
     first = int(before[-1]) + 1 if before.size else 0
     last = b + int(after[0]) if after.size else lasting.size - 1
-    return max(b - a, last - first)
+    still = stuck[max(0, first - m.samples(0.5 * m.period_s)):first]
+    return last - first if still.size and bool(np.all(still)) else 0
 
 
 def _trim_misfit(m: Motion, model: FreeModel, pieces: list[tuple[int, int]],

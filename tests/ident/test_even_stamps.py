@@ -4,10 +4,11 @@ The ECP-210's Teensy stamps whole milliseconds on samples taken every ~1.128 ms.
 here from that description: samples on an even period (with a slow drift of the device's
 rate), each stamped with the clock tick at or before it. Evened, the stamps must follow the
 sample times to a small fraction of a tick (their constant offset, the stamps' own time base,
-kept); any other clock must come back untouched. (A rate whose ratio to the tick drifts through a simple
-fraction, 3/2 say, leaves the stamps' local mean offset drifting too: nothing in the stamps
-tells it apart from a drifting clock, so those rates are not asked to even out this far.) Downstream, a flick read through such a
-clock must be dated by `ident.releases` as well as through its true sample times.
+kept); any other clock must come back untouched. (A rate whose ratio to the tick drifts
+through a simple fraction, 3/2 say, leaves the stamps' local mean offset drifting too:
+nothing in the stamps tells it apart from a drifting clock, so those rates are not asked to
+even out this far.) Downstream, a flick read through such a clock must be dated by
+`ident.releases` as well as through its true sample times.
 """
 
 from __future__ import annotations

@@ -27,7 +27,8 @@ def _exact(t: np.ndarray, t_s: float, wn: float, zeta: float, g: float) -> np.nd
 
 
 @pytest.mark.parametrize(("rate_hz", "decimation", "wn", "edge"), [
-    (67.0, 2, 23.0, 151), (200.0, 4, 15.5, 402), (890.0, 20, 15.5, 2213), (890.0, 7, 40.0, 1000), (1000.0, 1, 15.5, 700)])
+    (67.0, 2, 23.0, 151), (200.0, 4, 15.5, 402), (890.0, 20, 15.5, 2213), (890.0, 7, 40.0, 1000),
+    (1000.0, 1, 15.5, 700)])
 def test_a_held_step_between_work_samples_is_simulated_as_it_acts(rate_hz: float, decimation: int, wn: float,
                                                                    edge: int) -> None:
     dt = 1.0 / rate_hz
