@@ -49,8 +49,8 @@ def add_parser(sub: Any) -> None:
                         help="output directory")
     parser.add_argument("--time", dest="time_col", default=None,
                         help="time column name (text exports)")
-    parser.add_argument("--pos", dest="pos_cols", nargs="+", default=None,
-                        help="position column name(s), cart 1 first (text exports)")
+    parser.add_argument("--pos", dest="pos_cols", nargs="+", action="extend", default=None,
+                        help="position column name(s), cart 1 first (text exports; repeat or list them)")
     parser.add_argument("--scale", type=float, default=None,
                         help="metres per unit of the position columns (text exports)")
     parser.add_argument("--release-s", dest="release_s", type=float, default=None,

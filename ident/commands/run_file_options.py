@@ -14,8 +14,8 @@ def add_run_file_options(parser: argparse.ArgumentParser, carts_help: str | None
     if carts_help is not None:
         parser.add_argument("--carts", type=int, choices=(1, 2), default=None, help=carts_help)
     parser.add_argument("--time", dest="time_col", default=None, help="time column name (text exports)")
-    parser.add_argument("--pos", dest="pos_cols", nargs="+", default=None,
-                        help="position column name(s), cart 1 first (text exports)")
+    parser.add_argument("--pos", dest="pos_cols", nargs="+", action="extend", default=None,
+                        help="position column name(s), cart 1 first (text exports; repeat or list them)")
     parser.add_argument("--scale", type=float, default=None, help="metres per unit of the position columns")
     parser.add_argument("--rate-hz", dest="rate_hz", type=float, default=None,
                         help="sample rate (Hz) of an export without a time column")

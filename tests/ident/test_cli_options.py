@@ -68,3 +68,15 @@ def test_release_picks_a_release_by_its_number_in_fit_and_diagnose() -> None:
         assert ident_parser().parse_args([command, "run.csv", "--all"]).all is True
         with pytest.raises(SystemExit):
             ident_parser().parse_args([command, "run.csv", "--release", "0.25"])
+
+
+@pytest.mark.parametrize("command", ["fit", "diagnose", "releases", "report"])
+def test_position_columns_given_one_option_each_are_all_kept(command: str) -> None:
+    # `--pos "Encoder 1 Pos" --pos "Encoder 2 Pos"` kept only the last (argparse's nargs="+"
+    # stores): a two-cart record was diagnosed as one cart, with nothing said
+    sub = _subcommands(ident_parser())[command]
+    extra = ["-o", "out"] if command == "report" else []
+    repeated = sub.parse_args(["run.txt", *extra, "--pos", "Encoder 1 Pos", "--pos", "Encoder 2 Pos"])
+    listed = sub.parse_args(["run.txt", *extra, "--pos", "Encoder 1 Pos", "Encoder 2 Pos"])
+    assert repeated.pos_cols == listed.pos_cols == ["Encoder 1 Pos", "Encoder 2 Pos"]
+    assert sub.parse_args(["run.txt", *extra]).pos_cols is None
