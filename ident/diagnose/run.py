@@ -322,9 +322,18 @@ def _mean_defined(per_output: list[float]) -> float:
 
 def _candidate(prob: Problem, base: FitResult, j: Judgement) -> Candidate:
     params, std = cands.effect_parameters(j.result, j.effect)
+    base_fit = _fit_points(prob, base)
+    if not np.all(np.isfinite(j.result.prediction)):
+        # a candidate whose simulation ran off (a strong cubic, two sticking carts' events):
+        # listed as not fitted, never a gain (its NaN fit % had been read as 'every output
+        # constant' and the whole diagnosis refused: red team two_cart_coulomb_y1 seed 502)
+        return Candidate(effect=j.effect, parameters=params, parameter_std={}, fit_percent=base_fit,  # type: ignore[arg-type]
+                         gain_points=0.0, extra_parameters=len(j.result.spec.names_of(j.effect)), lr_train=0.0,
+                         lr_validation=0.0, threshold_train=j.threshold, threshold_validation=j.threshold,
+                         significant=False, note="its simulation ran off (positions not finite): not fitted")
     fit_c = _fit_points(prob, j.result)
     return Candidate(effect=j.effect, parameters=params, parameter_std=std, fit_percent=fit_c,  # type: ignore[arg-type]
-                     gain_points=fit_c - _fit_points(prob, base),
+                     gain_points=fit_c - base_fit,
                      extra_parameters=len(j.result.spec.names_of(j.effect)), lr_train=j.lr_fit,
                      lr_validation=j.lr_cv, threshold_train=j.threshold, threshold_validation=j.threshold,
                      significant=j.passes)

@@ -13,6 +13,9 @@ physics only, independent of the package); the truth is used only in the asserti
   period, and no release was found (the diagnosis then fitted the hand's push: 54.7 %).
 - A 2 mm lattice whose last rest ends with the record (`quantization_edges` 401): `ident
   releases` and `ident diagnose` raised `ValueError: v cannot be empty`.
+- Two carts with dry friction read through cart 1's encoder at 75 Hz (`two_cart_coulomb_y1`
+  502): a first-round candidate's simulation ran off (NaN positions), its fit % was taken for
+  'every output constant' and the whole diagnosis was refused.
 """
 
 from __future__ import annotations
@@ -75,3 +78,13 @@ def test_a_release_read_through_a_coarse_lattice_is_found(family: str, seed: int
     truth = float(case.truth["release_time_s"])
     assert len(releases) == 1 and abs(releases[0].release_time_s - truth) < 0.15, \
         ([r.release_time_s for r in releases], truth)
+
+
+def test_a_candidate_whose_simulation_runs_off_is_listed_as_not_fitted() -> None:
+    case = _case("two_cart_coulomb_y1", 502)
+    (release,) = find_releases(case.t, case.y)
+    report = diagnose(case.t, case.y, 2, None, start_s=release.release_time_s, stop_s=release.end_time_s).report
+    assert report.cause == "coulomb_friction"
+    assert all(np.isfinite(c.fit_percent) and np.isfinite(c.gain_points) for c in report.candidates)
+    ran_off = [c for c in report.candidates if "ran off" in c.note]
+    assert ran_off and all(c.gain_points == 0.0 and not c.significant for c in ran_off), report.candidates
