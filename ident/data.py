@@ -116,12 +116,12 @@ def even_stamps(t: FloatArray) -> FloatArray:
     put up to v·1 ms of error on every position (0.5 mm, 28 counts, at 0.5 m/s) and that
     much noise on every derivative and residual. Such a clock shows as steps of exactly two
     values one tick apart, each a whole number of ticks, the tick at least `MIN_TICK` of a
-    step. Its stamps are replaced by their
-    moving average over `EVEN_SPAN` samples (the least-squares line of each span at its
-    middle, so a clock that drifts is followed) and, within half a span of either end, by the
-    line through the first or last span, never outside the stamps' own span. The average
-    keeps the stamps' time base (their mean offset from the samples stays). A record with a
-    missing sample (a third step value) is left as it is. Temporaries: two arrays of N.
+    step. Its stamps are replaced by their moving average over `EVEN_SPAN` samples (the
+    least-squares line of each span at its middle, so a clock that drifts is followed) and,
+    within half a span of either end, by the line through the first or last span, never
+    outside the stamps' own span. The average keeps the stamps' time base (their mean offset
+    from the samples stays). A record with a missing sample (a third step value) is left as
+    it is. Temporaries: two arrays of N.
     """
     n = t.shape[0]
     if n < 2 * EVEN_SPAN:

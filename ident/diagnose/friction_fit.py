@@ -45,7 +45,7 @@ def fit_friction(spec: ModelSpec, prob: Problem, theta0: FloatArray, lower: Floa
         # (a grid a factor 3 apart from the viscous envelope's ζ left a motor pulse's friction
         # 42-57 % off); not for a release, whose starts above suffice (with it, a generated
         # held-cart flick's breakaway ratio landed 5.5 % off)
-        ring = _extrema_start(prob, float(theta0[0])) if prob.inputs is not None else None
+        ring = None if prob.inputs is None else _extrema_start(prob, prob.inputs, float(theta0[0]))
         if ring is not None:
             row = theta0.copy()
             row[1] = float(np.clip(ring[0], 1e-4, 1.5))
@@ -189,15 +189,13 @@ def fit_static_friction(spec: ModelSpec, prob: Problem, theta0: FloatArray, lowe
     return again if again.sse_train < best.sse_train else best
 
 
-def _extrema_start(prob: Problem, wn: float) -> tuple[float, float] | None:
-    """(ζ, f) of one cart read off the extrema of its longest ring (`envelope_friction`): the
-    window split where a measured input changes (a motor pulse rings about a new level after
-    each edge), the stretch of the largest swing taken. None with fewer than four extrema."""
+def _extrema_start(prob: Problem, inputs: FloatArray, wn: float) -> tuple[float, float] | None:
+    """(ζ, f) of one cart read off the extrema of its widest ring (`envelope_friction`): the
+    window split where the force `inputs` (N, m) change (a motor pulse rings about a new level
+    after each edge), the stretch of the largest swing taken. None with fewer than four extrema."""
     y = prob.y[:, 0]
-    edges = [0, y.size]
-    if prob.inputs is not None:
-        changes = np.flatnonzero(np.any(np.diff(prob.inputs, axis=0) != 0.0, axis=1)) + 1
-        edges = [0, *changes.tolist(), y.size]
+    changes = np.flatnonzero(np.any(np.diff(inputs.reshape(y.size, -1), axis=0) != 0.0, axis=1)) + 1
+    edges = [0, *changes.tolist(), y.size]
     stretches = [(a, b) for a, b in itertools.pairwise(edges) if b - a >= 8]
     if not stretches:
         return None

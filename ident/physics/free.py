@@ -168,12 +168,12 @@ def run_maps(maps: StepMaps, z0: FloatArray, n_samples: int, u: FloatArray | Non
     m = 0 if u is None else np.size(u) // n_samples
     u_arr = (np.zeros((n_samples, 0)) if u is None
              else _owned(np.asarray(u, dtype=np.float64).reshape(n_samples, -1), (n_samples, m)))
-    held = np.full((n_samples, m), np.nan) if switch is None else _owned(switch, (n_samples, m))
+    switches = np.full((n_samples, m), np.nan) if switch is None else _owned(switch, (n_samples, m))
     out = np.empty((p, n_samples, c))
     end = np.empty((p, 2 * c))
     with np.errstate(all="ignore"):
         simulate_rows(maps.phi, maps.gam, maps.phih, maps.gamh, maps.kt, _owned(z0, (p, 2 * c)), maps.fk, maps.fs,
-                      maps.sigma, maps.drag, maps.cubic, maps.kappa, maps.gin, u_arr, held, maps.dt, maps.substeps,
+                      maps.sigma, maps.drag, maps.cubic, maps.kappa, maps.gin, u_arr, switches, maps.dt, maps.substeps,
                       out, end)
     return out, end
 
