@@ -228,17 +228,21 @@ class Rig:
         self._send(index, line)
 
     def _advance_to(self, t: float) -> None:
+        """Advance the carts to `t` in whole physics steps, with one odd step ending exactly
+        where a phase of the hand ends (the hand lets go at its instant, not at the next step)."""
         s, hand = self.state, self.hand
         n = max(1, round(self.options.substep_hz / self.rate_hz))
         dt = (t - s.t) / n if t > s.t else 0.0
-        remaining = n if dt > 0 else 0
-        while remaining > 0:
+        while dt > 0.0 and t - s.t > 1e-6 * dt:
             hand.update(s.t, s.x1, s.x2)
-            steps = remaining
-            if hand.phase_end != math.inf:
-                steps = min(remaining, max(1, math.ceil((hand.phase_end - s.t) / dt - 1e-9)))
-            advance(self.params, s, dt, steps, hand.path1, hand.path2)
-            remaining -= steps
+            end = min(t, hand.phase_end)
+            steps = math.floor((end - s.t) / dt + 1e-6)
+            if steps >= 1:
+                advance(self.params, s, dt, steps, hand.path1, hand.path2)
+            elif end - s.t > 1e-6 * dt:
+                advance(self.params, s, end - s.t, 1, hand.path1, hand.path2)
+            else:
+                s.t = end
         s.t = t
         hand.update(t, s.x1, s.x2)
 

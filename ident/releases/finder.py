@@ -34,6 +34,7 @@ from numpy.typing import NDArray
 from ident.errors import IdentDimensionError
 from ident.releases.hand import HAND_SIGMAS, STICK_ALLOWANCE, FreeModel, drift, fit_free_model
 from ident.releases.instant import release_instant
+from ident.releases.joined import joined_instant
 from ident.releases.misfit import free_misfit, rest
 from ident.releases.motion import FloatArray, Motion, motion, turning_indices, typical_speed
 from ident.releases.record import EndedBy, Release
@@ -124,7 +125,9 @@ def find_releases(t: NDArray[np.float64], y: NDArray[np.float64],
             nxt = min([nxt] + [max(p, b + m.samples(m.period_s / 4)) for p, q in pushes
                                if q > b + m.samples(m.period_s / 2) and _pushes_after(m, model, b, p, q)])
             if is_release(m, model, a, b, nxt, free, min_amplitude_m):
-                found.append((release_instant(m, model, a, b), j, model))
+                first = release_instant(m, model, a, b)
+                joined = joined_instant(m, model, first, float(m.t[a]))
+                found.append((first if joined is None else joined, j, model))
     found = _one_per_event(m, sorted(found, key=lambda f: f[0]))
     releases = []
     for number, (when, j, model) in enumerate(found, start=1):
