@@ -93,8 +93,9 @@ def _least_residual(m: Motion, model: FreeModel, centre: float, back: float, sig
         return None
     best = float(grid[int(np.argmin([rss(float(g)) for g in grid]))])
     fine = np.linspace(best - m.dt / 8.0, best + m.dt / 8.0, 17)
-    best = float(fine[int(np.argmin([rss(float(g)) for g in fine]))])
-    least = rss(best)
+    fine_rss = [rss(float(g)) for g in fine]
+    k = int(np.argmin(fine_rss))
+    best, least = float(fine[k]), fine_rss[k]
     variance = least / max(y.size - base.shape[1] - HAND_TERMS, 1)
     return best if rss(centre) - least > CLEAR_GAIN * variance else centre
 
