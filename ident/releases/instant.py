@@ -13,7 +13,9 @@ below the limit, where that finer residual |r| exceeds
 a hand lets go by ramping its force down, and the free response begins where the force is
 down to the noise. The crossing is taken between samples, less the delay the smoothing
 adds to a force that drops at once from the level it had just before (`smoothing_delay`,
-computed from the filter itself). No I/O.
+computed from the filter itself). The residual takes the held carts' positions as measured
+and the cart's stiffness refitted on the free period after the episode (`_local_stiffness`).
+No I/O.
 """
 
 from __future__ import annotations
@@ -29,8 +31,8 @@ FRACTION_OF_PEAK = 0.02
 NOISE_SIGMAS = 4.0
 #: The force has ended when the residual stays below the limit this fraction of a period.
 QUIET_FRACTION = 1.0 / 12.0
-#: Noise stds a residual sample exceeds when it is a hand's force (`_change_point`).
-CHANGE_SIGMAS = 2.0
+#: The local stiffness is refitted on at least this many free samples (`_local_stiffness`).
+MIN_LOCAL_SAMPLES = 10
 
 
 def release_instant(m: Motion, model: FreeModel, first: int, last: int) -> float:
@@ -49,9 +51,13 @@ def release_instant(m: Motion, model: FreeModel, first: int, last: int) -> float
                   m.dt, m.period_s, m.noise_m, window)
     extra = model.extra if model.extra is not None else np.zeros(0)
     coef = np.concatenate([model.stiffness, [model.viscous, model.dry, model.offset], extra])
-    basis = regressors(fine, model.column, model.others, model.v_smooth, model.slow,
+    # the held carts' positions as measured: the fit takes a held cart's period average (to
+    # keep its weak following of this cart apart from x_j), which blurs its step at the
+    # release over a period
+    basis = regressors(fine, model.column, model.others, model.v_smooth, (),
                        model.speed if extra.size else None)
-    resid = fine.a[:, model.column] - basis @ coef
+    resid = _local_stiffness(fine.a[:, model.column] - basis @ coef, basis[:, 0],
+                             last - lo + max(m.window, period_n // 8), min(hi, last + period_n) - lo)
     after = resid[last + m.samples(m.period_s / 4) - lo:last + period_n - lo]
     # about its median: a held cart moved elsewhere offsets the residual for good
     level = float(np.median(after)) if after.size else 0.0
@@ -90,6 +96,21 @@ def release_instant(m: Motion, model: FreeModel, first: int, last: int) -> float
         # response whose unmodelled effects make the fine residual noisy)
         release = _coarse_end(m, model, last)
     return float(m.t[0] + np.clip(release, first, m.n_samples - 1) * m.dt)
+
+
+def _local_stiffness(resid: NDArray[np.float64], minus_x: NDArray[np.float64], a: int,
+                     b: int) -> NDArray[np.float64]:
+    """`resid` less the stiffness and offset refitted on the free stretch [a, b) (`minus_x`
+    the regressor -x_j). The free model is fitted on the whole record, so its stiffness is
+    a few per cent off at a large swing, and the weak following of a held cart, now taken as
+    measured, is in no coefficient: right after a hold's let-go either is a few per cent of
+    the hold's force, above the limit. The stretch starts a coarse window (or an eighth of a
+    period) after the episode, clear of the hand."""
+    if b - a < MIN_LOCAL_SAMPLES:
+        return resid
+    design = np.column_stack([minus_x[a:b], np.ones(b - a)])
+    coef, *_ = np.linalg.lstsq(design, resid[a:b], rcond=None)
+    return resid - minus_x * coef[0] - coef[1]
 
 
 def _coarse_end(m: Motion, model: FreeModel, last: int) -> float:
