@@ -63,7 +63,7 @@ from daq.detector_events import (
     Settled,
 )
 from daq.onset import OnsetFit, fit_onset
-from daq.release_dating import Samples, date_ringing_release, fit_onset_at, free_span
+from daq.release_dating import Samples, date_ringing_release, fit_onset_at, free_span, redate_hold
 from daq.ringing import RingingLimits, Turn, Zigzag, is_ringing
 
 __all__ = ["METHOD", "SPAN_S", "Armed", "DetectorSettings", "Disarmed", "Event", "OnsetFit", "Rejected",
@@ -249,7 +249,8 @@ class ReleaseDetector:
             self._restart_anchor(t_s, sample)
             return Rejected(t_s, accel, reason)
         assert fit is not None
-        return self._release(Released(fit.t0_s, trigger_t, t_s, channel, abs(fit.accel_m_s2), hold))
+        t0 = redate_hold(Samples.of(list(self._history)), channel, hold, trigger_t, fit, self.settings)
+        return self._release(Released(t0, trigger_t, t_s, channel, abs(fit.accel_m_s2), hold))
 
     def _release(self, release: Released) -> Released:
         self.state = "released"

@@ -26,8 +26,15 @@ class OnsetFit:
 
 
 def fit_onset(t: npt.NDArray[np.float64], y: npt.NDArray[np.float64], powers: Sequence[int],
-              trigger_offset_s: float = 0.0, spring: tuple[float, float] | None = None) -> OnsetFit | None:
+              trigger_offset_s: float = 0.0, spring: tuple[float, float] | None = None,
+              hand_motion: bool = False) -> OnsetFit | None:
     """Least-squares onset of `y = x0 + Σ c_k max(t - t0, 0)^k` (shapes (N,)).
+
+    With `hand_motion` the hand's own smooth motion enters on both sides of t0, `v0 τ + h τ²`
+    (τ = t - t0): a hand that holds a cart still trembles (7-12 Hz, tens of µm) and lets it go
+    with the tremor's velocity, position and velocity continuous; only the acceleration jumps.
+    Fitted on a short stretch before t0 (a quarter of a tremor's cycle), where a quadratic
+    follows the tremor.
 
     t0 is searched on [t[0], t[-1]] by a grid at the median sample spacing, then refined on a
     grid 50× finer around the best point. Returns t0 (+ `trigger_offset_s`), `a = 2 c_2` and
@@ -39,43 +46,47 @@ def fit_onset(t: npt.NDArray[np.float64], y: npt.NDArray[np.float64], powers: Se
     (`daq.release_dating.hand_response` run forwards): over the 40-70 ms fitted, (ωτ)² reaches
     ~0.5 and τ², τ³ would date a release from a hold ~1 ms late at 1 kHz.
     """
-    if t.size < len(powers) + 3:
+    before = 3 if hand_motion else 1      # columns of the motion before t0: 1 (x0), τ, τ²
+    if t.size < len(powers) + before + 2:
         return None
     step = float(np.median(np.diff(t)))
     if not step > 0:
         return None
     coarse = np.arange(t[0], t[-1], step)
-    best = _best_onset(t, y, powers, coarse, spring)
+    best = _best_onset(t, y, powers, coarse, spring, hand_motion)
     fine = np.linspace(best - step, best + step, 101)
-    best = _best_onset(t, y, powers, fine, spring)
-    coefs, rms = _solve_at(t, y, powers, np.array([best]), spring)
+    best = _best_onset(t, y, powers, fine, spring, hand_motion)
+    coefs, rms = _solve_at(t, y, powers, np.array([best]), spring, hand_motion)
     span = float(t[-1] - t[0])
     if spring is not None:
-        return OnsetFit(best + trigger_offset_s, float(coefs[0, 1]) / span ** 2, float(rms[0]))
-    accel = 2.0 * float(coefs[0, 1 + list(powers).index(2)]) / span ** 2
+        return OnsetFit(best + trigger_offset_s, float(coefs[0, before]) / span ** 2, float(rms[0]))
+    accel = 2.0 * float(coefs[0, before + list(powers).index(2)]) / span ** 2
     return OnsetFit(best + trigger_offset_s, accel, float(rms[0]))
 
 
 def _best_onset(t: npt.NDArray[np.float64], y: npt.NDArray[np.float64], powers: Sequence[int],
-                candidates: npt.NDArray[np.float64], spring: tuple[float, float] | None) -> float:
-    _, rms = _solve_at(t, y, powers, candidates, spring)
+                candidates: npt.NDArray[np.float64], spring: tuple[float, float] | None,
+                hand_motion: bool) -> float:
+    _, rms = _solve_at(t, y, powers, candidates, spring, hand_motion)
     return float(candidates[int(np.argmin(rms))])
 
 
 def _solve_at(t: npt.NDArray[np.float64], y: npt.NDArray[np.float64], powers: Sequence[int],
-              candidates: npt.NDArray[np.float64],
-              spring: tuple[float, float] | None = None) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+              candidates: npt.NDArray[np.float64], spring: tuple[float, float] | None = None,
+              hand_motion: bool = False) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
     """Batched linear least squares for every candidate t0: coefficients (G, 1+P) and RMS (G,).
 
     τ is scaled by the window span (τ/T) for conditioning: c_k(unscaled) = c_k / T^k.
     """
     span = float(t[-1] - t[0])
-    tau = np.maximum(t[None, :] - candidates[:, None], 0.0) / span      # (G, N)
+    signed = (t[None, :] - candidates[:, None]) / span                 # (G, N)
+    tau = np.maximum(signed, 0.0)
+    columns = [np.ones_like(tau)] + ([signed, signed ** 2] if hand_motion else [])
     if spring is None:
-        columns = [np.ones_like(tau)] + [tau ** p for p in powers]
+        columns += [tau ** p for p in powers]
     else:   # the spring's response from rest, τ in units of the span (so r1 ≈ τ²/2, r2 ≈ τ³/6)
         sigma, omega = spring[0] * span, spring[1] * span
-        columns = [np.ones_like(tau), *_from_rest(tau, sigma, omega)]
+        columns += _from_rest(tau, sigma, omega)
     design = np.stack(columns, axis=2)                                  # (G, N, 1+P)
     design_t = design.transpose(0, 2, 1)                                # (G, 1+P, N)
     normal = design_t @ design                                          # batched BLAS, not einsum

@@ -47,6 +47,9 @@ Array = npt.NDArray[np.float64]
 # release: a force is linear only after its peak (real flicks: 30-100 ms before let-go, 0.15-0.5
 # half-period); over 0.3 the peak entered the window and dated flicks up to 25 ms early
 HAND_WINDOW = 0.2
+# a hold's release is dated again with the hand's own motion from this long before the first
+# date: a quarter of a 7-12 Hz tremor's cycle, over which a quadratic follows it
+HAND_LOOKBACK_S = 0.025
 FREE_MIN_SAMPLES = 16
 
 
@@ -75,14 +78,19 @@ class ReleaseDate:
 
 # --- from a still hold ------------------------------------------------------------------------
 def fit_onset_at(s: Samples, channel: int, hold: tuple[float, ...], trigger_t: float,
-                 settings: DetectorSettings, spring: tuple[float, float] | None = None) -> OnsetFit | None:
-    """The onset fit on the hold before `trigger_t` and the window the live decision saw."""
+                 settings: DetectorSettings, spring: tuple[float, float] | None = None,
+                 onset_t: float | None = None) -> OnsetFit | None:
+    """The onset fit on the hold before `trigger_t` and the window the live decision saw.
+
+    With `onset_t` (a first date) the release is dated again with the hand's own motion
+    (`fit_onset`'s `hand_motion`), from `HAND_LOOKBACK_S` before that date."""
     times = s.t
     before = np.flatnonzero(times < trigger_t)
     if before.size < 2:
         return None
+    lookback = settings.fit_lookback_s if onset_t is None else trigger_t - onset_t + HAND_LOOKBACK_S
     n_back = max(settings.fit_min_lookback_samples,
-                 int(np.count_nonzero(times[before] >= trigger_t - settings.fit_lookback_s)))
+                 int(np.count_nonzero(times[before] >= trigger_t - lookback)))
     first = int(before[max(0, before.size - n_back)])
     after = np.flatnonzero(times >= trigger_t)
     # the window the live decision saw: fit_post_s and fit_min_post_samples past the trigger
@@ -91,7 +99,15 @@ def fit_onset_at(s: Samples, channel: int, hold: tuple[float, ...], trigger_t: f
     last = int(after[min(after.size, n_post) - 1]) + 1 if after.size else len(times)
     t = times[first:last] - trigger_t
     y = s.pos[first:last, channel] - hold[channel]
-    return fit_onset(t, y, settings.fit_powers, trigger_offset_s=trigger_t, spring=spring)
+    return fit_onset(t, y, settings.fit_powers, trigger_offset_s=trigger_t, spring=spring,
+                     hand_motion=onset_t is not None)
+
+
+def redate_hold(s: Samples, channel: int, hold: tuple[float, ...], trigger_t: float, fit: OnsetFit,
+                settings: DetectorSettings, spring: tuple[float, float] | None = None) -> float:
+    """The release from a still hold `fit` dated, dated again with the hand's tremor (s)."""
+    again = fit_onset_at(s, channel, hold, trigger_t, settings, spring, onset_t=fit.t0_s)
+    return fit.t0_s if again is None else again.t0_s
 
 
 def date_hold_release(s: Samples, t_now: float, a: Turn, settings: DetectorSettings,
@@ -121,7 +137,8 @@ def date_hold_release(s: Samples, t_now: float, a: Turn, settings: DetectorSetti
     fit = fit_onset_at(s, channel, hold, trigger, settings, spring)
     if fit is None:
         return None
-    return Released(fit.t0_s, trigger, t_now, channel, abs(fit.accel_m_s2), hold)
+    return Released(redate_hold(s, channel, hold, trigger, fit, settings, spring), trigger, t_now, channel,
+                    abs(fit.accel_m_s2), hold)
 
 
 def others_swing(s: Samples, release: Released, held_ratio: float) -> bool:

@@ -32,8 +32,10 @@ def _min_jerk(s: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
     return 10 * s**3 - 15 * s**4 + 6 * s**5
 
 
-def _free_response(case: str, x0: npt.NDArray[np.float64], tau: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
-    """Positions (len(tau), 2) after release from rest at x0; pinned carts stay put."""
+def _free_response(case: str, x0: npt.NDArray[np.float64], tau: npt.NDArray[np.float64],
+                   v0: npt.NDArray[np.float64] | None = None) -> npt.NDArray[np.float64]:
+    """Positions (len(tau), 2) after release at x0 with velocities `v0` (default at rest);
+    pinned carts stay put."""
     m1, m2 = MASS_KG
     k1, k2, k3 = SPRINGS_N_M
     c1, c2 = DAMPING_N_S_M
@@ -45,7 +47,7 @@ def _free_response(case: str, x0: npt.NDArray[np.float64], tau: npt.NDArray[np.f
     minv = np.linalg.inv(mass)
     a = np.block([[np.zeros((n, n)), np.eye(n)], [-minv @ stiffness, -minv @ damping]])
     lam, vec = np.linalg.eig(a)
-    z0 = np.concatenate([x0[free], np.zeros(n)])
+    z0 = np.concatenate([x0[free], np.zeros(n) if v0 is None else v0[free]])
     coef = np.linalg.solve(vec, z0)
     z = (vec[None, :, :] * (coef[None, :] * np.exp(lam[None, :] * tau[:, None]))[:, None, :]).sum(axis=2).real
     out = np.tile(x0, (len(tau), 1))
@@ -55,7 +57,8 @@ def _free_response(case: str, x0: npt.NDArray[np.float64], tau: npt.NDArray[np.f
 
 def lab_run(case: str, rate_hz: float, seed: int, counts_per_m: float = 20000.0,
             noise_m: float = 2e-5, pull_m: float = 0.15, after_s: float = 12.0) -> Trace:
-    """Rest, slow pull, hold with tremor, release at a random instant, free response."""
+    """Rest, slow pull, hold with tremor, release at a random instant, free response (from
+    the position and velocity the tremor gave the cart at the release)."""
     rng = np.random.default_rng(seed)
     rest_s, pull_s, hold_s = rng.uniform(1.0, 2.0), rng.uniform(1.2, 2.5), rng.uniform(1.0, 2.0)
     release = rest_s + pull_s + hold_s + rng.uniform(0, 1 / rate_hz) + 0.3
@@ -66,9 +69,14 @@ def lab_run(case: str, rate_hz: float, seed: int, counts_per_m: float = 20000.0,
     x = np.zeros((len(t), 2))
     before = t < release
     shape = _min_jerk((t[before] - rest_s) / pull_s)
-    tremor = 2e-4 * np.sin(2 * np.pi * 9.0 * t[before] + rng.uniform(0, 6)) * (shape > 0)
+    w, phase = 2 * np.pi * 9.0, rng.uniform(0, 6)
+    tremor = 2e-4 * np.sin(w * t[before] + phase) * (shape > 0)
     x[before, pulled] = -pull_m * shape + tremor
-    x[~before] = _free_response(case, held, t[~before] - release)
+    # the hand lets go wherever its tremor has the cart, at the tremor's velocity
+    v0 = np.zeros(2)
+    held[pulled] += 2e-4 * np.sin(w * release + phase)
+    v0[pulled] = 2e-4 * w * np.cos(w * release + phase)
+    x[~before] = _free_response(case, held, t[~before] - release, v0)
     return _sensor(t, x, rng, counts_per_m, noise_m, release)
 
 

@@ -91,6 +91,26 @@ def test_fit_onset_recovers_a_clean_parabola_onset() -> None:
     assert fit.accel_m_s2 == pytest.approx(6.0, rel=1e-3)
 
 
+def test_fit_onset_with_the_hands_motion_dates_a_trembling_hold_within_a_quarter_sample() -> None:
+    # a 10 Hz, 0.1 mm tremor until t0, then the cart leaves from the tremor's position and
+    # velocity with the spring's 6 m/s² (continuous in position and velocity); 1 kHz, fitted
+    # from 25 ms before t0 as the detector does
+    w, amp, t0, accel = 2 * np.pi * 10.0, 1e-4, -0.0123, 6.0
+    t = np.arange(t0 - 0.025, 0.04, 0.001)
+    plain_errors = []
+    for phase in np.linspace(0.0, 2 * np.pi, 8, endpoint=False):
+        x0, v0 = amp * np.sin(w * t0 + phase), amp * w * np.cos(w * t0 + phase)
+        tau = t - t0
+        y = np.where(tau < 0, amp * np.sin(w * t + phase), x0 + v0 * tau + 0.5 * accel * tau ** 2)
+        plain, hand = fit_onset(t, y, (2, 3)), fit_onset(t, y, (2, 3), hand_motion=True)
+        assert plain is not None and hand is not None
+        assert abs(hand.t0_s - t0) <= 2.5e-4, phase
+        assert hand.accel_m_s2 == pytest.approx(accel, rel=0.1)
+        plain_errors.append(abs(plain.t0_s - t0))
+    # the constant hold alone is off by up to about v0/a (here 1 ms)
+    assert max(plain_errors) > 1e-3
+
+
 def test_settings_reject_a_short_pre_trigger() -> None:
     with pytest.raises(DaqValueError, match=r"pre_trigger_s: expected >= 0\.5 s"):
         DetectorSettings(pre_trigger_s=0.2)
