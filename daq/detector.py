@@ -237,7 +237,8 @@ class ReleaseDetector:
         channel = self._channel_moved_most(sample)
         hold = self._hold
         still_away = abs(sample[channel] - hold[channel]) > self.settings.fire_m
-        fit = fit_onset_at(Samples.of(list(self._history)), channel, hold, trigger_t, self.settings)
+        samples = Samples.of(list(self._history))
+        fit = fit_onset_at(samples, channel, hold, trigger_t, self.settings)
         direction = 1.0 if sample[channel] > hold[channel] else -1.0
         accel = fit.accel_m_s2 * direction if fit is not None else 0.0
         reason = ("fit failed" if fit is None else "came back" if not still_away
@@ -249,7 +250,7 @@ class ReleaseDetector:
             self._restart_anchor(t_s, sample)
             return Rejected(t_s, accel, reason)
         assert fit is not None
-        t0 = redate_hold(Samples.of(list(self._history)), channel, hold, trigger_t, fit, self.settings)
+        t0 = redate_hold(samples, channel, hold, trigger_t, fit, self.settings)
         return self._release(Released(t0, trigger_t, t_s, channel, abs(fit.accel_m_s2), hold))
 
     def _release(self, release: Released) -> Released:

@@ -33,8 +33,8 @@ def fit_onset(t: npt.NDArray[np.float64], y: npt.NDArray[np.float64], powers: Se
     With `hand_motion` the hand's own smooth motion enters on both sides of t0, `v0 τ + h τ²`
     (τ = t - t0): a hand that holds a cart still trembles (7-12 Hz, tens of µm) and lets it go
     with the tremor's velocity, position and velocity continuous; only the acceleration jumps.
-    Fitted on a short stretch before t0 (a quarter of a tremor's cycle), where a quadratic
-    follows the tremor.
+    A quadratic follows a tremor over a quarter of its cycle: the caller fits from that long
+    before t0 (`daq.release_dating.HAND_LOOKBACK_S`).
 
     t0 is searched on [t[0], t[-1]] by a grid at the median sample spacing, then refined on a
     grid 50× finer around the best point. Returns t0 (+ `trigger_offset_s`), `a = 2 c_2` and
@@ -74,7 +74,8 @@ def _best_onset(t: npt.NDArray[np.float64], y: npt.NDArray[np.float64], powers: 
 def _solve_at(t: npt.NDArray[np.float64], y: npt.NDArray[np.float64], powers: Sequence[int],
               candidates: npt.NDArray[np.float64], spring: tuple[float, float] | None = None,
               hand_motion: bool = False) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
-    """Batched linear least squares for every candidate t0: coefficients (G, 1+P) and RMS (G,).
+    """Batched linear least squares for every candidate t0: coefficients (G, H+P) and RMS (G,),
+    H the columns before t0 (x0; with `hand_motion` also τ and τ²), P those after it.
 
     τ is scaled by the window span (τ/T) for conditioning: c_k(unscaled) = c_k / T^k.
     """
@@ -87,12 +88,12 @@ def _solve_at(t: npt.NDArray[np.float64], y: npt.NDArray[np.float64], powers: Se
     else:   # the spring's response from rest, τ in units of the span (so r1 ≈ τ²/2, r2 ≈ τ³/6)
         sigma, omega = spring[0] * span, spring[1] * span
         columns += _from_rest(tau, sigma, omega)
-    design = np.stack(columns, axis=2)                                  # (G, N, 1+P)
-    design_t = design.transpose(0, 2, 1)                                # (G, 1+P, N)
+    design = np.stack(columns, axis=2)                                  # (G, N, H+P)
+    design_t = design.transpose(0, 2, 1)                                # (G, H+P, N)
     normal = design_t @ design                                          # batched BLAS, not einsum
-    rhs = design_t @ y                                                  # (G, 1+P)
+    rhs = design_t @ y                                                  # (G, H+P)
     ridge = 1e-12 * np.eye(normal.shape[1])
-    coefs = np.asarray(np.linalg.solve(normal + ridge, rhs[..., None])[..., 0], dtype=np.float64)   # (G, 1+P)
+    coefs = np.asarray(np.linalg.solve(normal + ridge, rhs[..., None])[..., 0], dtype=np.float64)   # (G, H+P)
     residual = y[None, :] - (design @ coefs[..., None])[..., 0]
     rms: npt.NDArray[np.float64] = np.sqrt(np.mean(residual ** 2, axis=1))
     return coefs, rms

@@ -105,7 +105,8 @@ def fit_onset_at(s: Samples, channel: int, hold: tuple[float, ...], trigger_t: f
 
 def redate_hold(s: Samples, channel: int, hold: tuple[float, ...], trigger_t: float, fit: OnsetFit,
                 settings: DetectorSettings, spring: tuple[float, float] | None = None) -> float:
-    """The release from a still hold `fit` dated, dated again with the hand's tremor (s)."""
+    """The instant (s) of a release from a still hold that `fit` dated, dated again with the
+    hand's own motion (its tremor) on both sides of t0; `fit`'s where that fit fails."""
     again = fit_onset_at(s, channel, hold, trigger_t, settings, spring, onset_t=fit.t0_s)
     return fit.t0_s if again is None else again.t0_s
 
