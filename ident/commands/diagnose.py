@@ -71,12 +71,14 @@ def diagnose_releases(args: argparse.Namespace) -> dict[int, tuple[Any, tuple[in
 
     stage("loading")
     # raw: a record may hold several releases, or start in motion
-    data = make_uniform(load(args.path, time_col=args.time_col, pos_cols=args.pos_cols, scale=args.scale,
-                             input_col=args.input_col, rate_hz=args.rate_hz, raw=True))
+    raw = load(args.path, time_col=args.time_col, pos_cols=args.pos_cols, scale=args.scale,
+               input_col=args.input_col, rate_hz=args.rate_hz, raw=True)
+    data = make_uniform(raw)
     if args.input_col is not None:   # a motor input: the record as one response
         return {0: diagnose_window(args, data, None)}
     stage("finding the releases")
-    releases = releases_of(data)
+    # on the record as loaded, as `ident releases` and `ident fit` find them (the same instants)
+    releases = releases_of(raw)
     if args.all:
         if not releases:
             raise IdentValueError("--all", "a record with releases (see `ident releases`)", "none found")
