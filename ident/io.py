@@ -396,18 +396,26 @@ def _step_run(t: FloatArray, y: FloatArray, release_time_s: float | None, step_m
     return with_found_release(t, y, step_m, pulled_cart, name)
 
 
+def _starts_as_mcap(file: Path) -> bool:
+    try:
+        return run_file.has_mcap_magic(file)
+    except OSError as exc:
+        raise DataFileError(f"cannot read {file}: {exc}") from exc
+
+
 def load(path: str | Path, time_col: str | None = None, pos_cols: list[str] | None = None,
          scale: float | None = None, release_time_s: float | None = None,
          step_m: float = DEFAULT_STEP_M, input_col: str | None = None,
          rate_hz: float | None = None, raw: bool = False) -> IdData:
-    """Load a run from an MCAP file (`.mcap`) or a delimited text export (anything else).
+    """Load a run from an MCAP file (`.mcap`, or any file that starts with the MCAP magic: a
+    `.mcap.part` left by a killed writer) or a delimited text export (anything else).
 
     `raw=True` loads the positions only (a zero input, no release estimated): a raw record
     with several releases, or one that starts in motion (`ident.releases` finds them)."""
     file = Path(path)
     if not file.exists():
         raise DataFileError(f"expected an existing file, got {str(file)!r}")
-    if file.suffix == ".mcap":
+    if file.suffix == ".mcap" or _starts_as_mcap(file):
         return load_mcap(file, step_m, release_time_s, raw=raw)
     return load_text(file, time_col, pos_cols, scale, release_time_s, step_m, input_col=input_col, raw=raw,
                      rate_hz=rate_hz)

@@ -32,10 +32,10 @@ from schemas.run_file.layout import (
     run_id_of,
 )
 from schemas.run_file.limits import DAMAGE_ERRORS, DEFAULT_LIMITS, Limits, RunFileTooLarge
-from schemas.run_file.records import ReadOutcome, iter_records
+from schemas.run_file.records import ReadOutcome, has_mcap_magic, iter_records
 
 __all__ = ["DAMAGE_ERRORS", "DEFAULT_LIMITS", "FIT_SUFFIX", "PART_SUFFIX", "QUARANTINE_DIR",
            "RECOVERING_SUFFIX", "REPORT_NAME", "RUN_SUFFIX", "Limits", "ReadOutcome",
-           "RunContents", "RunFileTooLarge", "final_path", "fit_dir_of", "iter_records",
+           "RunContents", "RunFileTooLarge", "final_path", "fit_dir_of", "has_mcap_magic", "iter_records",
            "part_path", "quarantine_path", "read_finished", "read_run", "recovered_run_id",
            "run_file_name", "run_id_of", "run_metadata"]

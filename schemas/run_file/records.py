@@ -73,6 +73,13 @@ _PARSERS: Final[dict[int, Callable[[ReadDataStream, int], McapRecord]]] = {
 _MAGIC: Final = b"\x89MCAP0\r\n"
 
 
+def has_mcap_magic(path: Path) -> bool:
+    """Whether `path` starts with the MCAP magic (a run file under any name: `.mcap.part`,
+    a renamed copy); False for a shorter or different file. Raises `OSError` as `open`."""
+    with open(path, "rb") as stream:
+        return stream.read(len(_MAGIC)) == _MAGIC
+
+
 def iter_records(path: Path, outcome: ReadOutcome, limits: Limits = DEFAULT_LIMITS, *,
                  messages: bool = True) -> Iterator[McapRecord]:
     """Every readable record of `path` in file order (chunks opened, within `limits`).
