@@ -58,6 +58,8 @@ InitialState = Literal["auto", "rest", "estimate"]
 PARAMETER_NAMES = ("wn", "zeta", "gain", "release_time_s", "offset", "friction", "release_velocity")
 #: h·wn of the fine grid the dry-friction model is simulated on (converged: see the docstring).
 FINE_H_WN = 0.01
+#: ... and at most this many fine steps per sample after the release.
+FINE_PER_SAMPLE = 64
 #: The fitted release stays within this many start-value periods of the given one.
 RELEASE_PERIODS = 0.25
 #: `initial_state="auto"` keeps the release from rest unless the estimated state explains the
@@ -177,15 +179,17 @@ def coulomb_response(wn: float, zeta: float, friction: float, r: float, t: Float
                      release_time_s: float, velocity: float = 0.0) -> FloatArray:
     """Positions (N,) of x'' + 2ζwn x' + wn² (x - r) + f sign(x') = 0 (static = kinetic f, m/s²),
     at 0 until t_r and let go there with velocity `velocity` (m/s; 0: from rest): the physics'
-    free response on a uniform grid from t_r with h·wn ≤ FINE_H_WN, linearly interpolated at
-    the samples (error ≈ (h wn)² r / 8)."""
+    free response on a uniform grid from t_r with h·wn ≤ FINE_H_WN (or `FINE_PER_SAMPLE` steps
+    a sample, the coarser), linearly interpolated at the samples (error ≈ (h wn)² r / 8)."""
     t = np.asarray(t, dtype=np.float64)
     out = np.zeros(t.size)
     after = t > release_time_s
     if not np.any(after) or not (np.isfinite(wn) and wn > 0.0):
         return out
     tau = t[after] - release_time_s
-    n = int(np.ceil(tau[-1] * wn / FINE_H_WN)) + 2
+    # at most FINE_PER_SAMPLE steps a sample: a fit running through a wn the samples cannot
+    # show (wn h > 0.64) needs no finer grid, and it bounds each simulation's cost
+    n = min(int(np.ceil(tau[-1] * wn / FINE_H_WN)), FINE_PER_SAMPLE * tau.size) + 2
     h = tau[-1] / (n - 1)
     terms = NonlinearTerms(friction_m_s2=np.array([[abs(friction)]]))
     deviation = simulate_free(np.array([[wn, zeta]]), np.array([[-r, velocity]]), h, n, 1, terms)[0, :, 0]
@@ -288,7 +292,7 @@ def _fit_from(data: IdData, y: FloatArray, method: Method, friction: bool, subst
     if friction:
         # a linear fit that ran off is refused before the friction fits start from it: their fine
         # grid grows with wn (a flick fitted from rest ran wn to 1.5e4 rad/s: 400 s)
-        _check_outcome(outcome, bounds, linear_method, travel)
+        _check_outcome(outcome, bounds, linear_method, travel, sample_step(data.t))
         # the dry-friction fit starts from the linear fit with f = 0⁺, and from the linear fit
         # with ζ and f of the envelope regression |e_{j+1}| = ρ |e_j| - (1 + ρ) f / wn²; the
         # lower cost wins (the cost jumps with each stick: local minima)
@@ -308,7 +312,7 @@ def _fit_from(data: IdData, y: FloatArray, method: Method, friction: bool, subst
                                     linear[4], other.p[5], linear[6]]))
         outcomes = [_least_squares(data.t, y, amplitude, method, substeps, True, p0, free, bounds) for p0 in starts]
         outcome = min(outcomes, key=lambda o: o.cost)
-    _check_outcome(outcome, bounds, method, travel)
+    _check_outcome(outcome, bounds, method, travel, sample_step(data.t))
     return outcome
 
 
@@ -327,8 +331,11 @@ def release_bounds(t: FloatArray, release0: float, wn: float) -> tuple[float, fl
     return low, max(high, np.nextafter(low, np.inf))
 
 
-def _check_outcome(outcome: _Outcome, bounds: tuple[float, float], method: Method, travel: float) -> None:
-    """Refuse a fit that ran off: non-finite parameters, wn ≤ 0, a release outside `bounds`
+def _check_outcome(outcome: _Outcome, bounds: tuple[float, float], method: Method, travel: float,
+                   h: float) -> None:
+    """Refuse a fit that ran off: non-finite parameters, wn ≤ 0 or above the samples' Nyquist
+    frequency π/h (an alias: a 123 Hz flick's fit from rest ran to wn 357 rad/s, and the
+    friction fits from it took 16 s on a grid that fine), a release outside `bounds`
     or a gain whose sign is not `travel`'s, the sign of the data's own travel over the pull
     (final level less the level at the release, over U): a released cart moves toward the
     spring's rest, so g U has that sign (g < 0 is right when U was given with the other sign
@@ -340,6 +347,8 @@ def _check_outcome(outcome: _Outcome, bounds: tuple[float, float], method: Metho
         problems.append(f"parameters {np.round(outcome.p, 6).tolist()}, expected finite values")
     if not wn > 0.0:
         problems.append(f"wn {wn:.4g} rad/s, expected > 0")
+    elif h > 0.0 and not wn * h < np.pi:
+        problems.append(f"wn {wn:.4g} rad/s, expected below the samples' Nyquist frequency {np.pi / h:.4g} rad/s")
     margin = 1e-3 * (high - low)   # trf stops short of a bound the optimum lies beyond
     if not low + margin < release < high - margin and low < high:
         problems.append(f"release {release:.4f} s, expected inside [{low:.4f}, {high:.4f}] s "

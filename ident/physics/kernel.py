@@ -241,3 +241,24 @@ def _all_held(z: FloatArray, kt: FloatArray, fs: FloatArray, c: int) -> bool:
         if abs(pull) > fs[i]:
             return False
     return True
+
+
+@numba.njit(cache=True)
+def march_affine(phi: FloatArray, gam: FloatArray, x0: FloatArray, substeps: int, out: FloatArray) -> None:
+    """States after each step k of x ← Φ_k x + γ_k, applied `substeps` times per step, from
+    x0 (n,), into `out` (K, n); Φ (K, n, n), γ (K, n): a linear system's steps of varying
+    length (a jittered clock), each with its own map."""
+    n = x0.size
+    x = x0.copy()
+    nxt = np.empty(n)
+    for k in range(phi.shape[0]):
+        for _ in range(substeps):
+            for i in range(n):
+                acc = gam[k, i]
+                for j in range(n):
+                    acc += phi[k, i, j] * x[j]
+                nxt[i] = acc
+            for i in range(n):
+                x[i] = nxt[i]
+        for i in range(n):
+            out[k, i] = x[i]
