@@ -30,7 +30,6 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ident.errors import IdentValueError
-from ident.physics.kernel import march_affine
 
 FloatArray = NDArray[np.float64]
 Method = Literal["rk4", "euler"]
@@ -138,6 +137,7 @@ def linear_step_response(A: FloatArray, B: FloatArray, t: FloatArray, release_ti
         states[first:] = equilibrium + ((powers * coords) @ vectors.T).real
         return states
     # a grid with jitter (a real export's clock): every step's own map, marched compiled
+    from ident.physics.kernel import march_affine  # deferred: numba keeps `import ident` slow
     phis, gammas = linear_step_maps(A, B, steps / substeps, method)
     march_affine(phis, np.ascontiguousarray(gammas[:, :, 0] * step), x, substeps, states[first + 1:])
     return states
