@@ -334,8 +334,8 @@ def release_bounds(t: FloatArray, release0: float, wn: float) -> tuple[float, fl
 def _check_outcome(outcome: _Outcome, bounds: tuple[float, float], method: Method, travel: float,
                    h: float) -> None:
     """Refuse a fit that ran off: non-finite parameters, wn ≤ 0 or above the samples' Nyquist
-    frequency π/h (an alias: a 123 Hz flick's fit from rest ran to wn 357 rad/s, and the
-    friction fits from it took 16 s on a grid that fine), a release outside `bounds`
+    frequency π/h (an alias: a 123 Hz flick fitted from rest with friction ran to wn 390.6
+    rad/s, truth 22.9, and the friction fit started from it took 16 s), a release outside `bounds`
     or a gain whose sign is not `travel`'s, the sign of the data's own travel over the pull
     (final level less the level at the release, over U): a released cart moves toward the
     spring's rest, so g U has that sign (g < 0 is right when U was given with the other sign

@@ -140,7 +140,7 @@ def linear_step_response(A: FloatArray, B: FloatArray, t: FloatArray, release_ti
             states[first:] = equilibrium + ((powers * coords) @ vectors.T).real
         return states
     # a grid with jitter (a real export's clock): every step's own map, marched compiled
-    from ident.physics.kernel import march_affine  # deferred: numba keeps `import ident` slow
+    from ident.physics.kernel import march_affine  # deferred: numba would slow `import ident`
     phis, gammas = linear_step_maps(A, B, steps / substeps, method)
     march_affine(phis, np.ascontiguousarray(gammas[:, :, 0] * step), x, substeps, states[first + 1:])
     return states
