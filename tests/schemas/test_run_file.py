@@ -155,10 +155,31 @@ def test_the_file_size_limit_refuses_before_reading(tmp_path: Path) -> None:
     assert read.n_records == 0 and not read.complete
 
 
-@pytest.mark.xfail(strict=True, reason="measured in its own child for the first time (it read +0 MB before): the "
-                   "reader holds every batch's arrays, then joins them, 48.7 bytes a sample for 24 of arrays, "
-                   "2.03x; joining column by column or last-read-first does not lower the peak (the allocator "
-                   "keeps the freed batches)")
+def test_batches_written_out_of_time_order_are_read_in_time_order_with_their_rows(tmp_path: Path) -> None:
+    """A recovered file may hold its batches out of order: the rows come back sorted by the
+    batches' times, each position beside its own time, in one and in two channels."""
+    rng = np.random.default_rng(5)
+    for two in (False, True):
+        batches = []
+        for seq in (2, 0, 3, 1):
+            n = int(rng.integers(1, 40))
+            t = [10_000 * seq + k for k in range(n)]
+            pos1 = [float(v) for v in t]
+            batches.append(SampleBatch(bench="b1", batch_seq=seq, t_ns=t, pos1_m=pos1, raw1=pos1,
+                                       pos2_m=[-v for v in pos1] if two else None,
+                                       raw2=[-v for v in pos1] if two else None))
+        path = tmp_path / f"shuffled{int(two)}.mcap"
+        inner = b"".join(_message(1, k, b.to_json_bytes()) for k, b in enumerate(batches))
+        path.write_bytes(MAGIC + _header() + _channel(1, topics.SAMPLES) + _chunk(inner))
+        read = run_file.read_run(path)
+        assert read.t_ns.size == sum(len(b.t_ns) for b in batches)
+        assert np.all(np.diff(read.t_ns) > 0)
+        assert np.array_equal(read.pos_m[:, 0], read.t_ns.astype(float))
+        assert read.pos_m.shape[1] == (2 if two else 1) and np.array_equal(read.raw, read.pos_m)
+        if two:
+            assert np.array_equal(read.pos_m[:, 1], -read.pos_m[:, 0])
+
+
 def test_memory_to_read_a_run_stays_within_twice_its_arrays_and_file(tmp_path: Path) -> None:
     path = tmp_path / "long.mcap"
     _bomb(path, n_chunks=30, batches_per_chunk=20)   # 1.2 M samples, one channel
