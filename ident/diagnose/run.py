@@ -98,7 +98,8 @@ def diagnose(t: FloatArray, y: FloatArray, carts: int | None = None, step_m: flo
              stop_s: float | None = None) -> Diagnosis:
     """Diagnose a release run: `t` (N,) s uniform, `y` (N,) or (N, n_out) m, `u` (N,) or
     (N, m) a measured force input (any unit), `start_s`/`stop_s` the stretch to use (a
-    release window on the run's time base; default the whole record)."""
+    release window on the run's time base, `start_s` its release as `ident.releases` dates
+    it: the fit starts there; default the whole record, the release found here)."""
     started = time.perf_counter()
     outputs = _moving(y, carts)   # before anything is fitted: a still column has no fit %
     t_arr, y_arr = _check(t, outputs.y)
@@ -109,7 +110,7 @@ def diagnose(t: FloatArray, y: FloatArray, carts: int | None = None, step_m: flo
     carts = carts or min(y_arr.shape[1], 2)
     y_all = y_arr
     y_arr, other = _select_outputs(y_arr, carts)
-    win = _window(t_arr, y_arr, carts, u_arr)
+    win = _window(t_arr, y_arr, carts, u_arr, start_s is not None)
     idx = np.arange(win.start, t_arr.size, win.decimation)
     held = None if other is None else y_all[idx, other] - y_all[idx[0], other]
     # a measured force input is held from sample to sample: so it is simulated, switching
@@ -240,10 +241,10 @@ def _stretch(t: FloatArray, start_s: float | None, stop_s: float | None) -> NDAr
     return keep
 
 
-def _window(t: FloatArray, y: FloatArray, carts: int, u: FloatArray | None) -> Window:
+def _window(t: FloatArray, y: FloatArray, carts: int, u: FloatArray | None, released_at_start: bool) -> Window:
     """The release window; with a force input the whole record (the input drives the motion)."""
     if u is None:
-        return find_window(t, y, carts)
+        return find_window(t, y, carts, released_at_start)
     hold, noise, _ = hold_level(y)
     moved = np.flatnonzero(np.any(np.abs(u - u[0]) > 0, axis=1))
     release = float(t[moved[0]]) if moved.size else float(t[0])

@@ -21,8 +21,10 @@ its acceleration jump at the first motion (`knot.hold_release`); a flick by the 
 cubic hand path and the free modes of the scan's fit, searched from the onset to T/4 after
 the scan's start (`knot.flick_release`); the window starts there. Only when neither can be
 fitted, the release is the last zero of the fitted velocity before `t_w` (within half a
-period) when the fitted position there is the held level, else `t_w` itself. The fits start
-two samples (at least T/200) after `t_w`. Long runs
+period) when the fitted position there is the held level, else `t_w` itself. A record that
+starts at a release `ident.releases` dated (`released_at_start`: `ident diagnose` on a raw
+record) is not dated again: the window starts there. The fits start two samples (at least
+T/200) after `t_w`. Long runs
 are decimated for fitting (`MAX_WORK_SAMPLES`). No I/O here.
 """
 
@@ -83,8 +85,13 @@ def hold_level(y: FloatArray) -> tuple[FloatArray, float, int]:
     return hold, noise, onset
 
 
-def find_window(t: FloatArray, y: FloatArray, carts: int) -> Window:
-    """Window start, decimation, hold and release time of a run `y` (N, n_out) on `t` (N,)."""
+def find_window(t: FloatArray, y: FloatArray, carts: int, released_at_start: bool = False) -> Window:
+    """Window start, decimation, hold and release time of a run `y` (N, n_out) on `t` (N,).
+
+    `released_at_start`: the record starts where the hand let go (a release's window that
+    `ident.releases` dated, as `ident diagnose` on a raw record passes it): the fit starts
+    there, after the margin, with no second dating of its own (the scan and the knot below
+    dated the 2023 hand steps up to 72 ms later than `ident releases` lists them)."""
     dt = float(t[1] - t[0])
     hold, noise, onset = hold_level(y)
     if t.shape[0] - onset < 40:
@@ -97,6 +104,8 @@ def find_window(t: FloatArray, y: FloatArray, carts: int) -> Window:
     lowest = max(0.5, 2.0 * np.pi * SCAN_PERIODS / float(t[-1] - t[onset]))
     peaks = spectral_peaks(after - after.mean(axis=0), dt, carts, min_rad_s=lowest)
     period = 2 * np.pi / float(peaks[0])
+    if released_at_start:
+        return _from(t, 0, period, hold, noise, float(t[0]))
     span = round(SCAN_PERIODS * period / dt)
     head = max(2, round(0.25 * period / dt))
     step = max(1, round(period / 24 / dt))
@@ -133,12 +142,17 @@ def find_window(t: FloatArray, y: FloatArray, carts: int) -> Window:
         # the free response starts where the hand's force ended
         release = knot.time_s
         start = int(np.searchsorted(t, release))
-    # fit from a margin after it (two samples, at least T/200): the chosen start can still
-    # hold the hand's last push, which a fast-decaying "mode" would otherwise absorb
+    return _from(t, start, period, hold, noise, max(release, float(t[0])))
+
+
+def _from(t: FloatArray, start: int, period: float, hold: FloatArray, noise: float, release: float) -> Window:
+    """The window fitted from a margin after `start` (two samples, at least T/200): the chosen
+    start can still hold the hand's last push, which a fast-decaying "mode" would otherwise
+    absorb; decimated to at most `MAX_WORK_SAMPLES`."""
+    dt = float(t[1] - t[0])
     start = min(start + max(2, round(period / 200 / dt)), t.shape[0] - 40)
-    n_win = t.shape[0] - start
-    decimation = max(1, int(np.ceil(n_win / MAX_WORK_SAMPLES)))
-    return Window(start, decimation, hold, noise, max(release, float(t[0])), period)
+    decimation = max(1, int(np.ceil((t.shape[0] - start) / MAX_WORK_SAMPLES)))
+    return Window(start, decimation, hold, noise, release, period)
 
 
 def _flick(t: FloatArray, y: FloatArray, onset: int, start: int, period: float, fit: ModalFit) -> Knot | None:
