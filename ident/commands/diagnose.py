@@ -4,7 +4,9 @@ Loads an MCAP run or a text export (`ident.io.load`, put on a uniform grid by
 `ident.data.make_uniform`), runs `ident.diagnose.diagnose` (with `--input`, a measured force
 input column enters the model) and prints one JSON object (the
 `schemas.diagnosis.DiagnosisReport` record) with `--json`, a readable summary otherwise;
-`--figures DIR` writes the figures. Exit status 0 on success, 2 on unusable input.
+`--figures DIR` writes the figures. Exit status 0 on success, 2 on unusable input. With
+`--all`, a release that cannot be diagnosed is named on stderr and left out of the array; the
+status is 2 only when none can be.
 """
 
 from __future__ import annotations
@@ -82,11 +84,32 @@ def diagnose_releases(args: argparse.Namespace) -> dict[int, tuple[Any, tuple[in
     if args.all:
         if not releases:
             raise IdentValueError("--all", "a record with releases (see `ident releases`)", "none found")
-        return {r.number: diagnose_window(args, data, r) for r in releases}
+        return _each(args, data, releases)
     if not releases and args.release_number is None:
         return {0: diagnose_window(args, data, None)}
     release = choose(releases, args.release_number or FIRST_COMPLETE)
     return {release.number: diagnose_window(args, data, release)}
+
+
+def _each(args: argparse.Namespace, data: Any, releases: list[Any]) -> dict[int, tuple[Any, tuple[int, ...]]]:
+    """Every release diagnosed on its own: one that cannot be (a window too short to fit) is
+    named on stderr and the others go on (one 47-sample window had refused the whole record);
+    the first error is raised when none can be."""
+    from ident.errors import IdentError
+
+    results: dict[int, tuple[Any, tuple[int, ...]]] = {}
+    first: IdentError | None = None
+    for release in releases:
+        try:
+            results[release.number] = diagnose_window(args, data, release)
+        except IdentError as exc:
+            first = first or exc
+            print(f"ident diagnose: release {release.number} at {release.release_time_s:.3f} s not diagnosed: {exc}",
+                  file=sys.stderr)
+    if not results:
+        assert first is not None
+        raise first
+    return results
 
 
 def diagnose_window(args: argparse.Namespace, data: Any, release: Any) -> tuple[Any, tuple[int, ...]]:

@@ -23,6 +23,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 import importlib
+import json
 import sys
 from pathlib import Path
 from types import ModuleType
@@ -32,6 +33,7 @@ import numpy as np
 import pytest
 
 import ident.diagnose.run as run_module
+from ident.cli import main
 from ident.diagnose import diagnose
 from ident.releases import find_releases
 
@@ -102,3 +104,26 @@ def test_a_candidate_whose_simulation_runs_off_is_listed_as_not_fitted(monkeypat
     assert all(np.isfinite(c.fit_percent) and np.isfinite(c.gain_points) for c in report.candidates)
     ran_off = [c for c in report.candidates if "ran off" in c.note]
     assert ran_off and all(c.gain_points == 0.0 and not c.significant for c in ran_off), report.candidates
+
+
+def test_diagnose_all_goes_on_past_a_release_too_short_to_diagnose(tmp_path: Path,
+                                                                      capsys: pytest.CaptureFixture[str]) -> None:
+    """Issue-10 red-team record 311 (100 Hz): releases 2-4 are grabbed again after 45-47 samples,
+    too few to diagnose; `ident diagnose --all` had refused the whole record for it, release 1
+    included. Now each short one is named on stderr and the others are reported."""
+    sys.path.insert(0, str(REDTEAM))
+    try:
+        cases10 = importlib.import_module("cases10")
+    finally:
+        sys.path.remove(str(REDTEAM))
+    path = tmp_path / "rec311.csv"
+    path.write_text(cases10.csv_text(cases10.make_record(311)))
+    assert main(["releases", str(path), "--json"]) == 0
+    listed = json.loads(capsys.readouterr().out)
+    assert main(["diagnose", str(path), "--all", "--json", "-q"]) == 0
+    captured = capsys.readouterr()
+    reports = json.loads(captured.out)
+    skipped = [line for line in captured.err.splitlines() if "not diagnosed" in line]
+    assert reports and skipped and len(reports) + len(skipped) == len(listed), (len(listed), captured.err)
+    assert all("at least 50 samples" in line for line in skipped)
+    assert all("coulomb_friction" in [e["effect"] for e in r["effects"]] for r in reports)
