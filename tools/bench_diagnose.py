@@ -220,7 +220,9 @@ def run_realdata() -> list[dict[str, Any]]:
             keep = (data.t >= rel.release_time_s - 0.25) & (data.t <= rel.end_time_s)
             part = make_uniform(IdData(data.t[keep], np.zeros(int(keep.sum())), data.y[keep]), "linear")
             started = time.perf_counter()
-            report = diagnose(part.t, part.y, carts=1, source=path.name).report
+            # from the release as `ident releases` dates it, as `ident diagnose` fits a raw record
+            report = diagnose(part.t, part.y, carts=1, source=path.name, start_s=rel.release_time_s,
+                              stop_s=rel.end_time_s).report
             elapsed = time.perf_counter() - started
             out.append(print_real(path.name, rel, report, elapsed))
     if out:
