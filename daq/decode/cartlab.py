@@ -272,18 +272,20 @@ class CartlabDecoder:
             out.append(frame)
 
     def _bound_tail(self, tail: bytes, out: list[Frame]) -> bytes:
-        """Keep at most `max_line` bytes of the unfinished line, counting what is cut."""
-        if len(tail) <= self.max_line:
-            return tail
+        """The unfinished line from its last `$`, at most `max_line` bytes. What a later `$`
+        has already ended (junk before it, torn frames) is counted now, as the completed line
+        would count it: counted only once the tail grew too long, a split of the stream that
+        dropped the junk earlier kept a torn frame pending and counted it never."""
         last = tail.rfind(b"$")
-        if last >= 0:
+        if last > 0:
             pieces = tail[:last].split(b"$")
             self._junk(pieces[0])
             for piece in pieces[1:]:
                 self._torn(piece)
             tail = tail[last:]
-            if len(tail) <= self.max_line:
-                return tail
+        if len(tail) <= self.max_line:
+            return tail
+        if last >= 0:
             self.counters.overlong += 1
         else:
             self.counters.malformed += 1
