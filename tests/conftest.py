@@ -4,15 +4,24 @@
 - `realdata_dir`: `../shared/realdata` beside the checkout, or a clean skip when absent.
 - A guard that fails the run when almost nothing was collected, so an empty or
   mis-collected suite can never pass.
+- Hypothesis draws the same examples on every run (`derandomize`): the suite is deterministic.
+  `HYPOTHESIS_PROFILE=explore` draws new ones (and keeps failures in `.hypothesis/`), for
+  hunting; a failure found that way is kept as an `@example`.
 """
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import pytest
+from hypothesis import settings
 
 from testkit.ports import free_port as pick_free_port
+
+settings.register_profile("deterministic", derandomize=True, database=None)
+settings.register_profile("explore", derandomize=False)
+settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "deterministic"))
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
 REALDATA = REPO_ROOT.parent / "shared" / "realdata"
