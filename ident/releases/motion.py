@@ -65,7 +65,7 @@ def uniform(t: FloatArray, y: FloatArray) -> tuple[FloatArray, FloatArray]:
     step = float(np.median(dt))
     if float(np.max(np.abs(dt - step))) <= 0.01 * step:
         return t, y
-    times, grid = uniform_grid(t)
+    times, grid = uniform_grid(t, y)
     return grid, np.column_stack([np.interp(grid, times, col) for col in y.T])
 
 

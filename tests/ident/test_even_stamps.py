@@ -122,3 +122,39 @@ def test_a_record_built_on_a_coarse_clock_holds_its_sample_times_and_its_release
     # a slice of it is on the same times (nothing evened twice)
     part = IdData(data.t[100:700], data.u[100:700], data.y[100:700])
     assert np.array_equal(part.t, data.t[100:700]) and EVENED_NOTE not in part.notes
+
+
+def _dropped_frames(n: int, tick_s: float, drop: float, seed: int) -> np.ndarray:
+    """Sample times of a reader on a `tick_s` clock that loses a share `drop` of its frames,
+    never two in a row: steps of one and two ticks, exactly as a coarse clock's stamps, but
+    each stamp is its sample's time."""
+    steps = np.where(np.random.default_rng(seed).random(n) < drop, 2, 1)
+    return tick_s * np.concatenate([[0.0], np.cumsum(steps[:-1])]).astype(np.float64)
+
+
+def test_stamps_that_are_the_sample_times_are_kept_when_the_samples_say_so() -> None:
+    # a 1 kHz reader dropping 13 % of its frames: steps of 1 and 2 ms, like the ECP's stamps
+    t = _dropped_frames(6000, 1e-3, 0.13, 5)
+    y = np.column_stack([0.04 * np.sin(2 * np.pi * 2.5 * t) * np.exp(-0.2 * t), np.zeros(t.size)])
+    assert even_stamps(t) is not t          # the steps alone cannot tell the two clocks apart
+    assert even_stamps(t, y) is t            # the samples lie smoothly on their own stamps
+    assert EVENED_NOTE not in IdData(t, np.zeros(t.size), y).notes
+    # and the ECP's stamps, with the same motion sampled evenly, are still evened
+    true, stamps = _coarse(6000, 1.1283e-3, 1e-3, 0.0, 0.0)
+    moving = np.column_stack([0.04 * np.sin(2 * np.pi * 2.5 * true) * np.exp(-0.2 * true), np.zeros(true.size)])
+    assert even_stamps(stamps, moving) is not stamps
+    # a record at rest (only the encoder's noise) keeps the evening the device's clock implies
+    still = np.round(np.random.default_rng(6).normal(0.0, 5e-6, (stamps.size, 2)) * 56000) / 56000
+    assert even_stamps(stamps, still) is not stamps
+
+
+def test_releases_read_through_dropped_frames_are_dated_on_their_stamps() -> None:
+    # a simulated student's 1 kHz record (testkit: its own physics) that lost 13 % of its frames
+    from testkit.student_records import student_record
+    rec = student_record(21, 1000.0, releases=3)
+    keep = np.isin(np.round(rec.t * 1e3), np.round(_dropped_frames(rec.t.size, 1e-3, 0.13, 7) * 1e3))
+    assert even_stamps(rec.t[keep]) is not rec.t[keep]   # the steps are a coarse clock's
+    found = find_releases(rec.t[keep], rec.y[keep])
+    assert len(found) == len(rec.releases)
+    for got, true in zip(found, rec.releases):
+        assert abs(got.release_time_s - true.time_s) < 2.5e-3, (got, true)
