@@ -16,6 +16,8 @@ from ident.diagnose.run import Diagnosis
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
+    from schemas.diagnosis import DiagnosisReport
+
 
 def _cart(j: int, cart_numbers: tuple[int, ...] | None) -> int:
     """The cart the j-th fitted column reads (its column's number, else j + 1)."""
@@ -32,13 +34,19 @@ def response_figure(d: Diagnosis, cart_numbers: tuple[int, ...] | None = None) -
         ax.plot(d.t, d.y[:, j], label="measured", **plotting.MEASURED_STYLE)
         ax.plot(d.t, d.baseline[:, j], label=f"linear model, fit {rep.baseline.fit_percent:.2f} %",
                 **plotting.ESTIMATE_STYLES[0])
-        if rep.cause != "none":
-            ax.plot(d.t, d.extended[:, j],
-                    label=f"with {rep.cause.replace('_', ' ')}, fit {rep.extended.fit_percent:.2f} %",
+        if rep.effects:
+            ax.plot(d.t, d.extended[:, j], label=f"{extended_label(rep)}, fit {rep.extended.fit_percent:.2f} %",
                     **plotting.ESTIMATE_STYLES[1])
         plotting.label_axes(ax, "time (s)", f"cart {_cart(j, cart_numbers)} position (m)")
         ax.legend(loc="best")
     return fig
+
+
+def extended_label(rep: DiagnosisReport) -> str:
+    """The extended model's legend: every accepted effect, ranked (two to a line)."""
+    names = [e.effect.replace("_", " ") for e in rep.effects]
+    lines = [" + ".join(names[k:k + 2]) for k in range(0, len(names), 2)]
+    return "with " + " +\n".join(lines)
 
 
 def residual_figure(d: Diagnosis, cart_numbers: tuple[int, ...] | None = None) -> Figure:

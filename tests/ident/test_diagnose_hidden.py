@@ -19,6 +19,7 @@ import pytest
 
 from ident.cli import main
 from ident.diagnose import diagnose
+from ident.diagnose.figures import response_figure
 from ident.io import load
 from schemas.diagnosis import DiagnosisReport
 from testkit.effects import SINGLE, Case, judge, make_case, write_csv
@@ -114,6 +115,18 @@ def test_friction_corrects_the_damping_ratio_and_writes_figures(tmp_path: Path,
     assert report.baseline.parameters["zeta"] > 1.3 * report.corrected_linear["zeta"]
     friction = next(e for e in report.effects if e.effect == "coulomb_friction")
     assert friction.parameter_std["coulomb_accel_m_s2"] < 0.05 * friction.parameters["coulomb_accel_m_s2"]
+
+
+def test_the_response_figure_names_every_accepted_effect() -> None:
+    # the extended model drawn is the one with every accepted effect (here two): named so, at
+    # the report's whole-window fit (it was labelled by the headline cause alone)
+    case = make_case(12, "coulomb+quantization", carts=1, release="hold")
+    result = diagnose(case.observed.t, case.observed.y)
+    effects = [e.effect for e in result.report.effects]
+    assert {"coulomb_friction", "quantization"} <= set(effects)
+    entry = response_figure(result).axes[0].get_legend().get_texts()[-1].get_text().replace("\n", " ")
+    assert all(name.replace("_", " ") in entry for name in effects)
+    assert entry.endswith(f"fit {result.report.extended.fit_percent:.2f} %")
 
 
 @pytest.mark.slow
