@@ -36,11 +36,10 @@ from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
-from scipy.signal import cont2discrete, dlsim
 
 from daq.detector_events import DetectorSettings, Rejected, Released
 from daq.onset import OnsetFit, fit_onset
-from daq.ringing import FreeFit, Turn, basis, fit_free, motion_sign, slide_back
+from daq.ringing import FreeFit, Turn, basis, fit_free, forced_response, friction_response, motion_sign, slide_back
 
 Array = npt.NDArray[np.float64]
 # the hand's force is fitted as linear in time over this fraction of a half-period before the
@@ -238,7 +237,7 @@ def driven_by_other(t: Array, y: Array, others: Array, vs: Array, date: ReleaseD
     (`others` (N,) or (N, K) m): a hand that moved the held cart, not one that let this one go.
 
     The free cart obeys `x'' + 2σ x' + (σ² + ω²)(x - c - dτ) = Σ κ_k u_k(t)`, u_k the other
-    carts' positions; each forced response `r_k` (from rest at the window's start, `_forced`)
+    carts' positions; each forced response `r_k` (from rest at the window's start, `forced_response`)
     joins the free model's columns with its own κ_k. A released cart was held or swung by the
     hand before t0: no free response, however driven, follows it there, and the fit stays far
     above the ringing's own residual `ref_m` (m); a driven one fits within four times it (on
@@ -251,26 +250,12 @@ def driven_by_other(t: Array, y: Array, others: Array, vs: Array, date: ReleaseD
     u = others[keep].reshape(int(np.count_nonzero(keep)), -1)
     free = date.free
     g1, g2, _, _ = basis(tw, free.t_ref, free.sigma, free.omega)
-    columns = [np.ones_like(tw), tw - free.t_ref, -vw, g1, g2]
-    columns += [_forced(tw, u[:, k] - u[0, k], free.sigma, free.omega) for k in range(u.shape[1])]
+    columns = [np.ones_like(tw), tw - free.t_ref, friction_response(tw, vw, free.sigma, free.omega), g1, g2]
+    columns += [forced_response(tw, u[:, k] - u[0, k], free.sigma, free.omega) for k in range(u.shape[1])]
     design = np.stack(columns, axis=1)
     coef, *_ = np.linalg.lstsq(design, yw, rcond=None)
     rms = float(np.sqrt(np.mean((yw - design @ coef) ** 2)))
     return rms <= 4.0 * ref_m
-
-
-def _forced(t: Array, u: Array, sigma: float, omega: float) -> Array:
-    """Response (N,) of `x'' + 2σx' + Ω²x = Ω² u(t)` from rest at t[0] to `u` sampled at `t` (N,),
-    linear between samples (exact for that input, on a uniform grid of the median spacing)."""
-    step = float(np.median(np.diff(t)))
-    grid = np.arange(t[0], t[-1] + 0.5 * step, step)
-    om2 = sigma ** 2 + omega ** 2
-    a = np.array([[0.0, 1.0], [-om2, -2.0 * sigma]])
-    b = np.array([[0.0], [om2]])
-    ad, bd, cd, dd, _ = cont2discrete((a, b, np.array([[1.0, 0.0]]), np.zeros((1, 1))), step, method="foh")
-    _, out, _ = dlsim((ad, bd, cd, dd, step), np.interp(grid, t, u))
-    response: Array = np.interp(t, grid, np.asarray(out, dtype=np.float64)[:, 0])
-    return response
 
 
 # --- the joined model -------------------------------------------------------------------------
@@ -344,13 +329,15 @@ def _joint_solve(t: Array, y: Array, vs: Array, free: FreeFit, t0: float) -> tup
     """Coefficients (c, d, f, A, B, F_r, S) (the hand's scaled) and RSS of the joined model for one `t0`."""
     g1, g2, _, _ = basis(t, free.t_ref, free.sigma, free.omega)
     k0 = min(int(np.searchsorted(t, t0)), t.size - 1)
-    # dry friction goes on pulling against the motion the cart has at t0 while the hand acts
-    col_f = np.where(t < t0, -vs[k0], -vs)
+    # dry friction goes on pulling against the motion the cart has just before t0 while the
+    # hand acts (whole: the hand moves the cart; `vs` ramps only across a free turn)
+    before = np.sign(vs[max(k0 - 1, 0)])
+    col_f = friction_response(t, np.where(t < t0, before, vs), free.sigma, free.omega)
     h1, h2 = hand_response(np.minimum(t - t0, 0.0), free.sigma, free.omega)
     h1 /= max(float(np.max(np.abs(h1))), 1e-300)       # for conditioning
     h2 /= max(float(np.max(np.abs(h2))), 1e-300)
     design = np.stack([np.ones_like(t), t - free.t_ref, col_f, g1, g2, h1, h2], axis=1)
-    coef, *_ = np.linalg.lstsq(design, y, rcond=None)
+    coef = np.asarray(np.linalg.lstsq(design, y, rcond=None)[0], dtype=np.float64)
     residual = y - design @ coef
     return coef, float(residual @ residual)
 

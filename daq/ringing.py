@@ -17,8 +17,9 @@ half-periods `B - A` and `C - B` within `[min_half_s, max_half_s]` and within a 
 `|C - B| <= grow |B - A| + 2 band_m`. A flick from rest gives A = the rest, B near the
 release, and its first swing is partial (so the test passes one turn later, on B, C, D).
 
-Where the ringing began: a damped sinusoid about a drifting centre `x(t) = c + d τ - f sgn(v)
-+ e^{-στ} (A cos ωτ + B sin ωτ)`, τ = t - t_ref (`fit_free`: σ, ω by least squares, c, d, f,
+Where the ringing began: a damped sinusoid about a drifting centre with dry friction
+`x(t) = c + d τ + f R(t) + e^{-στ} (A cos ωτ + B sin ωτ)`, τ = t - t_ref, R the response to
+friction's force against the motion (`FreeFit`; `fit_free`: σ, ω by least squares, c, d, f,
 A, B linear), is fitted on three quarters of a period from a quarter half-period after the
 middle turn B (after any release near B) on, and slid back in time while the data keep
 following it (`slide_back`). The fine instant is `daq.release_dating`'s.
@@ -33,6 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 from scipy.optimize import least_squares
+from scipy.signal import cont2discrete, lfilter, ss2tf
 
 Array = npt.NDArray[np.float64]
 
@@ -136,10 +138,15 @@ def is_ringing(a: Turn, b: Turn, c: Turn, limits: RingingLimits) -> bool:
 
 @dataclass(frozen=True, slots=True)
 class FreeFit:
-    """A damped sinusoid about a drifting centre that dry friction shifts, τ = t - t_ref:
-    `c + d τ - f sgn(v) + e^{-στ} (A cos ωτ + B sin ωτ)`. The drift: a held cart's slow wander
-    moves the free cart's rest through the spring; `f = F_c / k`: Coulomb friction moves the
-    centre of each half swing against the motion (`sgn(v)` is read from the data)."""
+    """A damped sinusoid about a drifting centre, with dry friction, τ = t - t_ref:
+    `c + d τ + f R(t) + e^{-στ} (A cos ωτ + B sin ωτ)`. The drift: a held cart's slow wander
+    moves the free cart's rest through the spring. `f = F_c / k` (m): Coulomb friction is a
+    force against the motion, and `R` is the cart's response to it, from rest at `t_ref`
+    (`friction_response`): each half swing then rings about a centre shifted by `f` against
+    its motion with position and velocity continuous at the turns, so the swing shrinks by
+    2f a half-period (a centre that jumps at each turn, `-f sgn v`, is not a motion: on a
+    strongly damped ringing it fitted f < 0 and stopped the slide-back a half-period late).
+    Evaluated on samples from `t_ref` on."""
 
     t_ref: float
     sigma: float      # 1/s
@@ -150,20 +157,58 @@ class FreeFit:
     def __call__(self, t: Array, vsign: Array) -> Array:
         g1, g2, _, _ = basis(t, self.t_ref, self.sigma, self.omega)
         c, d, f, a, b = self.coef
-        out: Array = c + d * (t - self.t_ref) - f * vsign + a * g1 + b * g2
+        friction = friction_response(t, vsign, self.sigma, self.omega)
+        out: Array = c + d * (t - self.t_ref) + f * friction + a * g1 + b * g2
         return out
 
 
 def motion_sign(t: Array, y: Array) -> Array:
-    """sgn(v) of a sampled position (shapes (N,)): slope over ±2 samples (noise at turns only)."""
-    k = 2
-    if y.size <= 2 * k:
+    """sgn(v) of a sampled position (shapes (N,)), as a force that switches between samples:
+    ±1 while the cart moves, and across a turn a ramp over ±1 sample centred where the
+    velocity (central differences) passes zero, so that the input taken linear between
+    samples switches at that instant, not at the nearest sample (at 100 Hz half a sample of
+    dry friction's force on the wrong side changes the swing by F_c·dt/(kω): 0.4 mm on a
+    strongly damped cart)."""
+    n = y.size
+    if n < 3:
         return np.zeros_like(y)
-    slope = np.zeros_like(y)
-    slope[k:-k] = y[2 * k:] - y[:-2 * k]
-    slope[:k], slope[-k:] = slope[k], slope[-k - 1]
-    out: Array = np.sign(slope)
+    v = np.empty(n)
+    v[1:-1] = (y[2:] - y[:-2]) / (t[2:] - t[:-2])
+    v[0], v[-1] = v[1], v[-2]
+    change = np.empty(n)
+    change[1:-1] = 0.5 * np.abs(v[2:] - v[:-2])
+    change[0], change[-1] = change[1], change[-2]
+    out: Array = np.clip(v / np.maximum(change, 1e-300), -1.0, 1.0)
     return out
+
+
+def forced_response(t: Array, u: Array, sigma: float, omega: float) -> Array:
+    """Response (N,) of `x'' + 2σx' + Ω²x = Ω² u(t)` (Ω² = σ² + ω²) from rest at t[0] to `u`
+    sampled at `t` (N,), linear between samples (exact for that input, on a uniform grid of
+    the median spacing). From rest means x = x' = 0 at t[0] whatever u[0] is: the filter's zero
+    state would have the input ramp up to u[0] over the step before t[0], so it takes u - u[0]
+    and the step response to u[0] is added; a response is then the same on every prefix of `t`."""
+    if t.size < 2:
+        return np.zeros_like(t)
+    step = float(np.median(np.diff(t)))
+    grid = np.arange(t[0], t[-1] + 0.5 * step, step)
+    om2 = sigma ** 2 + omega ** 2
+    a = np.array([[0.0, 1.0], [-om2, -2.0 * sigma]])
+    b = np.array([[0.0], [om2]])
+    ad, bd, cd, dd, _ = cont2discrete((a, b, np.array([[1.0, 0.0]]), np.zeros((1, 1))), step, method="foh")
+    num, den = ss2tf(ad, bd, cd, dd)
+    ug = np.interp(grid, t, u)
+    tau = grid - grid[0]
+    from_rest = 1.0 - np.exp(-sigma * tau) * (np.cos(omega * tau) + sigma / omega * np.sin(omega * tau))
+    out = lfilter(num[0], den, ug - ug[0]) + ug[0] * from_rest
+    response: Array = np.interp(t, grid, out)
+    return response
+
+
+def friction_response(t: Array, vsign: Array, sigma: float, omega: float) -> Array:
+    """The response (N,) to dry friction's force against the motion, `-Ω² sgn v` per unit of
+    `f`, from rest at t[0]: settles at -1 while the cart moves one way (`forced_response`)."""
+    return forced_response(t, -vsign, sigma, omega)
 
 
 def basis(t: Array, t_ref: float, sigma: float, omega: float) -> tuple[Array, Array, Array, Array]:
@@ -183,7 +228,8 @@ def fit_free(t: Array, y: Array, vs: Array, sigma0: float, omega0: float, spread
 
     def linear(params: Array) -> tuple[Array, Array]:
         g1, g2, _, _ = basis(t, t_ref, float(params[0]), float(params[1]))
-        design = np.stack([np.ones_like(t), t - t_ref, -vs, g1, g2], axis=1)
+        friction = friction_response(t, vs, float(params[0]), float(params[1]))
+        design = np.stack([np.ones_like(t), t - t_ref, friction, g1, g2], axis=1)
         coef = np.asarray(np.linalg.lstsq(design, y, rcond=None)[0], dtype=np.float64)
         residual: Array = y - design @ coef
         return coef, residual
@@ -207,7 +253,7 @@ def refit_linear(t: Array, y: Array, vs: Array, sigma: float, omega: float) -> F
         return None
     t_ref = float(t[0])
     g1, g2, _, _ = basis(t, t_ref, sigma, omega)
-    design = np.stack([np.ones_like(t), t - t_ref, -vs, g1, g2], axis=1)
+    design = np.stack([np.ones_like(t), t - t_ref, friction_response(t, vs, sigma, omega), g1, g2], axis=1)
     coef = np.linalg.lstsq(design, y, rcond=None)[0]
     rms = float(np.sqrt(np.mean((y - design @ coef) ** 2)))
     return FreeFit(t_ref, sigma, omega, (float(coef[0]), float(coef[1]), float(coef[2]), float(coef[3]),
