@@ -297,12 +297,15 @@ def near_stop(m: Motion, column: int, v_smooth: float) -> FloatArray:
 
 def near_reversal(m: Motion, column: int, v_smooth: float) -> FloatArray:
     """1.0 (N,) within a smoothing window of where a swinging cart reverses: v changes sign
-    with |v| beyond 3 `v_smooth` within a window on both sides (not a resting cart's noise)."""
+    with |v| beyond 3 `v_smooth` within a window before (not a resting cart's noise). Not
+    necessarily after: a cart whose spring barely beats static friction at its last turn
+    creeps back slowly and sticks (red team record 311: 0.5 mm in 90 ms, the residual at the
+    kinetic friction f there), and that last turn is no push either."""
     v = m.v[:, column]
     w = m.window
     fast = np.abs(v) > 3.0 * v_smooth
     hits = np.flatnonzero(np.signbit(v[1:]) != np.signbit(v[:-1])) + 1
-    keep = [i for i in hits if np.any(fast[max(0, i - w):i]) and np.any(fast[i:i + w])]
+    keep = [i for i in hits if np.any(fast[max(0, i - w):i])]
     mark = np.zeros(v.size, dtype=np.float64)
     mark[keep] = 1.0
     spread = np.convolve(mark, np.ones(2 * w + 1), mode="same") > 0.5
