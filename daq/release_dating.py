@@ -325,14 +325,21 @@ def hand_response(s: Array, sigma: float, omega: float) -> tuple[Array, Array]:
     return d1, d2
 
 
-def _joint_solve(t: Array, y: Array, vs: Array, free: FreeFit, t0: float) -> tuple[Array, float]:
-    """Coefficients (c, d, f, A, B, F_r, S) (the hand's scaled) and RSS of the joined model for one `t0`."""
+def _joint_solve(t: Array, y: Array, vs: Array, free: FreeFit, t0: float,
+                 friction: dict[int, Array] | None = None) -> tuple[Array, float]:
+    """Coefficients (c, d, f, A, B, F_r, S) (the hand's scaled) and RSS of the joined model for
+    one `t0`; `friction` caches the friction column by the first sample at or after t0 (it
+    depends on nothing else)."""
     g1, g2, _, _ = basis(t, free.t_ref, free.sigma, free.omega)
     k0 = min(int(np.searchsorted(t, t0)), t.size - 1)
-    # dry friction goes on pulling against the motion the cart has just before t0 while the
-    # hand acts (whole: the hand moves the cart; `vs` ramps only across a free turn)
-    before = np.sign(vs[max(k0 - 1, 0)])
-    col_f = friction_response(t, np.where(t < t0, before, vs), free.sigma, free.omega)
+    col_f = friction.get(k0) if friction is not None else None
+    if col_f is None:
+        # dry friction goes on pulling against the motion the cart has just before t0 while
+        # the hand acts (whole: the hand moves the cart; `vs` ramps only across a free turn)
+        before = np.sign(vs[max(k0 - 1, 0)])
+        col_f = friction_response(t, np.where(np.arange(t.size) < k0, before, vs), free.sigma, free.omega)
+        if friction is not None:
+            friction[k0] = col_f
     h1, h2 = hand_response(np.minimum(t - t0, 0.0), free.sigma, free.omega)
     h1 /= max(float(np.max(np.abs(h1))), 1e-300)       # for conditioning
     h2 /= max(float(np.max(np.abs(h2))), 1e-300)
@@ -343,5 +350,6 @@ def _joint_solve(t: Array, y: Array, vs: Array, free: FreeFit, t0: float) -> tup
 
 
 def _best_joint(t: Array, y: Array, vs: Array, free: FreeFit, candidates: Array) -> float:
-    rss = [_joint_solve(t, y, vs, free, float(c))[1] for c in candidates]
+    friction: dict[int, Array] = {}
+    rss = [_joint_solve(t, y, vs, free, float(c), friction)[1] for c in candidates]
     return float(candidates[int(np.argmin(rss))])

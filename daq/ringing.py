@@ -30,6 +30,7 @@ from __future__ import annotations
 import math
 from collections import deque
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 import numpy.typing as npt
@@ -192,17 +193,25 @@ def forced_response(t: Array, u: Array, sigma: float, omega: float) -> Array:
         return np.zeros_like(t)
     step = float(np.median(np.diff(t)))
     grid = np.arange(t[0], t[-1] + 0.5 * step, step)
+    num, den = _foh_filter(sigma, omega, step)
+    ug = np.interp(grid, t, u)
+    tau = grid - grid[0]
+    from_rest = 1.0 - np.exp(-sigma * tau) * (np.cos(omega * tau) + sigma / omega * np.sin(omega * tau))
+    out = lfilter(num, den, ug - ug[0]) + ug[0] * from_rest
+    response: Array = np.interp(t, grid, out)
+    return response
+
+
+@lru_cache(maxsize=256)
+def _foh_filter(sigma: float, omega: float, step: float) -> tuple[Array, Array]:
+    """(numerator, denominator) of `forced_response`'s system discretized for an input linear
+    between samples `step` apart (the joined model asks for one σ, ω hundreds of times)."""
     om2 = sigma ** 2 + omega ** 2
     a = np.array([[0.0, 1.0], [-om2, -2.0 * sigma]])
     b = np.array([[0.0], [om2]])
     ad, bd, cd, dd, _ = cont2discrete((a, b, np.array([[1.0, 0.0]]), np.zeros((1, 1))), step, method="foh")
     num, den = ss2tf(ad, bd, cd, dd)
-    ug = np.interp(grid, t, u)
-    tau = grid - grid[0]
-    from_rest = 1.0 - np.exp(-sigma * tau) * (np.cos(omega * tau) + sigma / omega * np.sin(omega * tau))
-    out = lfilter(num[0], den, ug - ug[0]) + ug[0] * from_rest
-    response: Array = np.interp(t, grid, out)
-    return response
+    return np.asarray(num[0], dtype=np.float64), np.asarray(den, dtype=np.float64)
 
 
 def friction_response(t: Array, vsign: Array, sigma: float, omega: float) -> Array:
