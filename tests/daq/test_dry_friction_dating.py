@@ -17,7 +17,7 @@ import math
 import numpy as np
 import pytest
 
-from daq.detector import Released, ReleaseDetector
+from testkit.release_tally import detect
 
 Q = 1.0 / 56000.0
 
@@ -40,8 +40,9 @@ def _student_flick(rng: np.random.Generator, rate_hz: float) -> tuple[np.ndarray
     stuck = True
     xs = np.empty(n)
     for i in range(n):
-        t = i * h
-        hand = push * math.sin(math.pi * (t - t_s) / dur) if t_s <= t < t_r else 0.0
+        now = i * h
+        pushing = t_s <= now < t_r
+        hand = push * math.sin(math.pi * (now - t_s) / dur) if pushing else 0.0
         spring = -wn ** 2 * x + hand
         if stuck:
             if abs(spring) <= fs:
@@ -56,7 +57,7 @@ def _student_flick(rng: np.random.Generator, rate_hz: float) -> tuple[np.ndarray
         if v != 0.0 and v_new * v < 0.0:          # a turn: stop, then stick or reverse
             x += h * 0.5 * v
             v = 0.0
-            stuck = abs(-wn ** 2 * x) <= fs and not (t_s <= t < t_r)
+            stuck = abs(-wn ** 2 * x) <= fs and not pushing
         else:
             x += h * 0.5 * (v + v_new)
             v = v_new
@@ -72,8 +73,6 @@ def test_flicks_of_a_cart_with_strong_dry_friction_are_dated_within_a_sample(rat
     errors = []
     for _ in range(8):
         t, y, t_r = _student_flick(rng, rate_hz)
-        det = ReleaseDetector()
-        found = [e.t_release_s for k in range(t.size) for e in det.feed(float(t[k]), (float(y[k]), 0.0))
-                 if isinstance(e, Released)]
+        found = detect((float(t[k]), (float(y[k]), 0.0)) for k in range(t.size))
         errors.append([round((f - t_r) * rate_hz, 2) for f in found])
     assert all(len(e) == 1 and abs(e[0]) <= 1.0 for e in errors), errors

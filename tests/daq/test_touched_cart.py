@@ -18,8 +18,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from daq.detector import ReleaseDetector
-from daq.detector_events import Released
+from testkit.release_tally import detect
 
 Q_M = 5e-5
 
@@ -66,9 +65,7 @@ def test_moving_the_held_cart_while_the_other_rings_makes_no_second_run(rate_hz:
     extra = []
     for k in range(20):
         t, pos, t_release = _record(rng, rate_hz)
-        detector = ReleaseDetector()
-        found = [e.t_release_s for i in range(t.size) for e in detector.feed(float(t[i]), tuple(pos[i]))
-                 if isinstance(e, Released)]
+        found = detect((float(t[i]), tuple(pos[i])) for i in range(t.size))
         assert any(abs(f - t_release) < 0.02 for f in found), (k, found, t_release)
         extra += [(k, round(f, 3)) for f in found if abs(f - t_release) >= 0.02]
     assert not extra, extra
