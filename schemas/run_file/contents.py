@@ -86,10 +86,23 @@ class _Columns:
         self.n_samples = stop
 
     def _grow(self, capacity: int) -> None:
-        # the arrays own their data and no view of them leaves this object
+        # the arrays own their data and no view of them leaves this object before `arrays`
         self.t_ns.resize((capacity,), refcheck=False)
         self.pos.resize((capacity, self.pos.shape[1]), refcheck=False)
         self.raw.resize((capacity, self.raw.shape[1]), refcheck=False)
+
+    def arrays(self) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+        """(t_ns, pos, raw) of every sample read, the unwritten capacity given back, batches in
+        time order (a file keeps them in order; a recovered one may not: then a copy). Call once,
+        at the end."""
+        self._grow(self.n_samples)
+        t_ns, pos, raw = self.t_ns, self.pos, self.raw
+        order = sorted(range(len(self.batches)), key=lambda i: self.batches[i][0])
+        if order != list(range(len(order))):
+            rows = np.concatenate([np.arange(self.batches[i][1], self.batches[i][1] + self.batches[i][2])
+                                   for i in order])
+            t_ns, pos, raw = t_ns[rows], pos[rows], raw[rows]
+        return t_ns, pos, raw
 
 
 def read_run(path: Path, limits: Limits = DEFAULT_LIMITS) -> RunContents:
@@ -152,15 +165,7 @@ def _joined(columns: _Columns, metadata: RunMetadata | None
         metadata.n_channels if metadata is not None else 1)
     if not columns.n_samples:
         return np.zeros(0, np.int64), np.zeros((0, n_channels)), np.zeros((0, n_channels))
-    columns._grow(columns.n_samples)   # the unwritten capacity given back
-    t_ns, pos, raw = columns.t_ns, columns.pos, columns.raw
-    # batches in time order (a file keeps them in order; a recovered one may not: then a copy)
-    order = sorted(range(len(columns.batches)), key=lambda i: columns.batches[i][0])
-    if order != list(range(len(order))):
-        rows = np.concatenate([np.arange(columns.batches[i][1], columns.batches[i][1] + columns.batches[i][2])
-                               for i in order])
-        t_ns, pos, raw = t_ns[rows], pos[rows], raw[rows]
-    return t_ns, pos, raw
+    return columns.arrays()
 
 
 def read_finished(path: Path, limits: Limits = DEFAULT_LIMITS) -> RunFinished | None:
