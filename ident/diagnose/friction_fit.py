@@ -53,6 +53,8 @@ def fit_friction(spec: ModelSpec, prob: Problem, theta0: FloatArray, lower: Floa
             candidates.append(row)
     else:
         candidates += _two_cart_friction_starts(spec, prob, theta0)
+    if prob.carts == 2 and spec.observed < spec.carts:
+        return _fit_in_stages(spec, prob, candidates, (lower, upper, typical), ev, max_nfev)
     short = spec.cut(n_cut)
     firsts = [fit(short, start, lower, upper, typical, prob.dt, prob.y[:n_cut], prob.train[:n_cut],
                   max_nfev=2 * max_nfev) for start in candidates]
@@ -69,9 +71,35 @@ def fit_friction(spec: ModelSpec, prob: Problem, theta0: FloatArray, lower: Floa
     return best
 
 
+#: A one-encoder chain's friction fit in stages: (peak level the window runs to, starts fitted
+#: there); every start on the first, the best of each stage on to the next, the best on every sample.
+STAGES = ((0.3, None), (0.1, 4), (0.0, 2))
+
+
+def _fit_in_stages(spec: ModelSpec, prob: Problem, starts: list[FloatArray],
+                   bounds: tuple[FloatArray, FloatArray, FloatArray], ev: EvidenceResult,
+                   max_nfev: int) -> FitResult:
+    """Two carts through one encoder: each start fitted on a window that grows in `STAGES`,
+    ranked by its fit there. Where each cart sticks moves the cost by steps, more so the longer
+    the window, and the starts lie across a valley of near-equal linear fits: one jump from the
+    large-amplitude part to every sample ranked them by chance (on 70 generated cases 57 had
+    both frictions within 5 %; in stages 63, the fit as close to the noise floor)."""
+    lower, upper, typical = bounds
+    n = prob.y.shape[0]
+    rows, results = starts, []
+    for level, count in STAGES:
+        cut = _large_amplitude_samples(prob, ev, level) if level > 0.0 else n
+        part = spec.cut(cut) if cut < n else spec
+        results = sorted((fit(part, row, lower, upper, typical, prob.dt, prob.y[:cut], prob.train[:cut],
+                              max_nfev=max_nfev if cut == n else 2 * max_nfev)
+                          for row in rows[:count]), key=lambda r: r.sse_train)
+        rows = [r.theta for r in results]
+    return results[0]
+
+
 #: Where a one-encoder chain's friction fit starts A = (k1+k2)/m1 between the squares of the
 #: modes' frequencies (0: the lower, 1: the upper), D = (k2+k3)/m2 = trace - A.
-VALLEY = (0.1, 0.3, 0.5, 0.7, 0.9)
+VALLEY = (0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9)
 #: Starts fitted on to every sample (the best after the large-amplitude stage).
 FULL_FITS = 2
 
@@ -203,13 +231,13 @@ def _extrema_start(prob: Problem, inputs: FloatArray, wn: float) -> tuple[float,
     return envelope_friction(prob.tau[a:b], y[a:b], float(prob.tau[a]) - 1.0, wn)
 
 
-def _large_amplitude_samples(prob: Problem, ev: EvidenceResult) -> int:
-    """Work samples up to a quarter period after the last peak above 30 % of the first."""
+def _large_amplitude_samples(prob: Problem, ev: EvidenceResult, level: float = 0.3) -> int:
+    """Work samples up to a quarter period after the last peak above `level` of the first."""
     amps = ev.extrema[:, 1]
     n = prob.tau.size
     if amps.size < 4:
         return n
-    last = float(ev.extrema[np.flatnonzero(amps >= 0.3 * amps[0])[-1], 0])
+    last = float(ev.extrema[np.flatnonzero(amps >= level * amps[0])[-1], 0])
     quarter = 0.25 * (ev.extrema[-1, 0] - ev.extrema[0, 0]) / max(amps.size - 1, 1) * 2
     return int(min(n, max(np.searchsorted(prob.tau, last + quarter), 40)))
 

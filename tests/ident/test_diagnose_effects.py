@@ -55,10 +55,17 @@ def test_each_family_is_named_with_its_parameters_within_5_percent(family: str) 
     assert not wrong, "\n".join(wrong)
 
 
+#: Generated one-encoder cases (`tools/bench_diagnose.py`'s draw, seeds 17-18) whose friction
+#: fit, jumping from the large-amplitude part to every sample, stopped 0.65 and 2.8 points short
+#: of the noise floor with a friction 1e6 and 177 % off.
+ONE_ENCODER_RUGGED = (695920689, 1392210104)
+
+
 @pytest.mark.slow
-def test_two_carts_with_friction_through_one_encoder_reach_the_noise_floor() -> None:
+@pytest.mark.parametrize("seeds", [pytest.param(None, id="drawn"), pytest.param(ONE_ENCODER_RUGGED, id="rugged")])
+def test_two_carts_with_friction_through_one_encoder_reach_the_noise_floor(seeds: tuple[int, ...] | None) -> None:
     problems = []
-    for seed in _seeds("coulomb_friction", 2):
+    for seed in seeds or _seeds("coulomb_friction", 2):
         case = make_case(seed, "coulomb_friction", carts=2, encoders=1)
         report = _run(case)
         window = case.observed.t >= report.window_start_s
