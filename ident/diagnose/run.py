@@ -43,7 +43,7 @@ from ident.diagnose.lattice import find_lattice, find_noisy_lattice, lattice_can
 from ident.diagnose.models import EFFECTS, effect_names
 from ident.diagnose.select import Judgement, Step, forward, is_material, threshold
 from ident.diagnose.still import Outputs, moving_outputs
-from ident.diagnose.window import MAX_WORK_SAMPLES, Window, find_window, hold_level
+from ident.diagnose.window import MAX_WORK_SAMPLES, MIN_RELEASE_SAMPLES, Window, find_window, hold_level
 from ident.errors import IdentDimensionError, IdentValueError
 from ident.physics.chain import LINEAR_NAMES, modes
 from ident.physics.free import switched_input
@@ -235,8 +235,8 @@ def _stretch(t: FloatArray, start_s: float | None, stop_s: float | None) -> NDAr
         keep &= t >= start_s
     if stop_s is not None:
         keep &= t <= stop_s
-    if keep.sum() < 50:
-        raise IdentValueError("window", "at least 50 samples between start and stop",
+    if keep.sum() < MIN_RELEASE_SAMPLES:
+        raise IdentValueError("window", f"at least {MIN_RELEASE_SAMPLES} samples between start and stop",
                               f"{int(keep.sum())} samples in [{start_s}, {stop_s}] s")
     return keep
 

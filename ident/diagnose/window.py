@@ -43,6 +43,12 @@ from ident.physics.measures import noise_std, spectral_peaks
 FloatArray = NDArray[np.float64]
 
 MAX_WORK_SAMPLES = 500
+#: The fewest samples after the motion starts: a record the scan dates itself ...
+MIN_RUN_SAMPLES = 40
+#: ... and a release window dated already (`ident.releases`): five per blocked-CV block
+#: (`fitting.BLOCKS`). A 50 Hz cart that friction stops in three cycles rings ~50 samples, and
+#: one grabbed again two periods after its let-go ~30.
+MIN_RELEASE_SAMPLES = 25
 SCAN_STEPS = 17
 #: periods of the dominant mode in each window the scan fits
 SCAN_PERIODS = 2.5
@@ -94,8 +100,9 @@ def find_window(t: FloatArray, y: FloatArray, carts: int, released_at_start: boo
     dated the 2023 hand steps up to 72 ms later than `ident releases` lists them)."""
     dt = float(t[1] - t[0])
     hold, noise, onset = hold_level(y)
-    if t.shape[0] - onset < 40:
-        raise IdentValueError("run", "at least 40 samples after the motion starts",
+    fewest = MIN_RELEASE_SAMPLES if released_at_start else MIN_RUN_SAMPLES
+    if t.shape[0] - onset < fewest:
+        raise IdentValueError("run", f"at least {fewest} samples after the motion starts",
                               f"{t.shape[0] - onset}")
     # the modes the scan can fit: at least SCAN_PERIODS periods in the record after the onset
     # (a heavily damped ring released far from rest, then stuck, spreads the power of its
@@ -150,7 +157,7 @@ def _from(t: FloatArray, start: int, period: float, hold: FloatArray, noise: flo
     start can still hold the hand's last push, which a fast-decaying "mode" would otherwise
     absorb; decimated to at most `MAX_WORK_SAMPLES`."""
     dt = float(t[1] - t[0])
-    start = min(start + max(2, round(period / 200 / dt)), t.shape[0] - 40)
+    start = min(start + max(2, round(period / 200 / dt)), max(0, t.shape[0] - MIN_RELEASE_SAMPLES))
     decimation = max(1, int(np.ceil((t.shape[0] - start) / MAX_WORK_SAMPLES)))
     return Window(start, decimation, hold, noise, release, period)
 

@@ -106,13 +106,17 @@ def test_a_candidate_whose_simulation_runs_off_is_listed_as_not_fitted(monkeypat
     assert ran_off and all(c.gain_points == 0.0 and not c.significant for c in ran_off), report.candidates
 
 
-def _record_311() -> Any:
+def _record(seed: int) -> Any:
     sys.path.insert(0, str(REDTEAM))
     try:
         cases10 = importlib.import_module("cases10")
     finally:
         sys.path.remove(str(REDTEAM))
-    return cases10, cases10.make_record(311)
+    return cases10, cases10.make_record(seed)
+
+
+def _record_311() -> Any:
+    return _record(311)
 
 
 def test_a_cart_that_creeps_at_its_last_turn_is_diagnosed_to_its_stop(tmp_path: Path,
@@ -136,13 +140,13 @@ def test_a_cart_that_creeps_at_its_last_turn_is_diagnosed_to_its_stop(tmp_path: 
 
 def test_diagnose_all_goes_on_past_a_release_too_short_to_diagnose(tmp_path: Path,
                                                                       capsys: pytest.CaptureFixture[str]) -> None:
-    """Record 311 with its third release grabbed again 0.4 s (40 samples) after the let-go (the
+    """Record 311 with its third release grabbed again 0.24 s (24 samples) after the let-go (the
     cart held still there until the next flick): too few samples to diagnose. `ident diagnose
     --all` had refused a whole record for one such release; each short one is named on stderr
     and the others are reported."""
     cases10, rec = _record_311()
     third = rec.releases[2]["t_r"]
-    grab = (rec.t >= third + 0.4) & (rec.t < rec.releases[3]["t_r"] - 0.5)
+    grab = (rec.t >= third + 0.24) & (rec.t < rec.releases[3]["t_r"] - 0.5)
     rec.counts[grab, :] = rec.counts[np.flatnonzero(grab)[0], :]
     path = tmp_path / "rec311_grabbed.csv"
     path.write_text(cases10.csv_text(rec))
@@ -153,6 +157,26 @@ def test_diagnose_all_goes_on_past_a_release_too_short_to_diagnose(tmp_path: Pat
     reports = json.loads(captured.out)
     skipped = [line for line in captured.err.splitlines() if "not diagnosed" in line]
     assert reports and skipped and len(reports) + len(skipped) == len(listed), (len(listed), captured.err)
-    assert all("at least 50 samples" in line for line in skipped)
+    assert all("at least 25 samples" in line for line in skipped)
     assert any(f"at {third:.2f}" in line for line in skipped), (third, skipped)
     assert all("coulomb_friction" in [e["effect"] for e in r["effects"]] for r in reports)
+
+
+@pytest.mark.parametrize("seed", [504, 507])
+def test_a_short_ringing_at_50_hz_is_diagnosed(tmp_path: Path, capsys: pytest.CaptureFixture[str], seed: int) -> None:
+    """Issue-10 red-team records at 50 Hz (unseen seeds 500-515): in 507 friction stops the
+    first release's cart in three cycles, 49 samples before the held cart's wander ends its
+    window; in 504 the student grabs the second release's cart again two periods after the
+    let-go, 31 samples. A diagnosis needed 50 and named neither; five per blocked-CV block
+    (25) suffice, and both come out with dry friction, as every other release of the records."""
+    cases10, rec = _record(seed)
+    path = tmp_path / f"rec{seed}.csv"
+    path.write_text(cases10.csv_text(rec))
+    assert main(["releases", str(path), "--json"]) == 0
+    listed = json.loads(capsys.readouterr().out)
+    assert min(r["end_time_s"] - r["release_time_s"] for r in listed) < 1.0
+    assert main(["diagnose", str(path), "--all", "--json", "-q"]) == 0
+    captured = capsys.readouterr()
+    reports = json.loads(captured.out)
+    assert len(reports) == len(listed), captured.err
+    assert all("coulomb_friction" in [e["effect"] for e in r["effects"]] and r["gain_points"] > 0 for r in reports)
