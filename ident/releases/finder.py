@@ -288,7 +288,8 @@ def is_release(m: Motion, model: FreeModel, first: int, last: int, nxt: int, fre
     x = m.x[:, j]
     stop = min(nxt, last + m.samples(3.0 * m.period_s))
     band = abs(model.dry) / max(float(model.stiffness[0]), 1e-12)
-    level = max(MIN_AMPLITUDE_SIGMAS * float(m.noise_m[j]), MIN_AMPLITUDE_BANDS * band)
+    # (the swing is read off the smoothed position: the noise left there counts)
+    level = max(MIN_AMPLITUDE_SIGMAS * float(m.x_noise_m[j]), MIN_AMPLITUDE_BANDS * band)
     if turning_points(x[last:stop], max(level / 3.0, 2.0 * band)) < MIN_TURNS:
         return False
     span = x[last:min(stop, last + m.samples(m.period_s))]

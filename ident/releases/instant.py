@@ -24,7 +24,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ident.releases.hand import HAND_SIGMAS, FreeModel, regressors
-from ident.releases.motion import Motion
+from ident.releases.motion import Motion, smoothed_noise
 
 FINE_FRACTION = 1.0 / 25.0
 FRACTION_OF_PEAK = 0.02
@@ -48,7 +48,7 @@ def release_instant(m: Motion, model: FreeModel, first: int, last: int) -> float
     fine = Motion(m.t[lo:hi], part, savgol_filter(part, window, 3, axis=0),
                   savgol_filter(part, window, 3, deriv=1, delta=m.dt, axis=0),
                   savgol_filter(part, window, 3, deriv=2, delta=m.dt, axis=0),
-                  m.dt, m.period_s, m.noise_m, window)
+                  m.dt, m.period_s, m.noise_m, window, smoothed_noise(m.noise_m, window))
     extra = model.extra if model.extra is not None else np.zeros(0)
     coef = np.concatenate([model.stiffness, [model.viscous, model.dry, model.offset], extra])
     # the held carts' positions as measured: the fit takes a held cart's period average (to

@@ -20,6 +20,13 @@ MIN_FREQUENCY_HZ = 0.2
 #: Smoothing window of the derivatives, as a fraction of the period (a cubic fits a sinusoid
 #: to ~1e-3 over a tenth of a period, and the window averages the encoder's quantization).
 SMOOTHING_FRACTION = 0.1
+#: ... longer, up to this fraction, where the encoder's noise would hide a releasing hand: the
+#: smoothed acceleration's noise must stay within this fraction of the swing's ω²A, so that a
+#: hand of `finder.HAND_FORCE_FRACTION` (0.3) of the spring's force clears `hand.HAND_SIGMAS` (6)
+#: noise stds (a 2 mm lattice with noise before it, read at 260 Hz: 0.61 of it over a tenth of
+#: a period, and no release was found in a clean flick).
+MAX_SMOOTHING_FRACTION = 0.25
+ACCEL_NOISE_FRACTION = 0.05
 #: A velocity-spectrum peak slower than the turning points by more than this ratio is a slow
 #: push, not the oscillation (`dominant_period`).
 SLOW_PEAK_RATIO = 0.65
@@ -35,7 +42,7 @@ class Motion:
 
     `t` (N,) s; `y`, `x`, `v`, `a` (N, n) in m, m/s, m/s²; `dt` s; `period_s` the dominant
     oscillation period; `noise_m` (n,) the per-column measurement noise std; `window` the
-    smoothing window (samples).
+    smoothing window (samples); `x_noise_m` (n,) the noise left in `x`.
     """
 
     t: FloatArray
@@ -46,7 +53,8 @@ class Motion:
     dt: float
     period_s: float
     noise_m: FloatArray
-    window: int = 5
+    window: int
+    x_noise_m: FloatArray
 
     @property
     def n_samples(self) -> int:
@@ -168,12 +176,38 @@ def motion(t: FloatArray, y: FloatArray) -> Motion:
     dt = float(t_u[1] - t_u[0])
     period = dominant_period(y_u, dt)
     noise = measurement_noise(np.asarray(y, dtype=np.float64).reshape(len(t), -1))
-    window = max(5, 2 * round(SMOOTHING_FRACTION * period / dt / 2) + 1)
-    window = min(window, y_u.shape[0] - (1 - y_u.shape[0] % 2))
+    window = smoothing_window(y_u, dt, period, noise)
     x = savgol_filter(y_u, window, 3, axis=0, mode="interp")
     v = savgol_filter(y_u, window, 3, deriv=1, delta=dt, axis=0, mode="interp")
     a = savgol_filter(y_u, window, 3, deriv=2, delta=dt, axis=0, mode="interp")
-    return Motion(t_u, y_u, x, v, a, dt, period, noise, window)
+    return Motion(t_u, y_u, x, v, a, dt, period, noise, window, smoothed_noise(noise, window))
+
+
+def smoothing_window(y: FloatArray, dt: float, period: float, noise: FloatArray) -> int:
+    """The derivatives' Savitzky-Golay window (odd, samples): `SMOOTHING_FRACTION` of a period,
+    longer (to `MAX_SMOOTHING_FRACTION`) until the acceleration's noise, σ ‖c‖ / dt² (c the
+    cubic's second-derivative coefficients), is within `ACCEL_NOISE_FRACTION` of ω²A of the
+    widest column (A half its robust range)."""
+    from scipy.signal import savgol_coeffs  # deferred: keeps `import ident` fast
+    longest = y.shape[0] - (1 - y.shape[0] % 2)
+    span = np.percentile(y, 99.5, axis=0) - np.percentile(y, 0.5, axis=0)
+    j = int(np.argmax(span))
+    swing = (2.0 * np.pi / period) ** 2 * 0.5 * float(span[j])
+
+    def odd(fraction: float) -> int:
+        return min(max(5, 2 * round(fraction * period / dt / 2) + 1), longest)
+
+    window, last = odd(SMOOTHING_FRACTION), odd(MAX_SMOOTHING_FRACTION)
+    while window < last and float(noise[j]) * float(np.linalg.norm(savgol_coeffs(window, 3, deriv=2))) \
+            > ACCEL_NOISE_FRACTION * swing * dt ** 2:
+        window += 2
+    return window
+
+
+def smoothed_noise(noise: FloatArray, window: int) -> FloatArray:
+    """The noise std (m) left in a position smoothed by the cubic of `window` samples."""
+    from scipy.signal import savgol_coeffs  # deferred: keeps `import ident` fast
+    return np.asarray(noise * float(np.linalg.norm(savgol_coeffs(window, 3))))
 
 
 def measurement_noise(y: FloatArray) -> FloatArray:

@@ -75,7 +75,13 @@ def test_a_motor_pulse_on_a_cart_with_dry_friction_is_fitted_to_its_noise_floor(
 
 
 @pytest.mark.parametrize(("family", "seed"), [("viscous+coulomb", 402), ("coulomb+held_cart", 400),
-                                              ("quantization_edges", 401)])
+                                              ("quantization_edges", 401),
+                                              # unseen seeds 700-703: 1.3-2 mm lattices with noise
+                                              # before or after them; the derivatives' noise hid
+                                              # the hand over a tenth of a period, and a 30 mm
+                                              # swing fell short of 30 stds of the raw readings
+                                              ("quantization_edges", 703), ("coupled_light", 703),
+                                              ("none", 701), ("viscous+coulomb", 700)])
 def test_a_release_read_through_a_coarse_lattice_is_found(family: str, seed: int) -> None:
     case = _case(family, seed)
     releases = find_releases(case.t, case.y)
