@@ -76,7 +76,10 @@ def _signs(report: DiagnosisReport) -> str:
         return "the held cart moves with the free one and drives it back through the spring"
     if report.cause == "rest_drift":
         return "the cart swings about a centre that moves slowly, far slower than it rings"
-    hz = ev.second_frequency_hz or ev.residual_peak_hz
+    # the fitted mode's frequency: the residual's spectrum may show none (a mode that decays
+    # within a period) and its peak is then a slow drift's
+    mode = next((e.parameters.get("mode_hz") for e in report.effects if e.effect == "coupled_mode"), None)
+    hz = mode or ev.second_frequency_hz or ev.residual_peak_hz
     return f"the residual of the linear model rings at a second frequency (near {hz:.3g} Hz)"
 
 
