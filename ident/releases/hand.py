@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from ident.releases.motion import FloatArray, Motion, typical_speed
+from ident.releases.motion import FloatArray, Motion, accel_noise, typical_speed
 
 #: Tukey bisquare tuning constant (95 % efficiency for Gaussian residuals).
 TUKEY_C = 4.685
@@ -45,6 +45,15 @@ STATE_MISFIT_FACTOR = 2.0
 STATE_MISFIT_CAP = 0.25
 #: ... counting only what |r| exceeds this many residual scales by (the noise is not a force).
 NOISE_SHARE = 1.0
+#: A cart alone (no other cart read) may pull an unread mass through a spring: a second cart
+#: or a light mass, free of the hand (`hidden_mode`). Its frequency with this cart held is
+#: searched over these multiples of the ringing's ω and these damping ratios ...
+HIDDEN_RATIOS = tuple(float(r) for r in np.geomspace(0.25, 6.0, 29))
+HIDDEN_DAMPING = (0.005, 0.03, 0.15)
+#: ... and taken when it divides what the free model's robust residual scale has beyond the
+#: acceleration's noise (root of the difference of squares) by at least this (the real
+#: records' one-cart fits: at most 1.26; an unread cart: 1.8-7).
+HIDDEN_GAIN = 1.5
 
 
 @dataclass(frozen=True)
@@ -60,7 +69,9 @@ class FreeModel:
     `MODEL_FRACTION` of the modelled acceleration; `push_allowance` (N,) the same with dry
     friction at the reversals of a swinging cart only (`near_reversal`): a push may start a
     cart from rest. Both include the free response's own misfit (`state_misfit`). `extra`
-    (1,) the state term's coefficient (m/s²) with its `speed` (m/s).
+    (1,) the state term's coefficient (m/s²) with its `speed` (m/s), then (2,) the
+    coefficients of the `hidden` mode's regressors (N, 2) when the cart pulls an unread mass
+    (`hidden_mode`).
     """
 
     column: int
@@ -78,6 +89,7 @@ class FreeModel:
     push_allowance: FloatArray | None = None
     extra: FloatArray | None = None
     speed: float = 1.0
+    hidden: FloatArray | None = None
 
     @property
     def wn(self) -> float:
@@ -91,8 +103,10 @@ class FreeModel:
 
 
 def regressors(m: Motion, column: int, others: tuple[int, ...], v_smooth: float,
-               slow: tuple[int, ...] = (), speed: float | None = None) -> FloatArray:
-    """The regression matrix (N, 4 + len(others)): -x_j, -x_others, -v_j, -tanh(v_j/v_s), 1.
+               slow: tuple[int, ...] = (), speed: float | None = None,
+               hidden: FloatArray | None = None) -> FloatArray:
+    """The regression matrix (N, 4 + len(others)): -x_j, -x_others, -v_j, -tanh(v_j/v_s), 1,
+    then the state term (with `speed`) and the `hidden` mode's columns (N, 2), if given.
 
     A column in `slow` (a held cart) enters by its average over one period: where the hand
     holds it (its wander, or a touch that moves it), not its weak following of this cart,
@@ -101,7 +115,34 @@ def regressors(m: Motion, column: int, others: tuple[int, ...], v_smooth: float,
     cols += [-m.v[:, column], -friction_sign(m, column, v_smooth), np.ones(m.n_samples)]
     if speed is not None:
         cols += state_terms(m, column, speed)
+    if hidden is not None:
+        cols += list(hidden.T)
     return np.column_stack(cols)
+
+
+def hidden_mode(m: Motion, column: int, wn: float, zeta: float) -> FloatArray:
+    """The regressors (N, 2) of an unread mass that cart `column` pulls through a spring: its
+    position, which with this cart held rings at `wn` (rad/s) with damping `zeta`, driven by
+    this cart's position (a hand on this cart moves it only through the spring),
+
+        z = G·x_j,  G = wn² / (s² + 2·zeta·wn·s + wn²),
+
+    and its dry friction's share, G·(-sgn ż) (sgn smoothed over a hundredth of ż's range),
+    both from rest at their first values (a record starts with the carts at rest; one that
+    starts in motion fits worse, and the free model stays without them). The spring's force
+    on this cart is a combination of the two."""
+    from scipy.signal import cont2discrete, lfilter, lfilter_zi  # deferred: keeps `import ident` fast
+    num, den, _ = cont2discrete(([wn * wn], [1.0, 2.0 * zeta * wn, wn * wn]), m.dt, method="foh")
+    b, a = np.ravel(num), np.ravel(den)
+
+    def response(u: FloatArray) -> FloatArray:
+        return np.asarray(lfilter(b, a, u, zi=lfilter_zi(b, a) * u[0])[0], dtype=np.float64)
+
+    z = response(m.x[:, column])
+    dz = np.gradient(z, m.dt)
+    v = m.v[:, column]
+    moving = np.abs(v) > 0.05 * typical_speed(v)
+    return np.column_stack([z, response(-np.tanh(dz / max(0.01 * float(np.ptp(dz)), 1e-12)) * moving)])
 
 
 def state_terms(m: Motion, column: int, speed: float) -> list[FloatArray]:
@@ -139,26 +180,89 @@ def fit_free_model(m: Motion, column: int, others: tuple[int, ...] = (),
     """Robust fit of the free equation of motion of `column` (see the module docstring);
     the `slow` columns among `others` enter by their period average (`regressors`). A spring
     to another cart is part of this cart's own stiffness (|k_ji| <= k_jj): a fit that breaks
-    that (a short record where a held cart's average says nothing) is redone without them."""
+    that (a short record where a held cart's average says nothing) is redone without them.
+    A cart alone (no free cart read beside it) is fitted with a `hidden_mode` too, kept
+    when it divides the residual's scale beyond the noise by `HIDDEN_GAIN`: a second cart
+    or mass coupled to it and not read (a one-encoder record of two carts) rings in its
+    free response."""
     model = _fit(m, column, others, slow)
     k = model.stiffness
     if slow and any(abs(float(k[1 + others.index(i)])) > abs(float(k[0])) for i in slow if i in others):
         kept = tuple(i for i in others if i not in slow)
-        return _fit(m, column, kept, ())
-    return model
+        model = _fit(m, column, kept, ())
+    if any(i not in model.slow for i in model.others):
+        return model
+    hidden = _best_hidden_mode(m, model)
+    if hidden is None:
+        return model
+    other = _fit(m, column, model.others, model.slow, hidden)
+    n_base = 1 + len(other.others) + 3 + 1
+    coef = np.concatenate([other.stiffness, [other.viscous, other.dry, other.offset], other.extra])
+    noise = accel_noise(m, column)
+
+    def excess(scale: float) -> float:
+        return float(np.sqrt(max(scale ** 2 - noise ** 2, 0.0)))
+
+    if not _coupling_holds(coef, n_base) or HIDDEN_GAIN * excess(other.scale) > excess(model.scale):
+        return model
+    return other
 
 
-def _fit(m: Motion, column: int, others: tuple[int, ...], slow: tuple[int, ...]) -> FreeModel:
+def _coupling_holds(coef: FloatArray, n_base: int) -> bool:
+    """Whether the hidden mass pulls as a spring can: its position's coefficient κ (at
+    `n_base`, after the free model's) positive and below this cart's own stiffness (the
+    coupling spring is part of it; κ near it makes z a copy of x_j, a degenerate fit)."""
+    kappa = float(coef[n_base])
+    return 0.0 < kappa < float(coef[0])
+
+
+def _best_hidden_mode(m: Motion, model: FreeModel) -> FloatArray | None:
+    """The `hidden_mode` regressors (N, 2) whose least-squares fit beside the free model's
+    leaves the least median |residual| over the moving samples: its frequency on
+    `HIDDEN_RATIOS` of the ringing's ω (at the middle damping), then the damping on
+    `HIDDEN_DAMPING`, then the frequency refined between its grid neighbours."""
+    from scipy.optimize import minimize_scalar  # deferred: keeps `import ident` fast
+    j = model.column
+    v = m.v[:, j]
+    moving = np.abs(v) > 0.05 * typical_speed(v)
+    if np.count_nonzero(moving) < 20 * 8:
+        return None
+    base = regressors(m, j, model.others, model.v_smooth, model.slow, model.speed)[moving]
+    target = m.a[moving, j]
+    wn = 2.0 * np.pi / m.period_s
+
+    def spread(ratio: float, zeta: float) -> float:
+        basis = np.column_stack([base, hidden_mode(m, j, ratio * wn, zeta)[moving]])
+        coef = np.linalg.lstsq(basis, target, rcond=None)[0]
+        if not _coupling_holds(coef, base.shape[1]):
+            return float("1e300")   # (finite: the bounded search takes no inf)
+        return float(np.median(np.abs(target - basis @ coef)))
+
+    middle = HIDDEN_DAMPING[len(HIDDEN_DAMPING) // 2]
+    costs = [spread(r, middle) for r in HIDDEN_RATIOS]
+    i = int(np.argmin(costs))
+    zeta = min(HIDDEN_DAMPING, key=lambda z: spread(HIDDEN_RATIOS[i], z))
+    lo, hi = HIDDEN_RATIOS[max(0, i - 1)], HIDDEN_RATIOS[min(len(HIDDEN_RATIOS) - 1, i + 1)]
+    best = minimize_scalar(lambda r: spread(float(r), zeta), bounds=(lo, hi), method="bounded",
+                           options={"xatol": 1e-3 * HIDDEN_RATIOS[i]})
+    return hidden_mode(m, j, float(best.x) * wn, zeta)
+
+
+def _fit(m: Motion, column: int, others: tuple[int, ...], slow: tuple[int, ...],
+         hidden: FloatArray | None = None) -> FreeModel:
     v = m.v[:, column]
     speed = typical_speed(v)
     v_smooth = max(0.02 * speed, 3.0 * float(m.noise_m[column]) / m.dt / 10.0, 1e-9)
-    basis = regressors(m, column, others, v_smooth, slow, max(speed, 1e-9))
+    basis = regressors(m, column, others, v_smooth, slow, max(speed, 1e-9), hidden)
     target = m.a[:, column]
     moving = np.abs(v) > 0.05 * speed
     if np.count_nonzero(moving) < basis.shape[1] * 4:
         moving = np.ones(m.n_samples, dtype=bool)
     n_k = 1 + len(others)
-    coef, scale = _physical_fit(m, basis, target, moving, n_k, all(i in slow for i in others))
+    # (with a hidden mode this cart's own stiffness is its spring's and the coupling's, far
+    # from the ringing's ω² when the unread mass is heavy)
+    alone = hidden is None and all(i in slow for i in others)
+    coef, scale = _physical_fit(m, basis, target, moving, n_k, alone)
     resid = target - basis @ coef
     # and a small share of the modelled force: the free model is fitted on the whole record,
     # so its error grows with the swing (a cart swinging further than most of the record)
@@ -178,7 +282,7 @@ def _fit(m: Motion, column: int, others: tuple[int, ...], slow: tuple[int, ...])
         model_error, state_misfit(m, column, spring, float(coef[0]), resid, free, 0.0))
     return FreeModel(column, others, np.asarray(coef[:n_k]), float(coef[n_k]), float(coef[n_k + 1]),
                      float(coef[n_k + 2]), v_smooth, resid, scale, hand, slow, allowance,
-                     push_allowance, np.asarray(coef[n_k + 3:]), max(speed, 1e-9))
+                     push_allowance, np.asarray(coef[n_k + 3:]), max(speed, 1e-9), hidden)
 
 
 def _hand(m: Motion, resid: FloatArray, limit: FloatArray) -> NDArray[np.bool_]:

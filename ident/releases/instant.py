@@ -55,7 +55,8 @@ def release_instant(m: Motion, model: FreeModel, first: int, last: int) -> float
     # keep its weak following of this cart apart from x_j), which blurs its step at the
     # release over a period
     basis = regressors(fine, model.column, model.others, model.v_smooth, (),
-                       model.speed if extra.size else None)
+                       model.speed if extra.size else None,
+                       None if model.hidden is None else model.hidden[lo:hi])
     resid = _local_stiffness(fine.a[:, model.column] - basis @ coef, basis[:, 0],
                              last - lo + max(m.window, period_n // 8), min(hi, last + period_n) - lo)
     after = resid[last + m.samples(m.period_s / 4) - lo:last + period_n - lo]

@@ -219,6 +219,14 @@ def smoothed_noise(noise: FloatArray, window: int) -> FloatArray:
     return np.asarray(noise * float(np.linalg.norm(savgol_coeffs(window, 3))))
 
 
+def accel_noise(m: Motion, column: int) -> float:
+    """The noise std (m/s²) in column `column`'s smoothed acceleration: σ ‖c‖ / dt², c the
+    cubic's second-derivative coefficients over `m.window`."""
+    from scipy.signal import savgol_coeffs  # deferred: keeps `import ident` fast
+    c = savgol_coeffs(m.window, 3, deriv=2)
+    return float(m.noise_m[column]) * float(np.linalg.norm(c)) / m.dt ** 2
+
+
 def measurement_noise(y: FloatArray) -> FloatArray:
     """Per-column noise std (m), (n,): white noise from second differences, never below the
     encoder's quantization noise q/√12 (q the smallest step between samples), which a slow

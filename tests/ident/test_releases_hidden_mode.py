@@ -1,0 +1,67 @@
+"""`ident releases` on one encoder of a cart that pulls an unread mass (a second cart, or a
+mass pinned by a spring): the free model of the cart alone left the second mode's pull as a
+residual comparable with a hand's, the hold's force fell inside it or the ringing read as a
+hand taking the cart again, and no release was found (red-team seeds 800-802, drawn after
+this code was written; before: `coupled_span` 801 and 802 and `two_cart_coulomb_y1` 800 and
+801 gave no release, `two_cart_coulomb_y1` 702 dated its hold's let-go 25 samples late).
+
+The cases come from `tools/redteam` (written from the physics, independent of the package);
+the truth is used only in the assertions.
+"""
+
+from __future__ import annotations
+
+import functools
+import importlib
+import sys
+from pathlib import Path
+from types import ModuleType
+from typing import Any
+
+import numpy as np
+import pytest
+
+from ident.releases import find_releases
+from ident.releases.hand import hidden_mode
+from ident.releases.motion import motion
+
+REDTEAM = Path(__file__).resolve().parents[2] / "tools" / "redteam"
+
+
+@functools.cache
+def _generator() -> ModuleType:
+    sys.path.insert(0, str(REDTEAM))
+    try:
+        return importlib.import_module("run11")
+    finally:
+        sys.path.remove(str(REDTEAM))
+
+
+def _case(family: str, seed: int) -> Any:
+    return _generator().case_of(family, seed)
+
+
+def test_the_hidden_mass_follows_the_cart_as_a_driven_oscillator() -> None:
+    """In steady state the unread mass's position is the cart's, scaled and delayed by
+    G(jw) = wn² / (wn² - w² + 2j·zeta·wn·w)."""
+    dt, w, wn, zeta = 0.002, 9.0, 23.0, 0.15
+    t = np.arange(0.0, 12.0, dt)
+    x = 0.04 * np.sin(w * t)
+    m = motion(t, x)
+    z = hidden_mode(m, 0, wn, zeta)[:, 0]
+    gain = wn ** 2 / complex(wn ** 2 - w ** 2, 2.0 * zeta * wn * w)
+    expected = 0.04 * abs(gain) * np.sin(w * t + np.angle(gain))
+    late = t > 6.0   # the start's transient has decayed (e^(-zeta·wn·6 s) ~ 1e-9)
+    assert np.max(np.abs(z[late] - expected[late])) < 1e-3 * 0.04 * abs(gain)
+
+
+@pytest.mark.parametrize(("family", "seed"), [("coupled_span", 801), ("coupled_span", 802),
+                                              ("two_cart_coulomb_y1", 800), ("two_cart_coulomb_y1", 801),
+                                              ("two_cart_coulomb_y1", 702)])
+def test_a_release_of_a_cart_pulling_an_unread_mass_is_found(family: str, seed: int) -> None:
+    case = _case(family, seed)
+    found = find_releases(case.t, case.y)
+    assert len(found) == 1, [r.release_time_s for r in found]
+    dt = float(np.median(np.diff(case.t)))
+    error = (found[0].release_time_s - case.truth["release_time_s"]) / dt
+    assert abs(error) <= 1.0, f"{error:+.2f} samples"
