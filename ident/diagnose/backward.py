@@ -119,9 +119,14 @@ def _drop(steps: list[Step], at: int, reduced: FitResult) -> list[Step]:
     it added when it was taken: taking the dropped effect out of the later steps' models
     without refitting them (the others had moved to make up for it) left the last step's model
     before it far worse than it was, and credited the last effect with that (the real
-    DOF1_en2_manual2_test1: a rest drift at +35 points once an early drag was dropped)."""
+    DOF1_en2_manual2_test1: a rest drift at +35 points once an early drag was dropped). The
+    last step's model before it is the dropped step's when that came right before: its model
+    before had the dropped effect, the refitted one has not, and the last effect was credited
+    with the dropped one's loss (red team coupled_pinned 700: an encoder lattice at -0.49
+    points once the mode it followed was dropped; +0.56 against the model before the mode)."""
     kept = steps[:at] + steps[at + 1:]
-    kept[-1] = Step(dataclasses.replace(kept[-1].judgement, result=reduced), kept[-1].before)
+    before = steps[at].before if at == len(steps) - 2 else kept[-1].before
+    kept[-1] = Step(dataclasses.replace(kept[-1].judgement, result=reduced), before)
     return kept
 
 

@@ -75,8 +75,10 @@ def test_an_early_effect_the_final_model_does_not_need_is_dropped_and_the_rest_k
     assert [j.effect for j in out.dropped] == ["quadratic_drag"] and not out.dropped[0].passes
     final = out.steps[-1].judgement.result
     assert "quadratic_drag" not in final.spec.effects and final.sse_train == pytest.approx(0.505)
-    # the friction step keeps what it gained when it was taken (its model before it, as fitted)
-    assert out.steps[0].before is steps[1].before
+    # the friction step, now right after the model the drag was added to, is credited against
+    # that model (the refitted final model lacks the drag, as that model does: a gain of
+    # 1.0 -> 0.505, not 0.7 -> 0.505 with the drag's share charged to it)
+    assert out.steps[0].before is steps[0].before
     # the last effect is not judged again; the dropped one is refitted and cross-validated
     assert ("quadratic_drag", 2) in calls and ("coulomb_friction", 2) not in calls
 
