@@ -32,9 +32,6 @@ from ident.diagnose.select import Judgement, Step, judge
 #: `without(trial, result, refit)`: `result` with `trial.effect` taken out, evaluated (0),
 #: refitted (1), refitted and cross-validated (2) within the trial's bounds.
 Without = Callable[[Trial, FitResult, int], FitResult]
-#: `revalidate(trial, result)`: `result` refitted as it is within the trial's bounds and
-#: cross-validated.
-Revalidate = Callable[[Trial, FitResult], FitResult]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -47,19 +44,18 @@ class Elimination:
     dropped: list[Judgement]
 
 
-def eliminate(steps: list[Step], last: Trial, without: Without, revalidate: Revalidate, carts: int) -> Elimination:
+def eliminate(steps: list[Step], last: Trial, without: Without, carts: int) -> Elimination:
     """Drop, one at a time, the weakest earlier effect the final model does not need.
 
     `last` is the trial of the last accepted effect: its bounds cover every parameter of the
-    final model, and the refit without an effect keeps those of the others. `revalidate(trial,
-    result)` refits a model as it is and cross-validates it: a model that reads through an
-    encoder lattice was cross-validated as the lattice's readings of the carts' held-out
-    predictions (`candidates.refine`), which is no cost of the kind its refit without an effect
-    has (red team coupled_light seed 200: the 6.9 Hz mode's whole-window ratio 262 against a
-    bound of 29, its held-out ratio -88 from the mismatch alone)."""
+    final model, and the refit without an effect keeps those of the others. A model that reads
+    through an encoder lattice was cross-validated as the lattice's readings of the carts'
+    held-out predictions (`candidates.refine`), which is no cost of the kind its refit without
+    an effect has (red team coupled_light seed 200: the 6.9 Hz mode's whole-window ratio 262
+    against a bound of 29, its held-out ratio -88 from the mismatch alone): see `_weakest`."""
     dropped: list[Judgement] = []
     for _ in range(len(steps)):
-        weakest = _weakest(steps, last, without, revalidate, carts)
+        weakest = _weakest(steps, last, without, carts)
         if weakest is None:
             break
         at, judgement, reduced = weakest
@@ -69,28 +65,45 @@ def eliminate(steps: list[Step], last: Trial, without: Without, revalidate: Reva
     return Elimination(steps, dropped)
 
 
-def _weakest(steps: list[Step], last: Trial, without: Without, revalidate: Revalidate,
-             carts: int) -> tuple[int, Judgement, FitResult] | None:
+def _weakest(steps: list[Step], last: Trial, without: Without, carts: int) -> tuple[int, Judgement, FitResult] | None:
     """(step index, judgement, final model refitted without it) of the earlier effect of least
-    held-out ratio among those the final model does not need; None when all are needed."""
+    held-out ratio among those the final model does not need; None when all are needed.
+
+    With an encoder lattice in the final model an effect must pass twice: on the whole window
+    read through the lattice (the lattice may explain what it fitted: a spurious mode on a
+    coarse lattice, ratio 24 against a bound of 29 once the lattice reads the prediction), and
+    held out on the carts' model without the lattice, as the forward selection judged it (the
+    lattice is added once the carts' effects are in, `select._yield`): held-out refits through
+    the lattice's nearly hard staircase have finite-difference slopes that say nothing and
+    compared two arbitrarily converged dynamics (red team coupled_pinned 700: a 5.7 Hz mode at
+    +1.05 points, whole-window ratio 187 against 29 through the lattice, held out -41, had been
+    dropped)."""
     final = steps[-1].judgement.result
     candidates = [s for s in steps[:-1] if _removable(s.judgement.effect, final.spec.effects)]
     if not candidates:
         return None
-    # an encoder lattice's likelihood gain belongs to the lattice step: the carts' effects are
-    # judged by their costs, cross-validated alike
+    read = "quantization" in final.spec.effects
     plain = dataclasses.replace(final, likelihood_gain=None)
-    if "quantization" in final.spec.effects:
-        plain = revalidate(last, final)
+    smooth, smooth_bounds = plain, last
+    if read:
+        smooth = without(dataclasses.replace(last, effect="quantization"), final, 2)
+        smooth_bounds = _bounds_without(last, final, "quantization")
     worst: tuple[int, Judgement, FitResult] | None = None
     for at, step in enumerate(steps[:-1]):
         effect = step.judgement.effect
         if not _removable(effect, final.spec.effects):
             continue
-        reduced = without(dataclasses.replace(last, effect=effect), final, 2)
-        judgement = judge(effect, reduced, plain, carts)
+        reduced = without(dataclasses.replace(smooth_bounds, effect=effect), smooth, 2)
+        judgement = judge(effect, reduced, smooth, carts)
+        if read and judgement.passes:   # and through the lattice, on the whole window
+            reduced = without(dataclasses.replace(last, effect=effect), final, 1)
+            judgement = judge(effect, reduced, plain, carts)
+            judgement = dataclasses.replace(judgement, lr_cv=judgement.lr_fit)   # (not cross-validated)
         if not judgement.passes and (worst is None or judgement.lr_cv < worst[1].lr_cv):
             worst = at, judgement, reduced
+    if worst is not None and read:   # the final model without it, read through the lattice
+        at, judgement, _ = worst
+        worst = at, judgement, without(dataclasses.replace(last, effect=judgement.effect), final, 2)
     return worst
 
 

@@ -216,13 +216,6 @@ def without(prob: Problem, trial: Trial, result: FitResult, refit: int = 0) -> F
                prob.train, max_nfev=REFINE_NFEV, cross_validate=refit == 2, anchor=prob.anchor)
 
 
-def revalidate(prob: Problem, trial: Trial, result: FitResult) -> FitResult:
-    """`result` fitted on from where it is within the trial's bounds, with the blocked
-    cross-validation of a refit without an effect (`without(..., 2)`), so that the two compare."""
-    return fit(result.spec, result.theta, trial.lower, trial.upper, trial.typical, prob.dt, prob.y, prob.train,
-               max_nfev=REFINE_NFEV, cross_validate=True, anchor=prob.anchor)
-
-
 def _lattice_for(prob: Problem, current: FitResult, ev: EvidenceResult) -> Lattice | None:
     """The exact lattice of the readings' encoder steps, or else, of the lattice proposed
     under noise and the fainter proposals, the one whose levels best explain the readings
@@ -246,4 +239,4 @@ def effect_parameters(result: FitResult, effect: str) -> tuple[dict[str, float],
 
 
 __all__ = ["Problem", "Trial", "available", "base_spec", "effect_parameters", "evaluate", "fit_baseline",
-           "refine", "revalidate", "screen", "without"]
+           "refine", "screen", "without"]

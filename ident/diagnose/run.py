@@ -149,7 +149,7 @@ def diagnose(t: FloatArray, y: FloatArray, carts: int | None = None, step_m: flo
     if selection.last is not None and len(steps) > 1:
         progress.stage("diagnosis: backward elimination")
         steps = eliminate(steps, selection.last, lambda trial, result, refit: cands.without(prob, trial, result, refit),
-                          lambda trial, result: cands.revalidate(prob, trial, result), carts).steps
+                          carts).steps
     ext = steps[-1].judgement.result if steps else base
     effects = _ranked(prob, steps, y_arr, hold_level(y_arr)[2])
     cause = next((e.effect for e in effects if e.material), "none")

@@ -203,9 +203,10 @@ def fit_free_model(m: Motion, column: int, others: tuple[int, ...] = (),
     def excess(scale: float) -> float:
         return float(np.sqrt(max(scale ** 2 - noise ** 2, 0.0)))
 
-    if not _coupling_holds(coef, n_base) or HIDDEN_GAIN * excess(other.scale) > excess(model.scale):
-        return model
-    return other
+    # (strictly: a residual within the noise either way gains nothing)
+    if _coupling_holds(coef, n_base) and excess(model.scale) > HIDDEN_GAIN * excess(other.scale):
+        return other
+    return model
 
 
 def _coupling_holds(coef: FloatArray, n_base: int) -> bool:
