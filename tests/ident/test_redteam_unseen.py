@@ -186,3 +186,19 @@ def test_a_short_ringing_at_50_hz_is_diagnosed(tmp_path: Path, capsys: pytest.Ca
     reports = json.loads(captured.out)
     assert len(reports) == len(listed), captured.err
     assert all("coulomb_friction" in [e["effect"] for e in r["effects"]] and r["gain_points"] > 0 for r in reports)
+
+
+def test_a_second_mode_read_through_a_coarse_lattice_is_kept() -> None:
+    """Red team `coupled_pinned` 700 (unseen seeds 700-703): a second cart of the same mass
+    pinned by a stiff spring rings at 5.7 Hz in cart 1's 0.41 mm encoder. The mode was taken
+    (+1.05 points), then the lattice; backward elimination judged the mode held out on refits
+    through the lattice's staircase (ratio -41 against 29), dropped it, and named the lattice.
+    Judged held out on the carts' model without the lattice and read through the lattice on the
+    whole window, it stays; the lattice comes after it with a positive gain."""
+    case = _case("coupled_pinned", 700)
+    release = find_releases(case.t, case.y)[0]
+    report = diagnose(case.t, case.y, 1, None, start_s=release.release_time_s, stop_s=release.end_time_s).report
+    assert report.cause == "coupled_mode"
+    mode = next(e for e in report.effects if e.effect == "coupled_mode")
+    assert mode.parameters["mode_hz"] == pytest.approx(case.truth["mode_hz"], rel=0.05)
+    assert all(e.gain_points > 0 for e in report.effects)
