@@ -235,10 +235,10 @@ def run_realdata() -> list[dict[str, Any]]:
 def print_real(name: str, rel: Any, report: Any, elapsed: float) -> dict[str, Any]:
     effects = getattr(report, "effects", None)
     if effects is None:
-        named = [f"{c.effect} (+{c.gain_points:.2f}, lr {c.lr_validation:.0f}>{c.threshold_validation:.0f})"
+        named = [f"{c.effect} ({c.gain_points:+.2f}, lr {c.lr_validation:.0f}>{c.threshold_validation:.0f})"
                  for c in report.candidates if c.significant]
     else:
-        named = [f"{e.effect} (+{e.gain_points:.2f} pts, cv {e.cv_ratio:.0f}>{e.cv_threshold:.1f}"
+        named = [f"{e.effect} ({e.gain_points:+.2f} pts, cv {e.cv_ratio:.0f}>{e.cv_threshold:.1f}"
                  f"{'' if e.material else ', immaterial'})" for e in effects]
     print(f"  {name} release {rel.number} at {rel.release_time_s:.2f}-{rel.end_time_s:.2f} s (cart {rel.pulled_cart}): "
           f"cause {report.cause}, fit {report.baseline.fit_percent:.2f} -> {report.extended.fit_percent:.2f} %, "

@@ -123,9 +123,9 @@ def explanation(report: DiagnosisReport, base_lin: FloatArray) -> str:
                        if not k.startswith(("mode_cos", "mode_sin", "lattice_offset")))
     others = [e for e in report.effects if e.effect != report.cause]
     also = ("" if not others else " Also found: " + ", ".join(
-        f"{e.effect} (+{e.gain_points:.3g} points{'' if e.material else ', immaterial'})" for e in others) + ".")
+        f"{e.effect} ({e.gain_points:+.3g} points{'' if e.material else ', immaterial'})" for e in others) + ".")
     text = (f"The linear simulation misses {what}: {sign}. Adding it ({params}) gains "
-            f"+{chosen.gain_points:.3g} points, more than noise explains on held-out blocks.{also} "
+            f"{chosen.gain_points:+.3g} points, more than noise explains on held-out blocks.{also} "
             f"Whole-window fit: {report.baseline.fit_percent:.2f} % (linear) -> "
             f"{report.extended.fit_percent:.2f} % (every accepted effect). ")
     corrected = report.corrected_linear.get(key)
