@@ -12,9 +12,6 @@ residual above four times the window's RMS and was taken for the hand.
 
 from __future__ import annotations
 
-import importlib
-import sys
-from pathlib import Path
 from types import ModuleType
 
 import numpy as np
@@ -22,18 +19,13 @@ import pytest
 
 from daq.detector import ReleaseDetector
 from daq.detector_events import Released
-
-REDTEAM = Path(__file__).resolve().parents[2] / "tools" / "redteam"
+from testkit.redteam import redteam_module
 
 
 @pytest.fixture(scope="module")
 def cases10() -> ModuleType:
     """The red team's generator (it imports its sibling `physics` by its folder)."""
-    sys.path.insert(0, str(REDTEAM))
-    try:
-        return importlib.import_module("cases10")
-    finally:
-        sys.path.remove(str(REDTEAM))
+    return redteam_module("cases10")
 
 
 @pytest.mark.parametrize(("seed", "rate"), [(s, None) for s in range(9)] + [(s, "50") for s in range(220, 227)])

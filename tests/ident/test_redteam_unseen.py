@@ -21,12 +21,8 @@ physics only, independent of the package); the truth is used only in the asserti
 from __future__ import annotations
 
 import dataclasses
-import functools
-import importlib
 import json
-import sys
 from pathlib import Path
-from types import ModuleType
 from typing import Any
 
 import numpy as np
@@ -36,21 +32,11 @@ import ident.diagnose.run as run_module
 from ident.cli import main
 from ident.diagnose import diagnose
 from ident.releases import find_releases
-
-REDTEAM = Path(__file__).resolve().parents[2] / "tools" / "redteam"
-
-
-@functools.cache
-def _generator() -> ModuleType:
-    sys.path.insert(0, str(REDTEAM))
-    try:
-        return importlib.import_module("run11")   # its case_of draws both generators' families
-    finally:
-        sys.path.remove(str(REDTEAM))
+from testkit.redteam import redteam_module
 
 
 def _case(family: str, seed: int) -> Any:
-    return _generator().case_of(family, seed)
+    return redteam_module("run11").case_of(family, seed)   # both generators' families
 
 
 def _noise_floor(case: Any, start: float, stop: float) -> float:
@@ -113,11 +99,7 @@ def test_a_candidate_whose_simulation_runs_off_is_listed_as_not_fitted(monkeypat
 
 
 def _record(seed: int) -> Any:
-    sys.path.insert(0, str(REDTEAM))
-    try:
-        cases10 = importlib.import_module("cases10")
-    finally:
-        sys.path.remove(str(REDTEAM))
+    cases10 = redteam_module("cases10")
     return cases10, cases10.make_record(seed)
 
 

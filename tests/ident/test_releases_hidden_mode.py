@@ -11,11 +11,6 @@ the truth is used only in the assertions.
 
 from __future__ import annotations
 
-import functools
-import importlib
-import sys
-from pathlib import Path
-from types import ModuleType
 from typing import Any
 
 import numpy as np
@@ -24,21 +19,11 @@ import pytest
 from ident.releases import find_releases
 from ident.releases.hand import hidden_mode
 from ident.releases.motion import motion
-
-REDTEAM = Path(__file__).resolve().parents[2] / "tools" / "redteam"
-
-
-@functools.cache
-def _generator() -> ModuleType:
-    sys.path.insert(0, str(REDTEAM))
-    try:
-        return importlib.import_module("run11")
-    finally:
-        sys.path.remove(str(REDTEAM))
+from testkit.redteam import redteam_module
 
 
 def _case(family: str, seed: int) -> Any:
-    return _generator().case_of(family, seed)
+    return redteam_module("run11").case_of(family, seed)
 
 
 def test_the_hidden_mass_follows_the_cart_as_a_driven_oscillator() -> None:
