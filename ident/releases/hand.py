@@ -127,8 +127,10 @@ def hidden_mode(m: Motion, column: int, wn: float, zeta: float) -> FloatArray:
 
         z = G·x_j,  G = wn² / (s² + 2·zeta·wn·s + wn²),
 
-    and its dry friction's share, G·(-sgn ż) (sgn smoothed over a hundredth of ż's range),
-    both from rest at their first values (a record starts with the carts at rest; one that
+    and its dry friction's share, G·(-sgn ż) (sgn smoothed over a hundredth of ż's range)
+    while this cart moves (where it rests, z's leftover linear ringing is not the mass's,
+    which friction stops, and its sign would drive G at resonance), both from rest at their
+    first values (a record starts with the carts at rest; one that
     starts in motion fits worse, and the free model stays without them). The spring's force
     on this cart is a combination of the two."""
     from scipy.signal import cont2discrete, lfilter, lfilter_zi  # deferred: keeps `import ident` fast
@@ -196,25 +198,24 @@ def fit_free_model(m: Motion, column: int, others: tuple[int, ...] = (),
     if hidden is None:
         return model
     other = _fit(m, column, model.others, model.slow, hidden)
-    n_base = 1 + len(other.others) + 3 + 1
-    coef = np.concatenate([other.stiffness, [other.viscous, other.dry, other.offset], other.extra])
+    assert other.extra is not None   # the state term's coefficient, then the hidden mode's
     noise = accel_noise(m, column)
 
     def excess(scale: float) -> float:
         return float(np.sqrt(max(scale ** 2 - noise ** 2, 0.0)))
 
     # (strictly: a residual within the noise either way gains nothing)
-    if _coupling_holds(coef, n_base) and excess(model.scale) > HIDDEN_GAIN * excess(other.scale):
+    if _coupling_holds(float(other.extra[-2]), float(other.stiffness[0])) \
+            and excess(model.scale) > HIDDEN_GAIN * excess(other.scale):
         return other
     return model
 
 
-def _coupling_holds(coef: FloatArray, n_base: int) -> bool:
-    """Whether the hidden mass pulls as a spring can: its position's coefficient κ (at
-    `n_base`, after the free model's) positive and below this cart's own stiffness (the
-    coupling spring is part of it; κ near it makes z a copy of x_j, a degenerate fit)."""
-    kappa = float(coef[n_base])
-    return 0.0 < kappa < float(coef[0])
+def _coupling_holds(kappa: float, own: float) -> bool:
+    """Whether the hidden mass pulls as a spring can: its position's coefficient `kappa`
+    (1/s²) positive and below this cart's `own` stiffness (the coupling spring is part of
+    it; κ near it makes z a copy of x_j, a degenerate fit)."""
+    return 0.0 < kappa < own
 
 
 def _best_hidden_mode(m: Motion, model: FreeModel) -> FloatArray | None:
@@ -235,7 +236,7 @@ def _best_hidden_mode(m: Motion, model: FreeModel) -> FloatArray | None:
     def spread(ratio: float, zeta: float) -> float:
         basis = np.column_stack([base, hidden_mode(m, j, ratio * wn, zeta)[moving]])
         coef = np.linalg.lstsq(basis, target, rcond=None)[0]
-        if not _coupling_holds(coef, base.shape[1]):
+        if not _coupling_holds(float(coef[base.shape[1]]), float(coef[0])):
             return float("1e300")   # (finite: the bounded search takes no inf)
         return float(np.median(np.abs(target - basis @ coef)))
 
