@@ -207,10 +207,16 @@ def smoothing_window(y: FloatArray, dt: float, period: float) -> int:
     # a projection's residual keeps 1 - c_mid of the noise's variance
     keep = 1.0 - float(savgol_coeffs(window, 3)[window // 2])
     sigma = float(np.sqrt(np.mean(scatter ** 2) / keep))
-    while window < last and sigma * float(np.linalg.norm(savgol_coeffs(window, 3, deriv=2))) \
-            > ACCEL_NOISE_FRACTION * swing * dt ** 2:
+    while window < last and sigma * accel_noise_gain(window, dt) > ACCEL_NOISE_FRACTION * swing:
         window += 2
     return window
+
+
+def accel_noise_gain(window: int, dt: float) -> float:
+    """The smoothed acceleration's noise std (m/s²) per metre of the readings' noise std: ‖c‖ / dt²,
+    c the cubic's second-derivative coefficients over `window` samples `dt` apart."""
+    from scipy.signal import savgol_coeffs  # deferred: keeps `import ident` fast
+    return float(np.linalg.norm(savgol_coeffs(window, 3, deriv=2))) / dt ** 2
 
 
 def smoothed_noise(noise: FloatArray, window: int) -> FloatArray:
@@ -220,11 +226,8 @@ def smoothed_noise(noise: FloatArray, window: int) -> FloatArray:
 
 
 def accel_noise(m: Motion, column: int) -> float:
-    """The noise std (m/s²) in column `column`'s smoothed acceleration: σ ‖c‖ / dt², c the
-    cubic's second-derivative coefficients over `m.window`."""
-    from scipy.signal import savgol_coeffs  # deferred: keeps `import ident` fast
-    c = savgol_coeffs(m.window, 3, deriv=2)
-    return float(m.noise_m[column]) * float(np.linalg.norm(c)) / m.dt ** 2
+    """The noise std (m/s²) in column `column`'s smoothed acceleration (`accel_noise_gain`)."""
+    return float(m.noise_m[column]) * accel_noise_gain(m.window, m.dt)
 
 
 def measurement_noise(y: FloatArray) -> FloatArray:
