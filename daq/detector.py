@@ -49,6 +49,7 @@ no I/O; time comes with the samples (float seconds, continuous).
 
 from __future__ import annotations
 
+import logging
 from collections import deque
 from collections.abc import Sequence
 from typing import Literal
@@ -65,6 +66,11 @@ from daq.detector_events import (
 from daq.onset import OnsetFit, fit_onset
 from daq.release_dating import Samples, date_ringing_release, fit_onset_at, free_span, redate_hold
 from daq.ringing import RingingLimits, Turn, Zigzag, is_ringing
+
+log = logging.getLogger(__name__)
+#: What the numerical dating may raise on a record nobody foresaw: it turns the candidate down
+#: (logged as a warning) instead of ending the stream, and every later release is still recorded.
+DATING_ERRORS = (ValueError, ArithmeticError, IndexError)
 
 __all__ = ["METHOD", "SPAN_S", "Armed", "DetectorSettings", "Disarmed", "Event", "OnsetFit", "Rejected",
            "ReleaseDetector", "Released", "Settled", "State", "fit_onset"]
@@ -381,7 +387,13 @@ class ReleaseDetector:
     def _date(self, t_s: float, channel: int, a: Turn, b: Turn, c: Turn) -> Released | Rejected:
         """Date a confirmed ringing (`daq.release_dating`)."""
         first_t = self._first_t if self._first_t is not None else self._history[0][0]
-        event = date_ringing_release(Samples.of(list(self._history)), t_s, channel, (a, b, c), self.settings, first_t)
+        try:
+            event = date_ringing_release(Samples.of(list(self._history)), t_s, channel, (a, b, c), self.settings,
+                                         first_t)
+        except DATING_ERRORS as exc:
+            log.warning("dating the ringing confirmed at %.3f s failed (%s: %s): no run for it; please report "
+                        "this record", t_s, type(exc).__name__, exc)
+            return Rejected(t_s, 0.0, f"ringing: dating failed ({type(exc).__name__})")
         if isinstance(event, Released):
             self._hold = event.hold_pos
         return event

@@ -293,8 +293,8 @@ def slide_back(t: Array, y: Array, vs: Array, t_from: float, span_s: float, half
         trial = fit_free(t[window], y[window], vs[window], fit.sigma, first.omega, spread=0.04)
         if trial is None or trial.rms_m > 1.5 * ref:
             break
-        head = (t >= ts) & (t <= ts + half_s / 4.0)
-        if np.max(np.abs(y[head] - trial(t[head], vs[head]))) > limit:
+        head = (t >= ts) & (t <= ts + half_s / 4.0)   # none at a coarse rate's fast ring: nothing to judge
+        if head.any() and np.max(np.abs(y[head] - trial(t[head], vs[head]))) > limit:
             break
         start, fit = ts, trial
     return start, fit
