@@ -42,7 +42,9 @@ class Motion:
 
     `t` (N,) s; `y`, `x`, `v`, `a` (N, n) in m, m/s, m/s²; `dt` s; `period_s` the dominant
     oscillation period; `noise_m` (n,) the per-column measurement noise std; `window` the
-    smoothing window (samples); `x_noise_m` (n,) the noise left in `x`.
+    smoothing window (samples); `x_noise_m` (n,) the noise left in `x`; `coarse_clock` whether
+    the record's stamps were uneven (interpolated onto the grid: `uniform`), whose errors
+    misplace a moving cart by its speed times up to a stamp's step.
     """
 
     t: FloatArray
@@ -55,6 +57,7 @@ class Motion:
     noise_m: FloatArray
     window: int
     x_noise_m: FloatArray
+    coarse_clock: bool = False
 
     @property
     def n_samples(self) -> int:
@@ -172,7 +175,8 @@ def turning_indices(x: FloatArray, hysteresis: float) -> NDArray[np.intp]:
 def motion(t: FloatArray, y: FloatArray) -> Motion:
     """Grid, period, noise and Savitzky–Golay (cubic) derivatives of a record."""
     from scipy.signal import savgol_filter  # deferred: keeps `import ident` fast
-    t_u, y_u = uniform(np.asarray(t, dtype=np.float64), np.asarray(y, dtype=np.float64).reshape(len(t), -1))
+    t_arr = np.asarray(t, dtype=np.float64)
+    t_u, y_u = uniform(t_arr, np.asarray(y, dtype=np.float64).reshape(len(t), -1))
     dt = float(t_u[1] - t_u[0])
     period = dominant_period(y_u, dt)
     noise = measurement_noise(np.asarray(y, dtype=np.float64).reshape(len(t), -1))
@@ -180,7 +184,7 @@ def motion(t: FloatArray, y: FloatArray) -> Motion:
     x = savgol_filter(y_u, window, 3, axis=0, mode="interp")
     v = savgol_filter(y_u, window, 3, deriv=1, delta=dt, axis=0, mode="interp")
     a = savgol_filter(y_u, window, 3, deriv=2, delta=dt, axis=0, mode="interp")
-    return Motion(t_u, y_u, x, v, a, dt, period, noise, window, smoothed_noise(noise, window))
+    return Motion(t_u, y_u, x, v, a, dt, period, noise, window, smoothed_noise(noise, window), t_u is not t_arr)
 
 
 def smoothing_window(y: FloatArray, dt: float, period: float) -> int:

@@ -184,3 +184,22 @@ def test_a_second_mode_read_through_a_coarse_lattice_is_kept() -> None:
     mode = next(e for e in report.effects if e.effect == "coupled_mode")
     assert mode.parameters["mode_hz"] == pytest.approx(case.truth["mode_hz"], rel=0.05)
     assert all(e.gain_points > 0 for e in report.effects)
+
+
+@pytest.mark.parametrize("seed", [1014, 1120])
+def test_a_hold_on_a_coarse_clock_is_dated_where_the_hand_lets_go(tmp_path: Path,
+                                                                   capsys: pytest.CaptureFixture[str],
+                                                                   seed: int) -> None:
+    """Issue-10 red-team records 1014 and 1120 (ECP's whole-millisecond clock, drawn 2026-11-28):
+    a hold let go at 80-120 m/s² was dated 23-25 ms late. Within 10 ms of the let-go the cart
+    runs at 1 m/s, where a stamp up to a millisecond off misplaces it by up to a millimetre:
+    single samples of the fine residual stood at 4 noise widths 8 and 20 ms after the force had
+    ended, and the force was taken to last until them."""
+    cases10, rec = _record(seed)
+    path = tmp_path / f"rec{seed}.csv"
+    path.write_text(cases10.csv_text(rec))
+    assert main(["releases", str(path), "--json"]) == 0
+    found = [r["release_time_s"] for r in json.loads(capsys.readouterr().out)]
+    truth = [float(r["t_r"]) for r in rec.releases]
+    assert len(found) == len(truth)
+    assert abs(found[0] - truth[0]) <= 0.0015, (found[0], truth[0])   # the clock's step: 1-2 ms
