@@ -305,11 +305,14 @@ def test_no_horizontal_overflow_at_laptop_and_phone_width(browser: Any) -> None:
         browser.set_window_size(size["width"], size["height"])
 
 
-def test_the_release_instant_is_marked_on_the_plot(browser: Any) -> None:
-    marks = wait_until(lambda: js(browser, "window.cartlab.marks.filter(m => m.state === 'released')"), 30,
-                       "a release mark")
-    states = [m["state"] for m in js(browser, "window.cartlab.marks")]
-    assert "released" in states and states.index("released") < len(states) - 1   # the span ended
+def test_the_release_instant_is_marked_on_the_plot(browser: Any, daq: DaqProcess) -> None:
+    # (the daq fixture: run alone, or first on an xdist worker, no daq had been started)
+    def ended() -> bool:   # a released mark and a later one: the run's span ended
+        states = [m["state"] for m in js(browser, "window.cartlab.marks")]
+        return "released" in states and states.index("released") < len(states) - 1
+
+    wait_until(ended, 30, "a release mark and the end of its run")
+    marks = js(browser, "window.cartlab.marks.filter(m => m.state === 'released')")
     assert marks[0]["run_id"]
 
 
