@@ -21,11 +21,12 @@ demo: $(STAMP)
 	$(PY) tools/demo_bench.py --out demo-report
 
 # Two workers (pytest-xdist): the suite is written to pass on a busy 2-core machine, and takes
-# half the time (15:26 -> 7:55 here); `$(PY) -m pytest FILE` still runs in one process. A
-# module whose tests share one process and run in order is marked `xdist_group` (loadgroup
-# keeps it on one worker; every other test is shared out as with `load`).
+# half the time (15:26 -> 7:55 here); `$(PY) -m pytest FILE` still runs in one process. Each
+# module runs whole on one worker (loadscope): a module's tests may share its fixtures' state in
+# file order (the browser tests' run; `--dist loadgroup` no longer groups under pytest 9.2,
+# pytest-xdist issue 1386).
 test: $(STAMP)
-	OPENBLAS_NUM_THREADS=1 $(PY) -m pytest -n 2 --dist loadgroup
+	OPENBLAS_NUM_THREADS=1 $(PY) -m pytest -n 2 --dist loadscope
 
 # Headless Chromium + chromedriver for the bench page's browser tests (Debian packages).
 # Best effort: without root or apt the browser tests skip and say why.

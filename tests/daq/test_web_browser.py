@@ -7,8 +7,8 @@ installs them). The fit report of the run is published by the test itself on the
 key: this tests the page, not the fitter.
 
 The tests share one page, daq and run, in file order: the first publishes the run's fit that
-later ones show. `make test` keeps the module on one xdist worker (`xdist_group`, with
-`--dist loadgroup`); a test picked alone with `-k` may find no run to show.
+later ones show. `make test` keeps each module on one xdist worker (`--dist loadscope`); a test
+picked alone with `-k` may find no run to show.
 """
 
 from __future__ import annotations
@@ -50,7 +50,7 @@ from testkit.browser_page import (
 from testkit.waiting import wait_until
 from testkit.web_support import DaqProcess, FakeDaq, PageServer, chromium_driver, diagnosis_record
 
-pytestmark = [NEEDS_CHROMIUM, pytest.mark.timeout(90), pytest.mark.xdist_group("web_browser")]
+pytestmark = [NEEDS_CHROMIUM, pytest.mark.timeout(90)]
 
 BENCH = "benchA"
 # One cart-1 case at 1 kHz, real time: release ~3.5 s after start, settled ~4 s later, then
