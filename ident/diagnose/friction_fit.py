@@ -215,9 +215,8 @@ def fit_static_friction(spec: ModelSpec, prob: Problem, theta0: FloatArray, lowe
                                                           float(theta0[0]))
     if ring is not None:
         row = theta0.copy()
-        row[1] = float(np.clip(ring[0], lower[1], upper[1]))
-        at = spec.block("coulomb_friction").start
-        row[at] = float(np.clip(ring[1], lower[at], upper[at]))
+        for at, value in ((spec.names.index("zeta"), ring[0]), (spec.block("coulomb_friction").start, ring[1])):
+            row[at] = float(np.clip(value, lower[at], upper[at]))
         starts += ranked_rows(spec, prob, row, block, static_rows(prob.carts), 1)
     fits = [fit(spec, row, lower, upper, typical, prob.dt, prob.y, prob.train, max_nfev=max_nfev) for row in starts]
     best = min(fits, key=lambda r: r.sse_train)

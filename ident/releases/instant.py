@@ -75,9 +75,9 @@ def release_instant(m: Motion, model: FreeModel, first: int, last: int) -> float
     peak_at = int(np.argmax(seg[:last + 1 - first]))
     quiet = m.samples(m.period_s * QUIET_FRACTION)
     late = min(seg.size, last - first + m.window + 1)
-    loud = _loud(seg, limit, max(peak_at, last - first - 2 * m.window), late, m.coarse_clock)
+    loud = _loud(seg, limit, max(peak_at, last - first - 2 * m.window), late, m.uneven_stamps)
     if not loud.size:
-        loud = _loud(seg, limit, peak_at, late, m.coarse_clock)
+        loud = _loud(seg, limit, peak_at, late, m.uneven_stamps)
     # the first gap between loud samples that lasts a quiet stretch: the force has ended
     gaps = np.flatnonzero(np.diff(np.concatenate([loud, [seg.size + quiet]])) > quiet)
     if not loud.size:
@@ -127,9 +127,9 @@ def _coarse_end(m: Motion, model: FreeModel, last: int) -> float:
     return crossing - smoothing_delay(m.window, limit / before)
 
 
-def _loud(seg: NDArray[np.float64], limit: float, lo: int, hi: int, coarse_clock: bool) -> NDArray[np.intp]:
-    """Indices in [lo, hi) where `seg` exceeds `limit`; on a coarse clock only beside a
-    neighbour that does too.
+def _loud(seg: NDArray[np.float64], limit: float, lo: int, hi: int, uneven_stamps: bool) -> NDArray[np.intp]:
+    """Indices in [lo, hi) where `seg` exceeds `limit`; with uneven stamps (a coarse clock's)
+    only beside a neighbour that does too.
 
     A coarse clock's stamps, up to a step off, misplace a fast cart by up to a millimetre: one
     sample alone above the limit is then that, not the hand (red team ECP-clock holds let go
@@ -138,7 +138,7 @@ def _loud(seg: NDArray[np.float64], limit: float, lo: int, hi: int, coarse_clock
     the last of a weak push (issue-11 red team, 192 cases: 4 fewer dated within a sample when
     such samples were passed over everywhere)."""
     above = seg > limit
-    if coarse_clock:
+    if uneven_stamps:
         above = above & (np.concatenate([[False], above[:-1]]) | np.concatenate([above[1:], [False]]))
     return np.flatnonzero(above[lo:hi]) + lo
 

@@ -42,9 +42,9 @@ class Motion:
 
     `t` (N,) s; `y`, `x`, `v`, `a` (N, n) in m, m/s, m/s²; `dt` s; `period_s` the dominant
     oscillation period; `noise_m` (n,) the per-column measurement noise std; `window` the
-    smoothing window (samples); `x_noise_m` (n,) the noise left in `x`; `coarse_clock` whether
-    the record's stamps were uneven (interpolated onto the grid: `uniform`), whose errors
-    misplace a moving cart by its speed times up to a stamp's step.
+    smoothing window (samples); `x_noise_m` (n,) the noise left in `x`; `uneven_stamps` whether
+    the record's stamps were uneven (a coarse clock's, interpolated onto the grid: `uniform`),
+    whose errors misplace a moving cart by its speed times up to a stamp's step.
     """
 
     t: FloatArray
@@ -57,7 +57,7 @@ class Motion:
     noise_m: FloatArray
     window: int
     x_noise_m: FloatArray
-    coarse_clock: bool = False
+    uneven_stamps: bool = False
 
     @property
     def n_samples(self) -> int:

@@ -5,10 +5,8 @@ helpers are `testkit/browser_page.py`; the Host check is `test_web_browser_secur
 Skipped, with the reason, when `chromium` or `chromedriver` is not installed (`make browser`
 installs them). The fit report of the run is published by the test itself on the run's fit
 key: this tests the page, not the fitter.
-
-The tests share one page, daq and run, in file order: the first publishes the run's fit that
-later ones show. `make test` keeps each module on one xdist worker (`--dist loadscope`); a test
-picked alone with `-k` may find no run to show.
+The tests share one page, daq and run in file order (the first publishes the fit that later
+ones show): `make test` keeps a module on one worker (`--dist loadscope`).
 """
 
 from __future__ import annotations
@@ -310,7 +308,6 @@ def test_no_horizontal_overflow_at_laptop_and_phone_width(browser: Any) -> None:
 
 
 def test_the_release_instant_is_marked_on_the_plot(browser: Any, daq: DaqProcess) -> None:
-    # (the daq fixture: run alone, or first on an xdist worker, no daq had been started)
     def ended() -> bool:   # a released mark and a later one: the run's span ended
         states = [m["state"] for m in js(browser, "window.cartlab.marks")]
         return "released" in states and states.index("released") < len(states) - 1
