@@ -36,7 +36,7 @@ from ident.releases.hand import HAND_SIGMAS, STICK_ALLOWANCE, FreeModel, drift, 
 from ident.releases.instant import release_instant
 from ident.releases.joined import joined_instant
 from ident.releases.misfit import free_misfit, rest
-from ident.releases.motion import FloatArray, Motion, motion, turning_indices, typical_speed
+from ident.releases.motion import FloatArray, Motion, motion, moving_samples, turning_indices
 from ident.releases.record import EndedBy, Release
 from ident.releases.restart import moved_after_rest
 
@@ -226,7 +226,7 @@ def sustained_pushes(m: Motion, model: FreeModel) -> list[tuple[int, int]]:
     stuck = _stuck(m, model.column)
     excess[stuck] = np.maximum(np.abs(model.residual[stuck]) - STICK_ALLOWANCE * abs(model.dry), 0.0)
     mean = np.convolve(excess, np.ones(width) / width, mode="same")
-    moving = np.abs(v) > 0.05 * typical_speed(v)
+    moving = moving_samples(v)
     typical = float(np.median(mean[moving])) if np.any(moving) else 0.0
     mask = mean > max(SUSTAINED_SIGMAS * model.scale, TYPICAL_MISFITS * typical)
     edge = width

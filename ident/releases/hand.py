@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from ident.releases.motion import FloatArray, Motion, accel_noise, typical_speed
+from ident.releases.motion import FloatArray, Motion, accel_noise, moving_samples, typical_speed
 
 #: Tukey bisquare tuning constant (95 % efficiency for Gaussian residuals).
 TUKEY_C = 4.685
@@ -143,7 +143,7 @@ def hidden_mode(m: Motion, column: int, wn: float, zeta: float) -> FloatArray:
     z = response(m.x[:, column])
     dz = np.gradient(z, m.dt)
     v = m.v[:, column]
-    moving = np.abs(v) > 0.05 * typical_speed(v)
+    moving = moving_samples(v)
     return np.column_stack([z, response(-np.tanh(dz / max(0.01 * float(np.ptp(dz)), 1e-12)) * moving)])
 
 
@@ -226,7 +226,7 @@ def _best_hidden_mode(m: Motion, model: FreeModel) -> FloatArray | None:
     from scipy.optimize import minimize_scalar  # deferred: keeps `import ident` fast
     j = model.column
     v = m.v[:, j]
-    moving = np.abs(v) > 0.05 * typical_speed(v)
+    moving = moving_samples(v)
     if np.count_nonzero(moving) < 20 * 8:
         return None
     base = regressors(m, j, model.others, model.v_smooth, model.slow, model.speed)[moving]
@@ -257,7 +257,7 @@ def _fit(m: Motion, column: int, others: tuple[int, ...], slow: tuple[int, ...],
     v_smooth = max(0.02 * speed, 3.0 * float(m.noise_m[column]) / m.dt / 10.0, 1e-9)
     basis = regressors(m, column, others, v_smooth, slow, max(speed, 1e-9), hidden)
     target = m.a[:, column]
-    moving = np.abs(v) > 0.05 * speed
+    moving = moving_samples(v, speed)
     if np.count_nonzero(moving) < basis.shape[1] * 4:
         moving = np.ones(m.n_samples, dtype=bool)
     n_k = 1 + len(others)

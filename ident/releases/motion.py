@@ -128,6 +128,12 @@ def typical_speed(v: FloatArray) -> float:
     return float(np.percentile(speed[moving], 95)) if np.any(moving) else 0.0
 
 
+def moving_samples(v: FloatArray, speed: float | None = None) -> NDArray[np.bool_]:
+    """(N,) where a cart of velocity `v` (N,) moves: |v| beyond `MOVING_FRACTION` of its
+    typical speed (`speed`, default `typical_speed(v)`)."""
+    return np.asarray(np.abs(v) > MOVING_FRACTION * (typical_speed(v) if speed is None else speed))
+
+
 def turning_period(y: FloatArray, dt: float) -> float | None:
     """Twice the median time (s) between the turns of the widest column (`turning_indices`,
     reversals by more than 5 % of its robust range and 10 noise stds): a ringing cart turns
