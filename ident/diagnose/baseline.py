@@ -12,7 +12,7 @@ from ident.diagnose.problem import FloatArray, Problem
 from ident.modal import fit_modes
 from ident.physics.measures import spectral_peaks
 
-#: One cart: the strongest spectral peaks tried as its mode (`_linear_starts`).
+#: One cart: the strongest spectral peaks tried as its mode (`linear_starts`).
 START_PEAKS = 3
 
 
@@ -28,7 +28,7 @@ def fit_baseline(prob: Problem, fixed: dict[str, float]) -> FitResult:
     spec = base_spec(prob, fixed)
     n_in = spec.n_inputs * prob.carts
     best: FitResult | None = None
-    for theta0 in _linear_starts(prob):
+    for theta0 in linear_starts(prob):
         lower, upper = starts.linear_bounds(theta0, prob.carts)
         typical = starts.linear_typical(theta0, prob.carts, prob.amplitude)
         if n_in:
@@ -45,7 +45,7 @@ def fit_baseline(prob: Problem, fixed: dict[str, float]) -> FitResult:
     return best
 
 
-def _linear_starts(prob: Problem) -> list[FloatArray]:
+def linear_starts(prob: Problem) -> list[FloatArray]:
     """Linear | x0 | v0 | rest start vectors: from a modal fit of the free response, or, with
     a force input, from the ringing's frequencies (spectral peaks of the sample differences,
     where the input's slow shape no longer dominates) with the carts at rest at the start."""

@@ -8,10 +8,12 @@ import itertools
 
 import numpy as np
 
+from ident.diagnose.baseline import linear_starts
 from ident.diagnose.evidence import EvidenceResult
 from ident.diagnose.fitting import FitResult, fit
 from ident.diagnose.models import ModelSpec
 from ident.diagnose.problem import FloatArray, Problem, best_rows, ranked_rows
+from ident.physics.chain import modes
 from ident.simple_start import envelope_friction
 
 
@@ -121,10 +123,16 @@ def _two_cart_friction_starts(spec: ModelSpec, prob: Problem, theta0: FloatArray
     at = spec.block("coulomb_friction").start
     chain = theta0.copy()
     chain[4:6] = 0.25 * theta0[4:6]
-    f_max = float(np.max(theta0[:4])) * prob.amplitude
     patterns = [np.array([1.0, 0.0]), np.array([0.0, 1.0]), np.array([1.0, 1.0])]
+    f_max = float(np.max(theta0[:4])) * prob.amplitude
     levels = [g * f_max * p for p in patterns for g in (0.003, 0.01, 0.03, 0.1)]
     out = [best_rows(spec, prob, chain, slice(at, at + 2), levels)]
+    for row in _other_chains(prob, chain):
+        # levels from the lower mode's pull (the stiffest spring's overstates a light cart's)
+        f_low = min(w for w, _ in modes(row[None, :6], 2)) ** 2 * prob.amplitude
+        shares = [*patterns, np.array([1.0, 0.3]), np.array([0.3, 1.0])]
+        levels = [g * f_low * p for p in shares for g in (0.003, 0.01, 0.03, 0.1)]
+        out.append(best_rows(spec, prob, row, slice(at, at + 2), levels))
     if spec.observed == spec.carts:
         return out
     # through one encoder the valley is rugged: where each cart sticks decides, so finer levels
@@ -139,6 +147,31 @@ def _two_cart_friction_starts(spec: ModelSpec, prob: Problem, theta0: FloatArray
                 row[at:at + 2] = level
                 rows.append(row)
         out.append(best_rows(spec, prob, chain, slice(0, chain.size), rows))
+    return out
+
+
+def _other_chains(prob: Problem, chain: FloatArray) -> list[FloatArray]:
+    """`chain` (two carts read by both encoders) restarted from each of the linear baseline's
+    other starts (`baseline.linear_starts`: the position's and the velocity's spectral peaks)
+    whose modes differ from its own by more than 20 %, its damping a quarter of theirs.
+
+    Without friction a linear chain imitates dry friction's straight decay by a beat of two
+    close modes and leaves a fast second mode (a light cart on a stiff spring, its ring stopped
+    by friction within a few cycles) unmodelled: the best linear fit, from which friction then
+    started in the wrong chain (red team two_cart_coulomb_y12 seed 1010: modes 11.8 and 12.8
+    rad/s for a true 12.0 and 41.8, a 6.6 Hz 'coupled mode' taken, fit 6 points under the
+    noise floor, cart 2's friction 95 % off)."""
+    if prob.inputs is not None or prob.y.shape[1] != 2:
+        return []
+    own = np.sort([w for w, _ in modes(chain[None, :6], 2)])
+    out = []
+    for start in linear_starts(prob):
+        other = np.sort([w for w, _ in modes(start[None, :6], 2)])
+        if np.all(np.isfinite(start)) and np.any(np.abs(other / own - 1.0) > 0.2):
+            row = chain.copy()
+            row[:start.size] = start
+            row[4:6] = 0.25 * start[4:6]
+            out.append(row)
     return out
 
 

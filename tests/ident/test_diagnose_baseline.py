@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 from ident.diagnose import diagnose
-from ident.diagnose.baseline import _linear_starts
+from ident.diagnose.baseline import linear_starts
 from ident.diagnose.problem import Problem
 from ident.physics.measures import spectral_peaks
 from testkit.effects import Case, judge, make_case
@@ -55,7 +55,7 @@ def test_a_ring_stopped_by_friction_beside_a_wandering_held_cart_is_fitted_not_t
         case = make_case(seed, "coulomb+held_cart")
         wn = case.truth.details["wn_rad_s"]
         # the baseline is started at the ring too, not only at the drift
-        starts = [float(theta[0]) for theta in _linear_starts(_free_response(case))]
+        starts = [float(theta[0]) for theta in linear_starts(_free_response(case))]
         assert any(abs(w / wn - 1.0) < 0.2 for w in starts), f"seed {seed}: starts {starts} rad/s, ring {wn:.2f}"
         report = diagnose(case.observed.t, case.observed.y, carts=1).report
         assert report.baseline.fit_percent > 50.0, f"seed {seed}: baseline fit {report.baseline.fit_percent:.1f} %"
