@@ -12,9 +12,30 @@ from daq.frames import DataFrame
 from daq.sim.options import parse_sim_url
 from daq.sim.rig import Rig
 
+Stream = Iterator[tuple[float, tuple[float, float]]]
 
-def samples(url: str) -> tuple[Iterator[tuple[float, tuple[float, float]]], list[float]]:
-    """(device s, metres) of a finished in-process `sim://` rig, and its true release times."""
+
+@dataclass(frozen=True)
+class Record:
+    """A finished `sim://` rig: its samples (device s, metres), the true release times, the
+    hand's force per unit mass as it let go at each (the jump in the cart's acceleration, m/s²;
+    empty unless a `student` drew the record), and the readings' noise RMS (m: the Gaussian
+    noise and the encoder's count, q²/12)."""
+
+    stream: Stream
+    releases: list[float]
+    let_go_m_s2: list[float]
+    noise_m: float
+
+    def in_data(self, rate_hz: float, snr: float = 10.0) -> list[bool]:
+        """Per release: whether its instant is in the data, the acceleration jump moving the cart
+        by at least `snr` noise RMS within one sample period (½ |Δa| T²)."""
+        step = 1.0 / rate_hz
+        return [0.5 * abs(a) * step * step >= snr * self.noise_m for a in self.let_go_m_s2]
+
+
+def record(url: str) -> Record:
+    """Run an in-process `sim://` rig to its end (`Record`)."""
     rig = Rig(parse_sim_url(url))
     data = bytearray()
     while not rig.finished:
@@ -23,7 +44,15 @@ def samples(url: str) -> tuple[Iterator[tuple[float, tuple[float, float]]], list
     scale = rig.options.counts_per_m
     frames = [f for f in make_decoder("cartlab").feed(bytes(data)) if isinstance(f, DataFrame)]
     stream = ((f.t_us * 1e-6, (f.raw[0] / scale, f.raw[1] / scale)) for f in frames)
-    return stream, [e.t_s for e in rig.events if e.kind == "release"]
+    noise = (rig.options.noise_counts ** 2 + 1.0 / 12.0) ** 0.5 / scale
+    return Record(stream, [e.t_s for e in rig.events if e.kind == "release"],
+                  list(getattr(rig.hand, "let_go_m_s2", [])), noise)
+
+
+def samples(url: str) -> tuple[Stream, list[float]]:
+    """(device s, metres) of a finished in-process `sim://` rig, and its true release times."""
+    rec = record(url)
+    return rec.stream, rec.releases
 
 
 def detect(stream: Iterator[tuple[float, tuple[float, float]]]) -> list[float]:
@@ -42,11 +71,17 @@ class Tally:
     errors_s: list[float] = field(default_factory=list)
     misses: list[str] = field(default_factory=list)
     false: list[str] = field(default_factory=list)
+    #: the releases whose instant is in the data (`Record.in_data`), and their errors when recorded
+    in_data: int = 0
+    errors_in_data_s: list[float] = field(default_factory=list)
 
-    def add(self, truth: list[float], found: list[float], match_s: float, label: str) -> None:
+    def add(self, truth: list[float], found: list[float], match_s: float, label: str,
+            in_data: list[bool] | None = None) -> None:
         left = list(found)
-        for t_true in truth:
+        for k, t_true in enumerate(truth):
+            seen = in_data is not None and in_data[k]
             self.releases += 1
+            self.in_data += seen
             near = [f for f in left if abs(f - t_true) <= match_s]
             if not near:
                 self.misses.append(f"{label} at {t_true:.3f} s")
@@ -55,5 +90,7 @@ class Tally:
             left.remove(best)
             self.recorded += 1
             self.errors_s.append(best - t_true)
+            if seen:
+                self.errors_in_data_s.append(best - t_true)
         self.false_runs += len(left)
         self.false += [f"{label} at {f:.3f} s" for f in left]

@@ -8,6 +8,13 @@ slow pulls brought back: no release) are streamed as bytes, decoded and fed to
 recorded when a detected release lies within `--match-s` of it; the error is their
 difference. Every other detected release is a false run.
 
+A release's instant is "in the data" when the hand's force as it lets go (the jump in the
+cart's acceleration, known to the simulated hand) moves the cart by at least 10 noise RMS
+within one sample period, ½ |Δa| T² (`testkit.release_tally.Record.in_data`); a softer
+let-go leaves the free response indistinguishable from the hand's motion for more than a
+sample, and no estimator can place it within one. The last two columns count those releases
+and how many of them were dated within one sample (a missed one counts against).
+
     python tools/bench_releases.py                       # 200 records per rate, 600 s idle
     python tools/bench_releases.py --records 20 --idle-s 60 --rates 100
 """
@@ -19,7 +26,7 @@ import sys
 
 import numpy as np
 
-from testkit.release_tally import Tally, detect, samples
+from testkit.release_tally import Tally, detect, record, samples
 
 RATES = (50, 100, 200, 1000)
 
@@ -28,9 +35,8 @@ def run_rate(rate: int, records: int, idle_s: float, match_s: float, seed0: int)
     tally = Tally()
     for k in range(records):
         seed = seed0 + 1000 * rate + k
-        url = f"sim://?realtime=0&rate_hz={rate}&student=releases&seed={seed}"
-        stream, truth = samples(url)
-        tally.add(truth, detect(stream), match_s, f"seed={seed}")
+        rec = record(f"sim://?realtime=0&rate_hz={rate}&student=releases&seed={seed}")
+        tally.add(rec.releases, detect(rec.stream), match_s, f"seed={seed}", rec.in_data(rate))
     idle_url = f"sim://?realtime=0&rate_hz={rate}&student=handling&duration_s={idle_s}&seed={seed0 + rate}"
     stream, truth = samples(idle_url)
     assert truth == []
@@ -47,14 +53,17 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--show-misses", action="store_true")
     args = parser.parse_args(argv)
     print(f"{'rate Hz':>8} {'releases':>9} {'recorded %':>11} {'within 1 sample %':>18} {'|err| p50 ms':>13} "
-          f"{'p95 ms':>8} {'max ms':>8} {'false runs':>11} {'idle runs':>10}")
+          f"{'p95 ms':>8} {'max ms':>8} {'false runs':>11} {'idle runs':>10} {'in the data':>12} "
+          f"{'of them within 1 sample %':>26}")
     for rate in args.rates:
         tally, idle_runs = run_rate(rate, args.records, args.idle_s, args.match_s, args.seed)
         err = np.abs(np.array(tally.errors_s or [np.nan])) * 1e3
         within = 100.0 * float(np.mean(err <= 1e3 / rate)) if tally.errors_s else float("nan")
+        seen = np.abs(np.array(tally.errors_in_data_s)) * 1e3
+        within_seen = 100.0 * float(np.sum(seen <= 1e3 / rate)) / tally.in_data if tally.in_data else float("nan")
         print(f"{rate:>8} {tally.releases:>9} {100.0 * tally.recorded / max(tally.releases, 1):>11.2f} "
               f"{within:>18.1f} {np.median(err):>13.2f} {np.percentile(err, 95):>8.2f} {np.max(err):>8.1f} "
-              f"{tally.false_runs:>11} {idle_runs:>10}", flush=True)
+              f"{tally.false_runs:>11} {idle_runs:>10} {tally.in_data:>12} {within_seen:>26.1f}", flush=True)
         if args.show_misses:
             for miss in tally.misses:
                 print("   missed:", miss)

@@ -184,6 +184,9 @@ class StudentHand:
         self.state = state
         self.cases = ("student",)
         self.events: list[ScriptEvent] = []
+        #: the hand's force per unit mass (m/s²) on the released cart as it lets go, one per
+        #: `release` event: the jump in the cart's acceleration there (truth for benchmarks)
+        self.let_go_m_s2: list[float] = []
         self.path1: Hand | None = None
         self.path2: Hand | None = None
         self.phase = "script"
@@ -317,6 +320,16 @@ class StudentHand:
         """The hand takes the pulled cart: a force towards `path` (it ends when the hand lets go)."""
         self._set_path(cart, Grip(path, *self.grip))
 
+    def _hand_force(self, cart: int, t: float) -> float:
+        """The grip's force per unit mass on `cart` at `t` (0 when no hand grips it)."""
+        hand = self.path1 if cart == 1 else self.path2
+        if not isinstance(hand, Grip):
+            return 0.0
+        h = 1e-5
+        speed = (hand.path(t + h) - hand.path(t - h)) / (2.0 * h)
+        v = self.state.v1 if cart == 1 else self.state.v2
+        return hand.omega ** 2 * (hand.path(t) - self._x(cart)) + 2.0 * hand.zeta * hand.omega * (speed - v)
+
     def _hand_x(self, cart: int, t: float) -> float:
         """Where a new move of the hand starts: where the hand is if it grips the cart (its grip
         does not slacken when it starts to move), else where the cart is (a new grab)."""
@@ -350,6 +363,8 @@ class StudentHand:
             self._acts.insert(self._next, _Act(t + dur, "letgo", act.cart))
             self._event("nudge", t)
         elif act.kind in ("release", "letgo"):
+            if act.kind == "release":
+                self.let_go_m_s2.append(self._hand_force(act.cart, t))
             self._set_path(act.cart, None)
             self._event(act.kind, t)
         elif act.kind == "touch":
