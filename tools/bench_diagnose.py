@@ -1,7 +1,7 @@
 """Benchmark of `ident diagnose` on runs it was not tuned to, against issue 11's targets.
 
     OPENBLAS_NUM_THREADS=1 PYTHONPATH=. .venv/bin/python tools/bench_diagnose.py [--per-family 40] [--seed 11]
-        [--families a,b] [--one-encoder 20] [--speed 8] [--baseline-commit cebba2a] [--encoder-m M]
+        [--families a,b] [--one-encoder 20] [--speed 8] [--baseline-commit cebba2a] [--encoder-m M] [--wide-carts]
         [--json out.json]
         [--skip-real] [--skip-speed]
 
@@ -65,10 +65,11 @@ def case_seeds(seed: int, family: str, n: int) -> list[int]:
     return [int(s) for s in rng.integers(0, 2**31, n)]
 
 
-def run_family(family: str, n: int, seed: int, encoder_m: float | None = None) -> list[dict[str, Any]]:
+def run_family(family: str, n: int, seed: int, encoder_m: float | None = None,
+               wide_carts: bool = False) -> list[dict[str, Any]]:
     rows: list[dict[str, Any]] = []
     for k, case_seed in enumerate(case_seeds(seed, family, n)):
-        case = make_case(case_seed, family, encoder_m=encoder_m, cubic_r_max=CUBIC_R_MAX_FULL)
+        case = make_case(case_seed, family, encoder_m=encoder_m, cubic_r_max=CUBIC_R_MAX_FULL, wide_carts=wide_carts)
         try:
             report, elapsed = diagnose_case(case)
         except CASE_ERRORS as exc:  # a crash is a result of the benchmark, not its end
@@ -148,12 +149,12 @@ def print_parameter_errors(rows: list[dict[str, Any]]) -> None:
             print(f"  {family:21s} {name:26s} never estimated ({missing} cases)")
 
 
-def run_one_encoder(n: int, seed: int) -> list[dict[str, Any]]:
+def run_one_encoder(n: int, seed: int, wide_carts: bool = False) -> list[dict[str, Any]]:
     print("\n== 2. two carts, Coulomb friction, cart 1's encoder only (carts=2, one column)")
     rng = np.random.default_rng([seed, 99])
     rows: list[dict[str, Any]] = []
     for case_seed in (int(s) for s in rng.integers(0, 2**31, n)):
-        case = make_case(case_seed, "coulomb_friction", carts=2, encoders=1)
+        case = make_case(case_seed, "coulomb_friction", carts=2, encoders=1, wide_carts=wide_carts)
         try:
             report, elapsed = diagnose_case(case)
         except CASE_ERRORS as exc:
@@ -335,6 +336,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--baseline-commit", default=BASELINE_COMMIT)
     parser.add_argument("--repo", type=Path, default=ROOT,
                         help="git checkout to take the baseline commit from (default: this one)")
+    parser.add_argument("--wide-carts", action="store_true",
+                        help="two carts' masses 0.3-3 kg and springs 20-1000 N/m (testkit.effects WIDE_*)")
     parser.add_argument("--encoder-m", type=float, default=None,
                         help="read every run through an encoder of this count (m), e.g. 1.786e-5 (ECP)")
     parser.add_argument("--skip-real", action="store_true")
@@ -346,12 +349,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     for family in [f for f in args.families.split(",") if f]:
         if family not in FAMILIES:
             parser.error(f"--families: expected names from {', '.join(FAMILIES)}, got {family!r}")
-        rows += run_family(family, args.per_family, args.seed, args.encoder_m)
+        rows += run_family(family, args.per_family, args.seed, args.encoder_m, args.wide_carts)
     if rows:
         results["families"] = summarise_families(rows)
     results["cases"] = rows
     if args.one_encoder:
-        results["one_encoder"] = run_one_encoder(args.one_encoder, args.seed)
+        results["one_encoder"] = run_one_encoder(args.one_encoder, args.seed, args.wide_carts)
     if not args.skip_real:
         results["realdata"] = run_realdata()
     if not args.skip_speed and args.speed:

@@ -6,7 +6,9 @@ is the effect. The release is a pull-hold-release (the cart held still at -d, d 
 from rest, the record zeroed there) or a flick (from rest to |x1| ∈ [0.02, 0.06] m in
 0.1–0.2 s, let go with a velocity of up to ±0.5 wn |x1|), half of each unless asked.
 One cart: m ∈ [0.5, 1.5] kg, wn ∈ [5, 20] rad/s, ζ ∈ [0.005, 0.05]. Two carts
-(wall –k1– m1 –k2– m2 –k3– wall): m_i ∈ [0.5, 1.5] kg, k_i ∈ [20, 120] N/m, ζ_i ∈ [0.005, 0.04].
+(wall –k1– m1 –k2– m2 –k3– wall): m_i ∈ [0.5, 1.5] kg, k_i ∈ [20, 120] N/m, ζ_i ∈ [0.005, 0.04];
+with `wide_carts`, m_i ∈ [0.3, 3] kg and k_i ∈ [20, 1000] N/m (log-uniform: a light cart on a
+stiff spring beside a heavy one, modes up to ~10 times apart).
 Amplitudes below: A = √(x_r² + (v_r/wn)²) at the release (x_r from rest), wn the lowest mode.
 
 Families (an effect, `none`, or a pair):
@@ -117,9 +119,19 @@ def one_cart(rng: np.random.Generator, zeta: tuple[float, float] = (0.005, 0.05)
     return Layout((m,), ((0, None, wn * wn * m),), (2 * z * wn * m,))
 
 
-def two_carts(rng: np.random.Generator, zeta: tuple[float, float] = (0.005, 0.04)) -> Layout:
-    m = rng.uniform(0.5, 1.5, 2)
-    k = rng.uniform(20.0, 120.0, 3)
+#: Two carts' masses (kg) and springs (N/m) over a wider physical range (`wide=True`, log-uniform):
+#: a light cart on a stiff spring beside a heavy one, modes up to ~10 times apart.
+WIDE_MASSES = (0.3, 3.0)
+WIDE_SPRINGS = (20.0, 1000.0)
+
+
+def two_carts(rng: np.random.Generator, zeta: tuple[float, float] = (0.005, 0.04), wide: bool = False) -> Layout:
+    if wide:
+        m = np.exp(rng.uniform(*np.log(WIDE_MASSES), 2))
+        k = np.exp(rng.uniform(*np.log(WIDE_SPRINGS), 3))
+    else:
+        m = rng.uniform(0.5, 1.5, 2)
+        k = rng.uniform(20.0, 120.0, 3)
     z = rng.uniform(*zeta, 2)
     c = 2 * z * np.sqrt(np.array([k[0] + k[1], k[1] + k[2]]) * m)
     return Layout(tuple(float(v) for v in m), ((0, None, float(k[0])), (0, 1, float(k[1])), (1, None, float(k[2]))),
@@ -147,11 +159,11 @@ def base(rng: np.random.Generator, layout: Layout, kind: str | None) -> Spec:
     return Spec(layout, rel, wn, float(np.hypot(rel.x, rel.v / wn)), model=layout.observed)
 
 
-def layout_for(rng: np.random.Generator, carts: int | None) -> Layout:
+def layout_for(rng: np.random.Generator, carts: int | None, wide: bool = False) -> Layout:
     carts = carts or int(rng.integers(1, 3))
     if carts not in (1, 2):
         raise ValueError(f"carts: expected 1 or 2, got {carts}")
-    return one_cart(rng) if carts == 1 else two_carts(rng)
+    return one_cart(rng) if carts == 1 else two_carts(rng, wide=wide)
 
 
 # --- the effects -------------------------------------------------------------------------
@@ -288,9 +300,9 @@ def _draw_mode(rng: np.random.Generator, spec: Spec, noise: float) -> Spec | Non
     return None
 
 
-def held_cart(rng: np.random.Generator, kind: str | None) -> Spec:
+def held_cart(rng: np.random.Generator, kind: str | None, wide: bool = False) -> Spec:
     """Cart 2 released, cart 1 held by a loose, wandering hand (both encoders read)."""
-    lay = two_carts(rng, (0.005, 0.05))
+    lay = two_carts(rng, (0.005, 0.05), wide)
     k2 = lay.springs[1][2]
     k_h = k2 / rng.uniform(0.02, 0.05)
     hand = HandSpring(0, k_h, k_h * rng.uniform(0.02, 0.03), hands.wander(rng, rng.uniform(2e-3, 7e-3)))
@@ -305,7 +317,7 @@ def held_cart(rng: np.random.Generator, kind: str | None) -> Spec:
 
 def draw_spec(rng: np.random.Generator, family: str, carts: int | None, kind: str | None,
               encoders: int | None, noise: float, cubic_law: str = "carts",
-              cubic_r_max: float = CUBIC_R_MAX) -> Spec:
+              cubic_r_max: float = CUBIC_R_MAX, wide: bool = False) -> Spec:
     if family in ("viscous+coulomb", "coulomb+quantization"):
         spec = base(rng, one_cart(rng, (0.02, 0.08) if family == "viscous+coulomb" else (0.005, 0.05)), kind)
         add_coulomb(rng, spec, (0,))
@@ -316,13 +328,13 @@ def draw_spec(rng: np.random.Generator, family: str, carts: int | None, kind: st
             add_lattice(rng, spec)
         return spec
     if family == "coulomb+held_cart":
-        spec = held_cart(rng, kind)
+        spec = held_cart(rng, kind, wide)
         add_coulomb(rng, spec, (1,))
         spec.present += ("held_cart_motion",)
         # the held cart pulls the free one through the spring between them: a = β u_h, β = k2/m2
         spec.parameters["held_cart_gain_per_s2"] = spec.layout.springs[1][2] / spec.layout.masses[1]
         return spec
-    spec = base(rng, layout_for(rng, carts), kind)
+    spec = base(rng, layout_for(rng, carts, wide), kind)
     spec.headline = family
     if family == "coulomb_friction":
         on = (0,) if spec.carts == 1 else [(0,), (1,), (0, 1)][int(rng.integers(0, 3))]
@@ -373,13 +385,14 @@ def phases(spec: Spec, end: float) -> list[Phase]:
 def make_case(seed: int, family: str | None = None, *, carts: int | None = None, release: str | None = None,
               encoders: int | None = None, rate_hz: float | None = None, record_s: float | None = None,
               encoder_m: float | None = None, cubic_law: str = "carts",
-              cubic_r_max: float = CUBIC_R_MAX) -> Case:
+              cubic_r_max: float = CUBIC_R_MAX, wide_carts: bool = False) -> Case:
     """One run of `family` (drawn by the seed when None). `carts` (1, 2) and `release` ('hold',
     'flick') are drawn unless given; `encoders=1` reads only cart 1 of two carts with friction;
     `rate_hz` and `record_s` (the whole record's length) fix the sampling (speed measurements);
     `encoder_m` reads the noisy positions through an encoder of that count (m), as real rigs do
     (the ECP's 1/56000 m): a real but immaterial lattice, not one of the case's effects (a
-    family with its own lattice keeps only that one); `cubic_law` and `cubic_r_max` see `add_cubic`."""
+    family with its own lattice keeps only that one); `cubic_law` and `cubic_r_max` see `add_cubic`;
+    `wide_carts` draws two carts' masses and springs over `WIDE_MASSES` and `WIDE_SPRINGS`."""
     rng = np.random.default_rng(seed)
     family = family or str(rng.choice(FAMILIES))
     if family not in FAMILIES:
@@ -388,7 +401,7 @@ def make_case(seed: int, family: str | None = None, *, carts: int | None = None,
     length = float(rng.uniform(4.0, 10.0))
     rate = rate if rate_hz is None else rate_hz
     noise = log_uniform(rng, *NOISE_M)
-    spec = draw_spec(rng, family, carts, release, encoders, noise, cubic_law, cubic_r_max)
+    spec = draw_spec(rng, family, carts, release, encoders, noise, cubic_law, cubic_r_max, wide_carts)
     if record_s is not None:
         length = record_s - spec.release.t_r
     end = spec.release.t_r + length

@@ -155,3 +155,23 @@ def test_a_fine_lattice_is_immaterial_and_leaves_the_headline_none() -> None:
     assert fine and coarse
     assert all(c.truth.headline == "none" and c.truth.details["lattice_points"] < 0.05 for c in fine)
     assert all(c.truth.headline == "quantization" and c.truth.details["lattice_points"] >= 0.05 for c in coarse)
+
+
+def test_wide_two_carts_span_light_stiff_and_heavy_soft_carts() -> None:
+    from testkit.effects.draw import WIDE_MASSES, WIDE_SPRINGS, two_carts
+
+    rng = np.random.default_rng(5)
+    layouts = [two_carts(rng, wide=True) for _ in range(200)]
+    masses = np.array([lay.masses for lay in layouts])
+    springs = np.array([[k for _, _, k in lay.springs] for lay in layouts])
+    assert WIDE_MASSES[0] <= masses.min() and masses.max() <= WIDE_MASSES[1]
+    assert WIDE_SPRINGS[0] <= springs.min() and springs.max() <= WIDE_SPRINGS[1]
+    ratios = []
+    for lay in layouts:
+        stiffness = np.array([[lay.springs[0][2] + lay.springs[1][2], -lay.springs[1][2]],
+                              [-lay.springs[1][2], lay.springs[1][2] + lay.springs[2][2]]])
+        w2 = np.sort(np.linalg.eigvals(stiffness / np.array(lay.masses)[:, None]).real)
+        ratios.append(np.sqrt(w2[1] / w2[0]))
+    assert max(ratios) > 4.0 and min(ratios) < 1.5     # far-apart modes and close ones
+    case = make_case(11, "coulomb_friction", carts=2, wide_carts=True)
+    assert np.all(np.isfinite(case.observed.y)) and case.observed.y.shape[1] == 2
