@@ -127,8 +127,8 @@ WIDE_SPRINGS = (20.0, 1000.0)
 
 def two_carts(rng: np.random.Generator, zeta: tuple[float, float] = (0.005, 0.04), wide: bool = False) -> Layout:
     if wide:
-        m = np.exp(rng.uniform(*np.log(WIDE_MASSES), 2))
-        k = np.exp(rng.uniform(*np.log(WIDE_SPRINGS), 3))
+        m = np.exp(rng.uniform(np.log(WIDE_MASSES[0]), np.log(WIDE_MASSES[1]), 2))
+        k = np.exp(rng.uniform(np.log(WIDE_SPRINGS[0]), np.log(WIDE_SPRINGS[1]), 3))
     else:
         m = rng.uniform(0.5, 1.5, 2)
         k = rng.uniform(20.0, 120.0, 3)
