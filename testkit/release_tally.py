@@ -55,7 +55,7 @@ def samples(url: str) -> tuple[Stream, list[float]]:
     return rec.stream, rec.releases
 
 
-def detect(stream: Iterator[tuple[float, tuple[float, float]]]) -> list[float]:
+def detect(stream: Stream) -> list[float]:
     """Release instants (device s) `daq.detector.ReleaseDetector` finds in a stream."""
     detector = ReleaseDetector()
     return [e.t_release_s for t, pos in stream for e in detector.feed(t, pos) if isinstance(e, Released)]

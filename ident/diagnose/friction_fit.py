@@ -119,12 +119,13 @@ def _two_cart_friction_starts(spec: ModelSpec, prob: Problem, theta0: FloatArray
     modes' wn² and D = trace - A. Friction breaks the tie (where a cart sticks depends on its
     own stiffness), but the linear fit lands anywhere in the family, and friction on the wrong
     cart then fits best. So the chain is also started across that family (`VALLEY`), each with
-    cart 2's start as fitted or at rest (whichever row fits better)."""
+    cart 2's start as fitted or at rest (whichever row fits better). Read by both encoders, it is
+    also started in the chains of the baseline's other starts (`_other_chains`)."""
     at = spec.block("coulomb_friction").start
     chain = theta0.copy()
     chain[4:6] = 0.25 * theta0[4:6]
-    patterns = [np.array([1.0, 0.0]), np.array([0.0, 1.0]), np.array([1.0, 1.0])]
     f_max = float(np.max(theta0[:4])) * prob.amplitude
+    patterns = [np.array([1.0, 0.0]), np.array([0.0, 1.0]), np.array([1.0, 1.0])]
     levels = [g * f_max * p for p in patterns for g in (0.003, 0.01, 0.03, 0.1)]
     out = [best_rows(spec, prob, chain, slice(at, at + 2), levels)]
     for row in _other_chains(prob, chain):
