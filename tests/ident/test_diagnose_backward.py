@@ -60,12 +60,12 @@ def _without(costs: dict[str, float], calls: list[tuple[str, int]]):
 
 def test_an_early_effect_the_final_model_does_not_need_is_dropped_and_the_rest_kept() -> None:
     # drag first (1.0 -> 0.7), then friction (0.7 -> 0.5); the final model refitted without the
-    # drag costs 0.505 (1 %: the friction explains what the drag stood in for), without the
-    # friction 0.7 (needed)
+    # drag costs 0.505 (1 %: the friction explains what the drag stood in for), without both
+    # 1.0 (the linear model's own best fit is the baseline)
     steps = _chain(["quadratic_drag", "coulomb_friction"], [1.0, 0.7, 0.5])
     calls: list[tuple[str, int]] = []
     last = _trial(steps[-1].judgement.result.spec, "coulomb_friction")
-    out = eliminate(steps, last, _without({"quadratic_drag": 0.505, "coulomb_friction": 0.7}, calls), 1)
+    out = eliminate(steps, last, _without({"quadratic_drag": 0.505, "coulomb_friction": 1.0}, calls), 1)
     assert [s.judgement.effect for s in out.steps] == ["coulomb_friction"]
     assert [j.effect for j in out.dropped] == ["quadratic_drag"] and not out.dropped[0].passes
     final = out.steps[-1].judgement.result
@@ -76,6 +76,22 @@ def test_an_early_effect_the_final_model_does_not_need_is_dropped_and_the_rest_k
     assert out.steps[0].before is steps[0].before
     # the last effect is not judged again; the dropped one is refitted and cross-validated
     assert ("quadratic_drag", 2) in calls and ("coulomb_friction", 2) not in calls
+
+
+def test_after_a_drop_the_last_effect_is_credited_from_its_refit_when_that_fits_better() -> None:
+    # drag (1.0 -> 0.9), mode (0.9 -> 0.8), cubic (0.8 -> 0.5): the final model refitted without
+    # the drag or the mode costs 0.502 (neither needed), without the cubic 0.51: the refits had
+    # moved the others to a better optimum, and the cubic itself adds 2 %. Handed the dropped
+    # steps' model before (1.0) it would be credited 1.0 -> 0.502; it is credited 0.51 -> 0.502,
+    # as the forward selection credits an effect whose refit without it beats its model before
+    steps = _chain(["quadratic_drag", "coupled_mode", "cubic_stiffness"], [1.0, 0.9, 0.8, 0.5])
+    calls: list[tuple[str, int]] = []
+    out = eliminate(steps, _trial(steps[-1].judgement.result.spec, "cubic_stiffness"),
+                    _without({"quadratic_drag": 0.502, "coupled_mode": 0.502, "cubic_stiffness": 0.51}, calls), 1)
+    assert [s.judgement.effect for s in out.steps] == ["cubic_stiffness"]
+    assert out.steps[0].before.sse_train == pytest.approx(0.51)
+    assert out.steps[0].judgement.result.sse_train == pytest.approx(0.502)
+    assert ("cubic_stiffness", 1) in calls
 
 
 def test_effects_the_final_model_needs_are_all_kept() -> None:
