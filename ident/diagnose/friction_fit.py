@@ -70,6 +70,13 @@ def fit_friction(spec: ModelSpec, prob: Problem, theta0: FloatArray, lower: Floa
         if best is None or result.sse_train < best.sse_train:
             best = result
     assert best is not None
+    others = _other_chain_starts(spec, prob, theta0) if prob.carts == 2 else []
+    if others:
+        # apart, on a window that grows in stages: ranked among the current chain's starts they
+        # displaced ones that fitted better in the end, and one jump from the large-amplitude
+        # part to every sample left a fast mode's friction in a local minimum
+        other = _fit_in_stages(spec, prob, others, (lower, upper, typical), ev, max_nfev)
+        best = other if other.sse_train < best.sse_train else best
     return best
 
 
@@ -120,7 +127,7 @@ def _two_cart_friction_starts(spec: ModelSpec, prob: Problem, theta0: FloatArray
     own stiffness), but the linear fit lands anywhere in the family, and friction on the wrong
     cart then fits best. So the chain is also started across that family (`VALLEY`), each with
     cart 2's start as fitted or at rest (whichever row fits better). Read by both encoders, it is
-    also started in the chains of the baseline's other starts (`_other_chains`)."""
+    also started in the chains of the baseline's other starts (`_other_chain_starts`)."""
     at = spec.block("coulomb_friction").start
     chain = theta0.copy()
     chain[4:6] = 0.25 * theta0[4:6]
@@ -128,12 +135,6 @@ def _two_cart_friction_starts(spec: ModelSpec, prob: Problem, theta0: FloatArray
     patterns = [np.array([1.0, 0.0]), np.array([0.0, 1.0]), np.array([1.0, 1.0])]
     levels = [g * f_max * p for p in patterns for g in (0.003, 0.01, 0.03, 0.1)]
     out = [best_rows(spec, prob, chain, slice(at, at + 2), levels)]
-    for row in _other_chains(prob, chain):
-        # levels from the lower mode's pull (the stiffest spring's overstates a light cart's)
-        f_low = min(w for w, _ in modes(row[None, :6], 2)) ** 2 * prob.amplitude
-        shares = [*patterns, np.array([1.0, 0.3]), np.array([0.3, 1.0])]
-        levels = [g * f_low * p for p in shares for g in (0.003, 0.01, 0.03, 0.1)]
-        out.append(best_rows(spec, prob, row, slice(at, at + 2), levels))
     if spec.observed == spec.carts:
         return out
     # through one encoder the valley is rugged: where each cart sticks decides, so finer levels
@@ -151,10 +152,12 @@ def _two_cart_friction_starts(spec: ModelSpec, prob: Problem, theta0: FloatArray
     return out
 
 
-def _other_chains(prob: Problem, chain: FloatArray) -> list[FloatArray]:
-    """`chain` (two carts read by both encoders) restarted from each of the linear baseline's
+def _other_chain_starts(spec: ModelSpec, prob: Problem, theta0: FloatArray) -> list[FloatArray]:
+    """Friction starts (two carts read by both encoders) in the chains of the linear baseline's
     other starts (`baseline.linear_starts`: the position's and the velocity's spectral peaks)
-    whose modes differ from its own by more than 20 %, its damping a quarter of theirs.
+    whose modes differ from the current chain's by more than 20 %, damping a quarter of theirs,
+    each with the best of 30 friction levels (cart 1, cart 2, both, 1 : 0.3 either way; 0.3-10 %
+    of the lower mode's pull at the swing: the stiffest spring's overstates a light cart's).
 
     Without friction a linear chain imitates dry friction's straight decay by a beat of two
     close modes and leaves a fast second mode (a light cart on a stiff spring, its ring stopped
@@ -164,15 +167,19 @@ def _other_chains(prob: Problem, chain: FloatArray) -> list[FloatArray]:
     noise floor, cart 2's friction 95 % off)."""
     if prob.inputs is not None or prob.y.shape[1] != 2:
         return []
-    own = np.sort([w for w, _ in modes(chain[None, :6], 2)])
+    at = spec.block("coulomb_friction").start
+    shares = [np.array(p) for p in ((1.0, 0.0), (0.0, 1.0), (1.0, 1.0), (1.0, 0.3), (0.3, 1.0))]
+    own = np.sort([w for w, _ in modes(theta0[None, :6], 2)])
     out = []
     for start in linear_starts(prob):
         other = np.sort([w for w, _ in modes(start[None, :6], 2)])
         if np.all(np.isfinite(start)) and np.any(np.abs(other / own - 1.0) > 0.2):
-            row = chain.copy()
+            row = theta0.copy()
             row[:start.size] = start
             row[4:6] = 0.25 * start[4:6]
-            out.append(row)
+            f_low = float(other[0]) ** 2 * prob.amplitude
+            levels = [g * f_low * p for p in shares for g in (0.003, 0.01, 0.03, 0.1)]
+            out.append(best_rows(spec, prob, row, slice(at, at + 2), levels))
     return out
 
 
