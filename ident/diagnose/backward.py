@@ -73,7 +73,7 @@ def _credited_from_refit(step: Step, last: Trial, without: Without) -> Step:
 
     Dropping the step right before it hands the last step that step's model before (`_drop`),
     from which the final model's refits had moved on: red team `two_cart_coulomb_y12` 1010 read
-    from its CSV, a cubic of -26 /m²s² (its own gain over the refit without it 0.03 points) was
+    from its CSV, a cubic of -26 /m²s² (its own gain over the refit without it 0.008 points) was
     credited +3.16 points, the headline's runner-up, once pre-sliding and a mode were dropped."""
     bare = without(dataclasses.replace(last, effect=step.judgement.effect), step.judgement.result, 1)
     return Step(step.judgement, bare) if bare.sse_train < step.before.sse_train else step

@@ -27,6 +27,8 @@ def fit_friction(spec: ModelSpec, prob: Problem, theta0: FloatArray, lower: Floa
     first), where the cost is smooth, then on every sample. Starts: the current damping, the
     damping implied by the envelope ratio with friction on a grid, and (one cart driven by a
     force input) ζ and the friction both read off the extrema of a ring (`_extrema_start`).
+    Two carts read by both encoders are also fitted, apart, from the chains of the baseline's
+    other starts (`_other_chain_starts`), and the better fit kept.
     """
     n_cut = _large_amplitude_samples(prob, ev)
     candidates = [theta0]
@@ -126,8 +128,7 @@ def _two_cart_friction_starts(spec: ModelSpec, prob: Problem, theta0: FloatArray
     modes' wn² and D = trace - A. Friction breaks the tie (where a cart sticks depends on its
     own stiffness), but the linear fit lands anywhere in the family, and friction on the wrong
     cart then fits best. So the chain is also started across that family (`VALLEY`), each with
-    cart 2's start as fitted or at rest (whichever row fits better). Read by both encoders, it is
-    also started in the chains of the baseline's other starts (`_other_chain_starts`)."""
+    cart 2's start as fitted or at rest (whichever row fits better)."""
     at = spec.block("coulomb_friction").start
     chain = theta0.copy()
     chain[4:6] = 0.25 * theta0[4:6]
