@@ -108,6 +108,10 @@ def _fit_in_stages(spec: ModelSpec, prob: Problem, starts: list[FloatArray],
     return results[0]
 
 
+#: How two carts' friction levels are shared in the starts' grids: cart 1, cart 2, both, and
+#: 1 : 0.3 either way (the current chain read by both encoders takes the first three).
+FRICTION_SHARES = tuple(np.array(p) for p in ((1.0, 0.0), (0.0, 1.0), (1.0, 1.0), (1.0, 0.3), (0.3, 1.0)))
+
 #: Where a one-encoder chain's friction fit starts A = (k1+k2)/m1 between the squares of the
 #: modes' frequencies (0: the lower, 1: the upper), D = (k2+k3)/m2 = trace - A.
 VALLEY = (0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9)
@@ -133,15 +137,13 @@ def _two_cart_friction_starts(spec: ModelSpec, prob: Problem, theta0: FloatArray
     chain = theta0.copy()
     chain[4:6] = 0.25 * theta0[4:6]
     f_max = float(np.max(theta0[:4])) * prob.amplitude
-    patterns = [np.array([1.0, 0.0]), np.array([0.0, 1.0]), np.array([1.0, 1.0])]
-    levels = [g * f_max * p for p in patterns for g in (0.003, 0.01, 0.03, 0.1)]
+    levels = [g * f_max * p for p in FRICTION_SHARES[:3] for g in (0.003, 0.01, 0.03, 0.1)]
     out = [best_rows(spec, prob, chain, slice(at, at + 2), levels)]
     if spec.observed == spec.carts:
         return out
     # through one encoder the valley is rugged: where each cart sticks decides, so finer levels
     # and unequal shares (factor 2 apart, 0.3-2 between the carts)
-    patterns += [np.array([1.0, 0.3]), np.array([0.3, 1.0])]
-    levels = [g * f_max * p for p in patterns for g in (0.003, 0.006, 0.012, 0.025, 0.05, 0.1)]
+    levels = [g * f_max * p for p in FRICTION_SHARES for g in (0.003, 0.006, 0.012, 0.025, 0.05, 0.1)]
     for pair in _valley_chains(chain, spec):
         rows = []
         for c in pair:
@@ -169,7 +171,6 @@ def _other_chain_starts(spec: ModelSpec, prob: Problem, theta0: FloatArray) -> l
     if prob.inputs is not None or prob.y.shape[1] != 2:
         return []
     at = spec.block("coulomb_friction").start
-    shares = [np.array(p) for p in ((1.0, 0.0), (0.0, 1.0), (1.0, 1.0), (1.0, 0.3), (0.3, 1.0))]
     own = np.sort([w for w, _ in modes(theta0[None, :6], 2)])
     out = []
     for start in linear_starts(prob):
@@ -179,7 +180,7 @@ def _other_chain_starts(spec: ModelSpec, prob: Problem, theta0: FloatArray) -> l
             row[:start.size] = start
             row[4:6] = 0.25 * start[4:6]
             f_low = float(other[0]) ** 2 * prob.amplitude
-            levels = [g * f_low * p for p in shares for g in (0.003, 0.01, 0.03, 0.1)]
+            levels = [g * f_low * p for p in FRICTION_SHARES for g in (0.003, 0.01, 0.03, 0.1)]
             out.append(best_rows(spec, prob, row, slice(at, at + 2), levels))
     return out
 
