@@ -24,7 +24,7 @@ from ident.diagnose.friction_fit import fit_friction, fit_static_friction
 from ident.diagnose.held_fit import fit_held_cart
 from ident.diagnose.lattice import Lattice, lattice_likelihood_gain, reading_noise
 from ident.diagnose.models import ModelSpec, smoothed_staircase
-from ident.diagnose.problem import Bounds, FloatArray, Problem, best_on_grid, best_rows, ranked_rows
+from ident.diagnose.problem import Bounds, FloatArray, Problem, best_on_grid, best_rows, ranked_on_grid, ranked_rows
 
 
 def available(effect: str, current: ModelSpec, prob: Problem, ev: EvidenceResult) -> bool:
@@ -66,6 +66,10 @@ class Trial:
 #: Function evaluations of the quick (screening) fit and of the refinement.
 SCREEN_NFEV = 10
 REFINE_NFEV = 25
+#: Pre-sliding stiffnesses σ (in wn²) a screening fit may start from, and how many of the
+#: grid's best it starts from.
+PRESLIDING_GRID = (0.3, 1.0, 3.0, 10.0, 30.0, 50.0)
+PRESLIDING_STARTS = 3
 
 
 def screen(prob: Problem, current: FitResult, effect: str, ev: EvidenceResult, wn_modes: FloatArray) -> Trial:
@@ -79,8 +83,11 @@ def screen(prob: Problem, current: FitResult, effect: str, ev: EvidenceResult, w
     if lattice is not None:
         return _screen_lattice(prob, current, spec, lattice, (theta0, lower, upper, typical))
     if effect == "presliding":
-        theta0 = best_on_grid(spec, prob, theta0, at, tuple(wn2 * g for g in (0.3, 1, 3, 10, 30, 50)))
-    if effect == "held_cart_motion":
+        rows = ranked_on_grid(spec, prob, theta0, at, tuple(wn2 * g for g in PRESLIDING_GRID), PRESLIDING_STARTS)
+        fits = [fit(spec, row, lower, upper, typical, prob.dt, prob.y, prob.train, max_nfev=SCREEN_NFEV)
+                for row in rows]
+        result = min(fits, key=lambda r: r.sse_train)
+    elif effect == "held_cart_motion":
         result = fit_held_cart(spec, prob, theta0, lower, upper, typical, at, wn2, SCREEN_NFEV)
     elif effect == "cubic_stiffness":
         # from several starts only on a cart that rings freely: with dry friction the evidence's
