@@ -5,8 +5,10 @@ Formats
   CSV (`"Time (s)","Position (m)"`), ECP Executive / Teensy TSV (`Sample  Time  Commanded Pos
   Encoder 2 Pos …` then `[ 0 0.000 2 13 0.0000;` rows). Columns are chosen by name
   (case-insensitive substring), values scaled to metres (from a unit in the column name, or
-  `scale` in metres per unit). `[`, `]`, a row-ending `;`, blank lines and `#` comments are
-  ignored; the separator (`,` `;` tab whitespace) and a decimal comma are sniffed per file.
+  `scale` in metres per unit: `(mm)`, `[mm]` or `_mm`). `[`, `]` and a row-ending `;` on data
+  rows, blank lines and `#` or `%` comments are ignored, but a commented header (numpy's
+  `savetxt` writes `# time_s,pos1_m`) names the columns when no other line does; the separator
+  (`,` `;` tab whitespace) and a decimal comma are sniffed per file.
 - `daq` MCAP runs (`/samples` SampleBatch messages, `cartlab.run` RunMetadata): the release
   time and pulled cart come from the metadata.
 
@@ -29,7 +31,7 @@ import numpy as np
 from ident.data import FloatArray, IdData, check_arrays, from_release
 from ident.errors import DataFileError, IdentValueError
 from ident.releases.select import DEFAULT_STEP_M, with_found_release
-from ident.text_dialect import SAMPLE_LINES, clean, sniff
+from ident.text_dialect import SAMPLE_LINES, TextDialect, clean, sniff
 from schemas import SchemaError, run_file, topics
 
 _UNIT_SCALES = {"m": 1.0, "cm": 1e-2, "mm": 1e-3, "in": 0.0254, "s": 1.0, "ms": 1e-3, "us": 1e-6}
@@ -86,12 +88,15 @@ def _read(text: str | Iterable[str], max_rows: int | None, select: Select | None
     values = _Rows(max_rows)
     width = 0
     comments: dict[str, str] = {}
+    header = commented = ""   # the header line; a commented one (`# time_s,pos1_m`)
     for number, raw in enumerate(itertools.chain(head, lines), start=1):
         line = clean(raw)
-        if line.startswith("#"):
+        if line.startswith(("#", "%")):
             key, colon, value = line[1:].partition(":")
             if colon and key.strip().isidentifier():
                 comments.setdefault(key.strip(), value.strip())
+            elif not width:
+                commented = raw.strip()[1:]
             continue
         if not line:
             continue
@@ -99,15 +104,18 @@ def _read(text: str | Iterable[str], max_rows: int | None, select: Select | None
         if fields and all(_NUMBER.match(f) for f in fields):
             if not width:
                 width = len(fields)
-                if len(names) != width:  # no header line, or one we could not split: number the columns
-                    names = [f"col{i}" for i in range(width)]
+                if len(names) != width:  # no header line, or one we could not split
+                    # a header written as a comment (numpy's savetxt, MATLAB's %), else numbered
+                    names = (_header_names(dialect, header, width) or _header_names(dialect, commented, width)
+                             or [f"col{i}" for i in range(width)])
                 values.start(select(names) if select is not None else [list(range(width))])
             elif len(fields) != width:
                 raise DataFileError(f"expected {width} values per row, got {len(fields)} in line {number} "
                                     f"(read as {dialect.describe()})")
             values.add(fields)
         elif not width:
-            names = dialect.split(line) if dialect.delimiter is not None else _split_header(line)
+            header = raw
+            names = _header_names(dialect, raw)
         else:
             raise DataFileError(f"expected numbers in every data row, got {raw.strip()[:60]!r} "
                                 f"in line {number} (read as {dialect.describe()})")
@@ -208,6 +216,19 @@ def text_lines(path: Path) -> Iterator[str]:
             yield line.rstrip("\n")
 
 
+def _header_names(dialect: TextDialect, raw: str, width: int | None = None) -> list[str]:
+    """The column names of a header line; a unit in brackets (`Position [mm]`) is kept, as
+    `Position (mm)` (the brackets `clean` drops are the MATLAB rows' of the data lines). With
+    `width`, names for that many columns or none: a whitespace-separated header's names may
+    hold single spaces (`Encoder 1 Pos`) or be split by them (`time x1 x2`)."""
+    line = clean(re.sub(r"\[\s*([^\[\]]*?)\s*\]", r"(\1)", raw))
+    names = dialect.split(line) if dialect.delimiter is not None else _split_header(line)
+    if width is None or len(names) == width:
+        return names
+    names = line.split()
+    return names if len(names) == width else []
+
+
 def _split_header(line: str) -> list[str]:
     """A whitespace-separated header: names may hold single spaces ('Encoder 1 Pos')."""
     if "\t" in line:
@@ -232,7 +253,8 @@ def _default_time_column(names: list[str]) -> int:
             return i
     hits = [i for i, n in enumerate(names) if "time" in n.lower()]
     if not hits:
-        raise IdentValueError("time column", f"a column named like 'time' in {names}", "none")
+        raise IdentValueError("time column", f"a column named like 'time' in {names} (name it with --time "
+                              "COLUMN; a file without one: --rate HZ)", "none")
     return hits[0]
 
 
@@ -244,8 +266,8 @@ def _default_position_columns(names: list[str]) -> list[int]:
     hits = [i for i, n in enumerate(lowered)
             if any(h in n for h in _POSITION_HINTS) and "command" not in n and "target" not in n]
     if not hits:
-        raise IdentValueError("position columns", f"columns named like position/encoder in {names}",
-                              "none")
+        raise IdentValueError("position columns", f"columns named like position/encoder in {names} (name "
+                              "them with --pos COLUMN, once per cart)", "none")
     return hits
 
 

@@ -168,7 +168,7 @@ def test_a_non_numeric_data_row_is_named_not_skipped(tmp_path: Path, bad: str) -
     path = tmp_path / "bad.csv"
     path.write_text("time_s,pos1_m\n" + "\n".join(rows) + "\n")
     with pytest.raises(DataFileError, match=f"expected numbers in every data row, got '0.60,{bad}' in line 32"):
-        load(path)
+        load(path, raw=True)
 
 
 def test_positions_beyond_a_lab_track_are_a_scale_error(tmp_path: Path) -> None:
@@ -177,7 +177,7 @@ def test_positions_beyond_a_lab_track_are_a_scale_error(tmp_path: Path) -> None:
     rows = "\n".join(f"{t:.3f},{y * 1e6:.1f}" for t, y in zip(run.t, run.y[:, 0], strict=True))
     path.write_text("time_s,pos1_m\n" + rows + "\n")  # counts written as if they were metres
     with pytest.raises(IdentValueError, match=r"position amplitude: expected \|position\| ≤ 10 m .*got \d.\d+e\+05 m"):
-        load(path)
+        load(path, raw=True)
 
 
 def test_a_damaged_run_file_loads_up_to_the_damage_and_says_so(tmp_path: Path) -> None:
@@ -207,3 +207,39 @@ def test_an_export_without_header_or_time_column_takes_a_sample_rate(tmp_path: P
     data = load(path, pos_cols=["col1"], scale=0.01, input_col="col0", rate_hz=200.0)
     assert data.sample_time() == pytest.approx(0.005) and data.t[0] == 0.0
     assert data.u[10] == pytest.approx(1.0) and data.y[5, 0] == pytest.approx(0.01 * np.sin(0.5), abs=1e-8)
+
+
+def _cart_columns() -> tuple[np.ndarray, np.ndarray]:
+    run = cart1_run(13.0, duration=2.0)
+    return run.t, run.y[:, 0]
+
+
+@pytest.mark.parametrize(("header", "sep", "unit", "comma"), [
+    ("Time [s],Position 1 [mm]", ",", 1e-3, False),         # a unit in brackets (spreadsheets, LabVIEW)
+    ("# time_s,pos1_m", ",", 1.0, False),                    # numpy's savetxt header
+    ("% time_s pos1_cm", " ", 1e-2, False),                   # MATLAB/Octave's commented header
+    ("time_s pos1_mm", " ", 1e-3, False),                     # a whitespace file's names split by one space
+    ("Zeit [s];Position [mm]", ";", 1e-3, True),              # a decimal-comma locale, units in brackets
+])
+def test_headers_as_lab_tools_write_them_name_the_columns_and_units(tmp_path: Path, header: str, sep: str,
+                                                                     unit: float, comma: bool) -> None:
+    t, y = _cart_columns()
+    rows = [f"{a:.4f}{sep}{b / unit:.6f}" for a, b in zip(t, y, strict=True)]
+    path = tmp_path / "export.txt"
+    path.write_text(header + "\n" + "\n".join(r.replace(".", ",") if comma else r for r in rows) + "\n")
+    # names no default finds (German, two position-like words) are named by the user
+    data = load(path, time_col="Zeit" if "Zeit" in header else None,
+                pos_cols=["pos"] if "Position" in header else None, raw=True)
+    assert data.y[:, 0] == pytest.approx(y, abs=2e-6 * (1 + unit * 1e3))
+    assert data.t == pytest.approx(t, abs=1e-4)
+
+
+def test_unnamed_columns_are_refused_with_how_to_name_them(tmp_path: Path) -> None:
+    t, y = _cart_columns()
+    path = tmp_path / "bare.csv"
+    path.write_text("\n".join(f"{a:.4f},{b:.6f}" for a, b in zip(t, y, strict=True)) + "\n")
+    with pytest.raises(IdentValueError, match=r"in \['col0', 'col1'\] \(name them with --pos COLUMN"):
+        load(path, raw=True)
+    with pytest.raises(IdentValueError, match=r"name it with --time COLUMN; a file without one: --rate HZ"):
+        load(path, pos_cols=["col1"], scale=1.0, raw=True)
+    assert load(path, time_col="col0", pos_cols=["col1"], scale=1.0, raw=True).y[:, 0] == pytest.approx(y, abs=1e-6)
