@@ -89,6 +89,7 @@ def _read(text: str | Iterable[str], max_rows: int | None, select: Select | None
     width = 0
     comments: dict[str, str] = {}
     header = commented = ""   # the header line; a commented one (`# time_s,pos1_m`)
+    ended = 0   # the line where the chosen columns' cells were first empty
     for number, raw in enumerate(itertools.chain(head, lines), start=1):
         line = clean(raw)
         if line.startswith(("#", "%")):
@@ -110,8 +111,20 @@ def _read(text: str | Iterable[str], max_rows: int | None, select: Select | None
                              or [f"col{i}" for i in range(width)])
                 values.start(select(names) if select is not None else [list(range(width))])
             elif len(fields) != width:
-                raise DataFileError(f"expected {width} values per row, got {len(fields)} in line {number} "
-                                    f"(read as {dialect.describe()})")
+                # a delimited export of several data sets of unequal length (Logger Pro's runs):
+                # the shorter ones' cells are empty; the chosen columns' data end at their first
+                cells = [dialect.number(f) for f in dialect.cells(line)] + [""] * width
+                if len(fields) > width or any(cells[width:]) or dialect.delimiter is None:
+                    raise DataFileError(f"expected {width} values per row, got {len(fields)} in line {number} "
+                                        f"(read as {dialect.describe()})")
+                fields = cells
+                if not values.kept(fields):
+                    ended = ended or number
+                    continue
+            if ended:
+                raise DataFileError(f"expected a value in every row of the chosen columns until they end (a "
+                                    f"shorter data set), got one missing in line {ended} and values again in "
+                                    f"line {number} (read as {dialect.describe()})")
             values.add(fields)
         elif not width:
             header = raw
@@ -148,6 +161,10 @@ class _Rows:
             self._filled = [(b, g) for b, g in pairs if len(g) > 1]   # no writes for empty groups
         else:
             self._flats = [array("d") for _ in groups]
+
+    def kept(self, cells: list[str]) -> bool:
+        """Whether every kept column has a value in `cells` (a row's fields, '' where empty)."""
+        return all(cells[i] for group in self._groups for i in group)
 
     def add(self, fields: list[str]) -> None:
         if self._blocks:
@@ -271,6 +288,22 @@ def _default_position_columns(names: list[str]) -> list[int]:
     return hits
 
 
+def _one_data_set(names: list[str], chosen: list[int]) -> None:
+    """Refuse columns chosen by default from several data sets: an export with a time column
+    per data set (Logger Pro's `Run 1: Time (s)`, `Run 1: Position (m)`, `Run 2: Time (s)`,
+    …), where each column belongs to the time column at or before it."""
+    times = [i for i, n in enumerate(names) if "time" in n.lower() or n.lower() == "t"]
+    if len(times) < 2:
+        return
+    sets = {max([t for t in times if t <= i], default=times[0]) for i in chosen}
+    if len(sets) > 1:
+        first = min(sets)
+        pos = [names[i] for i in chosen if i > first and max(t for t in times if t <= i) == first]
+        raise IdentValueError("columns", f"one data set's time and positions, each data set with its own time "
+                              f"column ({', '.join(names[t] for t in times)}): choose one, e.g. --time "
+                              f"{names[first]!r}{''.join(f' --pos {p!r}' for p in pos)}", f"{len(sets)} data sets")
+
+
 def unit_scale(name: str) -> float | None:
     """Scale to SI from a unit in a column name: 'Position (cm)' → 0.01, 'pos1_m' → 1."""
     match = re.search(r"[\(\[]\s*([a-zA-Zµ]+)\s*[\)\]]\s*$", name) or re.search(r"_([a-z]+)$", name)
@@ -304,6 +337,8 @@ def load_text(path: str | Path, time_col: str | None = None, pos_cols: list[str]
                        else [_find_column(names, c) for c in pos_cols])
         chosen["t"] = ([] if rate_hz is not None and time_col is None
                        else [_default_time_column(names) if time_col is None else _find_column(names, time_col)])
+        if time_col is None or pos_cols is None:
+            _one_data_set(names, chosen["t"] + chosen["y"])
         chosen["u"] = [] if input_col is None else [_find_column(names, input_col)]
         scales.extend(_position_scale(names[i], scale) for i in chosen["y"])  # refused before the parse
         return [chosen["t"], chosen["y"], chosen["u"]]

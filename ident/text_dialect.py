@@ -39,6 +39,13 @@ class TextDialect:
         parts = line.split() if self.delimiter is None else line.split(self.delimiter)
         return [f.strip().strip('"').strip() for f in parts if f.strip().strip('"').strip()]
 
+    def cells(self, line: str) -> list[str]:
+        """The fields of a cleaned line with empty cells kept ('' where a shorter data set of a
+        delimited export has ended); whitespace-separated lines have none."""
+        if self.delimiter is None:
+            return self.split(line)
+        return [f.strip().strip('"').strip() for f in line.split(self.delimiter)]
+
     def number(self, field: str) -> str:
         """The field in Python's float syntax (decimal comma → point)."""
         return field.replace(",", ".") if self.decimal_comma else field

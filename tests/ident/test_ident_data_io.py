@@ -243,3 +243,28 @@ def test_unnamed_columns_are_refused_with_how_to_name_them(tmp_path: Path) -> No
     with pytest.raises(IdentValueError, match=r"name it with --time COLUMN; a file without one: --rate HZ"):
         load(path, pos_cols=["col1"], scale=1.0, raw=True)
     assert load(path, time_col="col0", pos_cols=["col1"], scale=1.0, raw=True).y[:, 0] == pytest.approx(y, abs=1e-6)
+
+
+def test_a_logger_pro_export_of_two_runs_of_unequal_length_loads_either_run(tmp_path: Path) -> None:
+    """Logger Pro stores each run as a data set (a time and a position column); a shorter
+    run's cells are empty after its end. Chosen by name, each run loads up to its own end; by
+    default the loader refuses to read the two runs' positions as two carts."""
+    first, second = cart1_run(13.0, duration=3.0), cart1_run(14.0, duration=2.0)
+    rows = []
+    for k in range(first.t.size):
+        later = f"{second.t[k]:.4f},{second.y[k, 0]:.6f}" if k < second.t.size else ","
+        rows.append(f"{first.t[k]:.4f},{first.y[k, 0]:.6f},{later}")
+    path = tmp_path / "two_runs.csv"
+    path.write_text('"Run 1: Time (s)","Run 1: Position (m)","Run 2: Time (s)","Run 2: Position (m)"\n'
+                    + "\n".join(rows) + "\n")
+    with pytest.raises(IdentValueError, match=r"choose one, e\.g\. --time 'Run 1: Time \(s\)' --pos 'Run 1: "
+                                              r"Position \(m\)', got 2 data sets"):
+        load(path, raw=True)
+    one = load(path, time_col="Run 1: Time", pos_cols=["Run 1: Pos"], raw=True)
+    two = load(path, time_col="Run 2: Time", pos_cols=["Run 2: Pos"], raw=True)
+    assert one.y[:, 0] == pytest.approx(first.y[:, 0], abs=1e-6) and one.t.size == first.t.size
+    assert two.y[:, 0] == pytest.approx(second.y[:, 0], abs=1e-6) and two.t.size == second.t.size
+    # a data set that goes on after a gap is no shorter run: an error, not data dropped
+    path.write_text("time_s,pos1_m\n0.0,0.1\n0.1,\n0.2,0.3\n")
+    with pytest.raises(DataFileError, match=r"got one missing in line 3 and values again in line 4"):
+        load(path, raw=True)
