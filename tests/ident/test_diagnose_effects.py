@@ -80,14 +80,22 @@ def test_two_carts_with_friction_through_one_encoder_reach_the_noise_floor(seeds
     assert not problems, "\n".join(problems)
 
 
+#: Generated one-encoder runs whose friction fit had stopped short of the noise floor:
+#: - 61607245 (seed 45's draw): cart 2, four times cart 1's friction on a stiff wall spring,
+#:   hardly shows its own mode (17.4 rad/s beside 8.45) through cart 1, and the linear fit's two
+#:   close modes (8.05 and 8.76 rad/s) held every friction start: cart 2 was pinned by a stiff
+#:   spring, 0.38 points under the floor, friction 48 % off (its release, dated by the scan's
+#:   knot on those modes, is still 2.6 samples late, so only the fit and the parameters here);
+#: - 2053547375 (seed 48's wide draw): breakaway 1.22 and 1.48 times the kinetic levels; no grid
+#:   row of breakaway ratios at the one-level friction fitted better than none (the one level
+#:   lies between each cart's kinetic and breakaway levels), 1.08 points under the floor.
+ONE_ENCODER_SHORT = ((61607245, False), (2053547375, True))
+
+
 @pytest.mark.slow
-def test_a_stickier_cart_on_a_stiff_spring_seen_through_one_encoder_keeps_its_own_mode() -> None:
-    """Generated one-encoder seed 61607245 (seed 45's draw): cart 2, four times cart 1's
-    friction on a stiff wall spring, hardly shows its own mode (17.4 rad/s beside 8.45) through
-    cart 1, and the linear fit's two close modes (8.05 and 8.76 rad/s) held every friction start:
-    cart 2 was pinned by a stiff spring, 0.38 points under the noise floor, friction 48 % off.
-    (Its release, dated by the scan's knot on those modes, is still 2.6 samples late.)"""
-    case = make_case(61607245, "coulomb_friction", carts=2, encoders=1)
+@pytest.mark.parametrize(("seed", "wide"), ONE_ENCODER_SHORT)
+def test_one_encoder_friction_fits_that_stopped_short_reach_the_noise_floor(seed: int, wide: bool) -> None:
+    case = make_case(seed, "coulomb_friction", carts=2, encoders=1, wide_carts=wide)
     report = _run(case)
     window = case.observed.t >= report.window_start_s
     y, clean = case.observed.y[window], case.truth.clean[window]
