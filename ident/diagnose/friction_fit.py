@@ -144,45 +144,68 @@ def _two_cart_friction_starts(spec: ModelSpec, prob: Problem, theta0: FloatArray
     # through one encoder the valley is rugged: where each cart sticks decides, so finer levels
     # and unequal shares (factor 2 apart, 0.3-2 between the carts)
     levels = [g * f_max * p for p in FRICTION_SHARES for g in (0.003, 0.006, 0.012, 0.025, 0.05, 0.1)]
-
-    def with_levels(pairs: list[tuple[FloatArray, FloatArray]]) -> list[FloatArray]:
-        rows = []
-        for c in (c for pair in pairs for c in pair):
-            for level in levels:
-                row = c.copy()
-                row[at:at + 2] = level
-                rows.append(row)
-        return rows
-
-    out += [best_rows(spec, prob, chain, slice(0, chain.size), with_levels([pair]))
+    out += [best_rows(spec, prob, chain, slice(0, chain.size), _with_levels(spec, levels, [pair]))
             for pair in _valley_chains(chain, spec)]
-    for ratio in SECOND_MODES:
-        out.append(best_rows(spec, prob, chain, slice(0, chain.size),
-                             with_levels(_valley_chains(_second_mode_at(chain, ratio), spec))))
-    return out
+    return out + _other_mode_starts(spec, prob, chain, levels[1::2])
 
 
-#: A one-encoder chain's friction fit also starts with its second mode's wn² this many times
-#: the first's (the best row of each ratio, across the valley and the friction levels).
-SECOND_MODES = (2.0, 4.0, 8.0)
+def _with_levels(spec: ModelSpec, levels: list[FloatArray], pairs: list[tuple[FloatArray, FloatArray]]
+                ) -> list[FloatArray]:
+    """Each chain of `pairs` with each friction level."""
+    at = spec.block("coulomb_friction").start
+    rows = []
+    for c in (c for pair in pairs for c in pair):
+        for level in levels:
+            row = c.copy()
+            row[at:at + 2] = level
+            rows.append(row)
+    return rows
 
 
-def _second_mode_at(chain: FloatArray, ratio: float) -> FloatArray:
-    """`chain` with the same lower mode and the upper mode's wn² `ratio` times the lower's.
+def _other_mode_starts(spec: ModelSpec, prob: Problem, chain: FloatArray, levels: list[FloatArray]
+                       ) -> list[FloatArray]:
+    """A one-encoder chain's friction starts with one of its modes kept and the other moved
+    (`_other_modes`): the best row of each across every other valley share and the friction
+    `levels`."""
+    return [best_rows(spec, prob, chain, slice(0, chain.size),
+                      _with_levels(spec, levels, _valley_chains(_with_modes(chain, kept, other), spec, VALLEY[::2])))
+            for kept, other in _other_modes(chain)]
 
-    Through one encoder a cart that friction stops within a few cycles hardly shows its own,
-    faster mode: the linear fit imitates friction's straight decay by two close modes, and
-    every valley start then lies in that chain (generated one-encoder seed 61607245: modes 8.05
-    and 8.76 rad/s for a true 8.45 and 17.4, cart 2's friction 4x cart 1's; the fit pinned cart
-    2 by a stiff wall spring, 0.38 points under the noise floor)."""
+
+#: A one-encoder chain's friction fit also starts with one of its modes kept and the other's wn²
+#: this many times the kept one's (the best row of each, across the valley and friction levels).
+SECOND_MODES = (0.125, 0.25, 0.5, 2.0, 4.0, 8.0)
+
+
+def _other_modes(chain: FloatArray) -> list[tuple[float, float]]:
+    """(kept, other) modes' wn² of the starts `SECOND_MODES` makes of `chain`: each of its two
+    modes kept (the lower only when they are within 20 %), the other moved; none within 20 % of
+    the chain's own pair.
+
+    Through one encoder the linear fit's modes need not be the chain's: a cart that friction
+    stops within a few cycles hardly shows its own mode, and the linear fit imitates friction's
+    straight decay by two close modes (generated seed 61607245: 8.05 and 8.76 rad/s for a true
+    8.45 and 17.4, cart 2 then pinned by a stiff wall spring, 0.38 points under the noise
+    floor), or takes a slow drift for one (red team two_cart_coulomb_y1 1036: 4.97 and 40.6 for
+    15.7 and 40.8), or the one seen is the upper (1038: a light cart 1 at 44.6 rad/s on a heavy
+    cart 2 at 13.5; 8.5 points under the floor)."""
     a1, b1, b2, a2 = chain[:4]
     big_a, big_d = a1 + b1, b2 + a2
     trace, det = big_a + big_d, big_a * big_d - b1 * b2
-    low = 0.5 * (trace - np.sqrt(max(trace * trace - 4.0 * det, 0.0)))
-    high = ratio * low
-    new_a = 0.5 * (low + high)          # any chain with these modes: the valley moves it across
-    new_d = low + high - new_a
-    b = float(np.sqrt(new_a * new_d - low * high))
+    disc = np.sqrt(max(trace * trace - 4.0 * det, 0.0))
+    low, high = 0.5 * (trace - disc), 0.5 * (trace + disc)
+    kept = (low,) if high < 1.44 * low else (low, high)
+    own = np.array([low, high])
+    return [(k, k * r) for k in kept for r in SECOND_MODES
+            if not np.all(np.abs(np.sort([k, k * r]) / own - 1.0) < 0.44)]
+
+
+def _with_modes(chain: FloatArray, kept: float, other: float) -> FloatArray:
+    """`chain` with its modes' wn² `kept` and `other` (any chain with them: the valley then moves
+    it across)."""
+    new_a = 0.5 * (kept + other)
+    new_d = kept + other - new_a
+    b = float(np.sqrt(max(new_a * new_d - kept * other, 0.0)))
     row = chain.copy()
     row[:4] = [new_a - b, b, b, new_d - b]
     return row
@@ -218,7 +241,8 @@ def _other_chain_starts(spec: ModelSpec, prob: Problem, theta0: FloatArray) -> l
     return out
 
 
-def _valley_chains(chain: FloatArray, spec: ModelSpec) -> list[tuple[FloatArray, FloatArray]]:
+def _valley_chains(chain: FloatArray, spec: ModelSpec, shares: tuple[float, ...] = VALLEY
+                   ) -> list[tuple[FloatArray, FloatArray]]:
     """`chain` moved across the one-encoder family (see `_two_cart_friction_starts`) to each
     `VALLEY` share: the modes' wn² kept (trace and A D - b1 b2), the dampings moved to keep
     g1 + g2 and g1 D + g2 A, the gauge b1 inside the range where every spring is positive
@@ -232,7 +256,7 @@ def _valley_chains(chain: FloatArray, spec: ModelSpec) -> list[tuple[FloatArray,
     names = spec.names
     x2, v2, r2 = names.index("x0_2_m"), names.index("v0_2_m_s"), names.index("rest_2_m")
     out = []
-    for share in VALLEY:
+    for share in shares:
         new_a = w1 + share * (w2 - w1)
         new_d = trace - new_a
         bc = new_a * new_d - det

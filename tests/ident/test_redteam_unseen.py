@@ -226,3 +226,20 @@ def test_a_fast_second_mode_of_two_frictional_carts_is_the_chains_own() -> None:
     true_modes = np.sqrt(np.sort(np.linalg.eigvals(stiffness / np.array([[tr["m"]], [tr["m2"]]])).real))
     modes = sorted(report.corrected_linear[k] for k in ("wn_mode1_rad_s", "wn_mode2_rad_s"))
     assert modes == pytest.approx(true_modes, rel=0.05)
+
+
+def test_a_light_cart_read_beside_a_heavy_one_is_started_in_its_own_chain() -> None:
+    """Red team `two_cart_coulomb_y1` 1038 (unseen seeds 1014-1039, cart 1's encoder only, 91 Hz):
+    a light cart 1 (0.67 kg) on stiff springs rings at 44.6 rad/s, the heavy cart 2 (2.5 kg) at
+    13.5. The linear fit put both modes near 44.6, every friction start lay in that chain, and
+    the fit ended 8.5 points under the noise floor with cart 2's friction pinned 4000x too
+    strong. The friction fit now also starts with either mode kept and the other 1/8-8 times
+    its wn². (Cart 2's friction, read through a 0.19 mm lattice, is 7 % off from the case's CSV
+    and 23 % off from its arrays: the data hardly fix it, and it is not asserted.)"""
+    case = _case("two_cart_coulomb_y1", 1038)
+    release = find_releases(case.t, case.y)[0]
+    report = diagnose(case.t, case.y, 2, None, start_s=release.release_time_s, stop_s=release.end_time_s).report
+    floor = _noise_floor(case, report.window_start_s, report.window_end_s)
+    assert report.extended.fit_percent >= floor - 0.3, (report.extended.fit_percent, floor)
+    friction = next(e for e in report.effects if e.effect == "coulomb_friction").parameters
+    assert friction["coulomb_accel_m_s2"] == pytest.approx(case.truth["coulomb_accel_m_s2"], rel=0.05)
