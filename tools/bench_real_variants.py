@@ -13,6 +13,12 @@ looks like and not what the hand did:
 - `late-start`: the record starts 0.25 s before the hand begins to push (little quiet time);
 - `cut`: the record ends 1.2 s after the first release (the release becomes incomplete).
 
+With `--diagnose`, every complete release `ident releases` finds in each variant is also
+diagnosed (`ident.diagnose` on its window, the moving carts chosen by it, as `ident diagnose`
+does on a raw record): the whole-window fit %, whether dry friction comes first, and per
+release the spread of the fit over the variants (the physics has no time origin, direction or
+cart number; a diagnosis that moves with them is chaotic, not physical).
+
 The truth is the independent judge (`testkit.release_judge`, run on the original record) for
 every labelled release the variant still holds. Through `daq`'s `ReleaseDetector` (samples fed
 in order, as `daq run` does after zeroing) and `ident.releases.find_releases`, it prints per
@@ -20,7 +26,7 @@ variant: releases found, extra ones, the largest distance from the judge, the pu
 in all, how many are within 20 ms of the judge or, on a decimated variant whose sample period
 is longer, within one sample period.
 
-    OPENBLAS_NUM_THREADS=1 .venv/bin/python tools/bench_real_variants.py [--only ident|daq]
+    OPENBLAS_NUM_THREADS=1 .venv/bin/python tools/bench_real_variants.py [--only ident|daq] [--diagnose]
 """
 
 from __future__ import annotations
@@ -96,6 +102,23 @@ def ident_found(v: Variant) -> list[tuple[float, int]]:
     return [(r.release_time_s, r.pulled_cart) for r in find_releases(v.t, v.y)]
 
 
+def diagnosed(v: Variant) -> list[tuple[int, float, str]]:
+    """(index of the judged release, whole-window fit %, effects) of every complete release."""
+    from ident.data import IdData, make_uniform
+    from ident.diagnose import diagnose
+
+    out = []
+    for r in find_releases(v.t, v.y):
+        near = [k for k, j in enumerate(v.truth) if abs(r.release_time_s - j) < MATCH_S]
+        if not r.complete or not near:
+            continue
+        keep = (v.t >= r.release_time_s - 0.25) & (v.t <= r.end_time_s)
+        part = make_uniform(IdData(v.t[keep], np.zeros(int(keep.sum())), v.y[keep]), "linear")
+        report = diagnose(part.t, part.y, None, start_s=r.release_time_s, stop_s=r.end_time_s).report
+        out.append((near[0], report.extended.fit_percent, "+".join(e.effect for e in report.effects)))
+    return out
+
+
 def score(v: Variant, found: list[tuple[float, int]]) -> tuple[int, int, float, bool]:
     """(matched, extra, largest |error| s over the matched, every matched pulled cart right)."""
     matched, worst, carts_right = 0, 0.0, True
@@ -116,7 +139,10 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--realdata", type=Path, default=REPO.parent / "shared" / "realdata")
     parser.add_argument("--only", choices=("daq", "ident"), default=None)
+    parser.add_argument("--diagnose", action="store_true", help="also diagnose every complete release")
     args = parser.parse_args(argv)
+    fits: dict[tuple[str, int], list[float]] = {}
+    friction_first = diagnoses = 0
     folder = args.realdata / FOLDER
     if not folder.is_dir():
         print(f"no {FOLDER} under {args.realdata}: nothing to measure", file=sys.stderr)
@@ -145,9 +171,20 @@ def main(argv: list[str] | None = None) -> int:
                 cells.append(f"{matched}/{len(v.truth)} +{extra} worst {1e3 * worst:5.1f} ms"
                              f" {'cart ok' if carts else 'CART X'}")
             print(f"{name:26s} {v.name:13s} " + " ".join(f"{c:>32s}" for c in cells), flush=True)
+            for k, fit, effects in diagnosed(v) if args.diagnose else []:
+                fits.setdefault((name, k), []).append(fit)
+                diagnoses += 1
+                friction_first += effects.startswith("coulomb_friction")
+                print(f"{'':26s}   release {k + 1}: fit {fit:6.2f} %  {effects}", flush=True)
     for fname, (n, matched, near, extra, wrong) in totals.items():
         print(f"{fname}: found {matched}/{n}, within 20 ms or a sample {near}/{n}, extra {extra}, "
               f"variants with a wrong pulled cart {wrong}")
+    if fits:
+        every = [f for values in fits.values() for f in values]
+        spread = ", ".join(f"{n[:-4]} #{k + 1} {max(v) - min(v):.2f}" for (n, k), v in fits.items())
+        print(f"diagnosis: {diagnoses} complete releases, fit >= 97.5 % {sum(f >= 97.5 for f in every)}, "
+              f"min {min(every):.2f} %, dry friction first {friction_first}; spread of each release's fit "
+              f"over its variants (points): {spread}")
     return 0
 
 

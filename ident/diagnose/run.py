@@ -99,7 +99,9 @@ def diagnose(t: FloatArray, y: FloatArray, carts: int | None = None, step_m: flo
     """Diagnose a release run: `t` (N,) s uniform, `y` (N,) or (N, n_out) m, `u` (N,) or
     (N, m) a measured force input (any unit), `start_s`/`stop_s` the stretch to use (a
     release window on the run's time base, `start_s` its release as `ident.releases` dates
-    it: the fit starts there; default the whole record, the release found here)."""
+    it: the fit starts there; default the whole record, the release found here). `carts`
+    (1 or 2) by default counts the columns that swing at least `HELD_FRACTION` of the largest:
+    a cart that moves less is held (by a hand that wanders) and enters as measured input."""
     started = time.perf_counter()
     outputs = _moving(y, carts)   # before anything is fitted: a still column has no fit %
     t_arr, y_arr = _check(t, outputs.y)
@@ -107,7 +109,7 @@ def diagnose(t: FloatArray, y: FloatArray, carts: int | None = None, step_m: flo
     keep = _stretch(t_arr, start_s, stop_s)
     t_arr, y_arr = t_arr[keep], y_arr[keep]
     u_arr = None if u_arr is None else u_arr[keep]
-    carts = carts or min(y_arr.shape[1], 2)
+    carts = carts or _free_carts(y_arr)
     y_all = y_arr
     y_arr, other = _select_outputs(y_arr, carts)
     win = _window(t_arr, y_arr, carts, u_arr, start_s is not None)
@@ -279,6 +281,15 @@ def _check(t: FloatArray, y: FloatArray) -> tuple[FloatArray, FloatArray]:
         raise IdentValueError("time steps", "a uniform increasing grid (use ident.make_uniform)",
                               f"steps from {dt.min():.6g} to {dt.max():.6g} s")
     return t_arr, y_arr
+
+
+def _free_carts(y: FloatArray) -> int:
+    """Carts to fit when the caller does not say: the columns of `y` (N, n_out) that swing at
+    least `HELD_FRACTION` of the largest swing, at most two (as `_select_outputs` tells a held
+    cart; a held cart that wanders by a millimetre had been fitted as a chain's free cart: the
+    real 2025 hand releases through the API at 47-59 %)."""
+    swing = np.ptp(y, axis=0)
+    return min(int(np.count_nonzero(swing >= HELD_FRACTION * float(np.max(swing)))), 2)
 
 
 def _select_outputs(y: FloatArray, carts: int) -> tuple[FloatArray, int | None]:
