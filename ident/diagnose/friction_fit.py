@@ -132,7 +132,8 @@ def _two_cart_friction_starts(spec: ModelSpec, prob: Problem, theta0: FloatArray
     modes' wn² and D = trace - A. Friction breaks the tie (where a cart sticks depends on its
     own stiffness), but the linear fit lands anywhere in the family, and friction on the wrong
     cart then fits best. So the chain is also started across that family (`VALLEY`), each with
-    cart 2's start as fitted or at rest (whichever row fits better)."""
+    cart 2's start as fitted or at rest (whichever row fits better), and with its modes moved
+    (`_other_modes`)."""
     at = spec.block("coulomb_friction").start
     chain = theta0.copy()
     chain[4:6] = 0.25 * theta0[4:6]
@@ -146,6 +147,7 @@ def _two_cart_friction_starts(spec: ModelSpec, prob: Problem, theta0: FloatArray
     levels = [g * f_max * p for p in FRICTION_SHARES for g in (0.003, 0.006, 0.012, 0.025, 0.05, 0.1)]
     out += [best_rows(spec, prob, chain, slice(0, chain.size), _with_levels(spec, levels, [pair]))
             for pair in _valley_chains(chain, spec)]
+    # (half the levels and every other valley share: each start is a batch of simulations)
     return out + _other_mode_starts(spec, prob, chain, levels[1::2])
 
 
@@ -186,9 +188,8 @@ def _other_modes(chain: FloatArray) -> list[tuple[float, float]]:
     stops within a few cycles hardly shows its own mode, and the linear fit imitates friction's
     straight decay by two close modes (generated seed 61607245: 8.05 and 8.76 rad/s for a true
     8.45 and 17.4, cart 2 then pinned by a stiff wall spring, 0.38 points under the noise
-    floor), or takes a slow drift for one (red team two_cart_coulomb_y1 1036: 4.97 and 40.6 for
-    15.7 and 40.8), or the one seen is the upper (1038: a light cart 1 at 44.6 rad/s on a heavy
-    cart 2 at 13.5; 8.5 points under the floor)."""
+    floor), or the one seen is the upper (red team two_cart_coulomb_y1 1038: a light cart 1 at
+    44.6 rad/s on a heavy cart 2 at 13.5; 8.5 points under the floor)."""
     a1, b1, b2, a2 = chain[:4]
     big_a, big_d = a1 + b1, b2 + a2
     trace, det = big_a + big_d, big_a * big_d - b1 * b2
