@@ -190,15 +190,21 @@ def _other_modes(chain: FloatArray) -> list[tuple[float, float]]:
     8.45 and 17.4, cart 2 then pinned by a stiff wall spring, 0.38 points under the noise
     floor), or the one seen is the upper (red team two_cart_coulomb_y1 1038: a light cart 1 at
     44.6 rad/s on a heavy cart 2 at 13.5; 8.5 points under the floor)."""
-    a1, b1, b2, a2 = chain[:4]
-    big_a, big_d = a1 + b1, b2 + a2
-    trace, det = big_a + big_d, big_a * big_d - b1 * b2
-    disc = np.sqrt(max(trace * trace - 4.0 * det, 0.0))
-    low, high = 0.5 * (trace - disc), 0.5 * (trace + disc)
+    low, high = _mode_squares(chain)
     kept = (low,) if high < 1.44 * low else (low, high)
     own = np.array([low, high])
     return [(k, k * r) for k in kept for r in SECOND_MODES
             if not np.all(np.abs(np.sort([k, k * r]) / own - 1.0) < 0.44)]
+
+
+def _mode_squares(chain: FloatArray) -> tuple[float, float]:
+    """The undamped modes' wn² (lower, upper) of a chain (a1, b1, b2, a2, ...): the eigenvalues
+    of [[a1 + b1, -b1], [-b2, b2 + a2]]."""
+    a1, b1, b2, a2 = chain[:4]
+    big_a, big_d = a1 + b1, b2 + a2
+    trace, det = big_a + big_d, big_a * big_d - b1 * b2
+    disc = np.sqrt(max(trace * trace - 4.0 * det, 0.0))
+    return float(0.5 * (trace - disc)), float(0.5 * (trace + disc))
 
 
 def _with_modes(chain: FloatArray, kept: float, other: float) -> FloatArray:
@@ -251,8 +257,7 @@ def _valley_chains(chain: FloatArray, spec: ModelSpec, shares: tuple[float, ...]
     a1, b1, b2, a2, g1, g2 = chain[:6]
     big_a, big_d = a1 + b1, b2 + a2
     trace, det = big_a + big_d, big_a * big_d - b1 * b2
-    disc = np.sqrt(max(trace * trace - 4.0 * det, 0.0))
-    w1, w2 = 0.5 * (trace - disc), 0.5 * (trace + disc)
+    w1, w2 = _mode_squares(chain)
     g_sum, g_mix = g1 + g2, g1 * big_d + g2 * big_a
     names = spec.names
     x2, v2, r2 = names.index("x0_2_m"), names.index("v0_2_m_s"), names.index("rest_2_m")
