@@ -100,7 +100,7 @@ def screen(prob: Problem, current: FitResult, effect: str, ev: EvidenceResult, w
                 for row in rows]
         result = min(fits, key=lambda r: r.sse_train)
     elif effect == "static_friction":
-        result = fit_static_friction(spec, prob, theta0, lower, upper, typical, SCREEN_NFEV)
+        result = fit_static_friction(spec, prob, theta0, lower, upper, typical, ev, SCREEN_NFEV)
     elif effect == "coulomb_friction":
         # the envelope's start (a free ringing) and a short grid (a forced or short run)
         f_max = wn2 * prob.amplitude

@@ -39,33 +39,44 @@ class Problem:
     input_switch: FloatArray | None = None
 
 
+def _costs(spec: ModelSpec, prob: Problem, rows: FloatArray) -> FloatArray:
+    """Sum of squared errors of each parameter row of `rows` (K, P) (one batch; a diverging
+    row, such as a strong softening cubic's far start, costs inf, not a warning)."""
+    with np.errstate(all="ignore"):
+        pred = spec.predict(rows, prob.dt, prob.y.shape[0])
+        cost: FloatArray = np.nan_to_num(np.sum((pred - prob.y[None]) ** 2, axis=(1, 2)), nan=np.inf)
+    return cost
+
+
 def best_rows(spec: ModelSpec, prob: Problem, theta: FloatArray, where: slice,
               values: list[FloatArray]) -> FloatArray:
     """`theta` with the block `where` set to the candidate of least cost (one batch)."""
     rows = np.repeat(theta[None, :], len(values), axis=0)
     for k, v in enumerate(values):
         rows[k, where] = v
-    with np.errstate(all="ignore"):
-        pred = spec.predict(rows, prob.dt, prob.y.shape[0])
-    cost = np.nan_to_num(np.sum((pred - prob.y[None]) ** 2, axis=(1, 2)), nan=np.inf)
-    return np.asarray(rows[int(np.argmin(cost))], dtype=np.float64)
+    return np.asarray(rows[int(np.argmin(_costs(spec, prob, rows)))], dtype=np.float64)
+
+
+def cheapest(spec: ModelSpec, prob: Problem, rows: list[FloatArray], count: int) -> list[FloatArray]:
+    """The `count` parameter rows of least cost, best first (one batch; the fixed parameters
+    set to their values)."""
+    batch = np.array(rows, dtype=np.float64)
+    for i, name in enumerate(spec.names):
+        if name in spec.fixed:
+            batch[:, i] = spec.fixed[name]
+    return [batch[k].copy() for k in np.argsort(_costs(spec, prob, batch), kind="stable")[:count]]
 
 
 def ranked_rows(spec: ModelSpec, prob: Problem, theta: FloatArray, where: slice, values: list[FloatArray],
                 count: int) -> list[FloatArray]:
     """`theta` with the block `where` set to each of the `count` candidates of least cost, best
     first (one batch; the fixed parameters kept at their values)."""
-    rows = np.repeat(theta[None, :], len(values), axis=0)
-    for k, v in enumerate(values):
-        rows[k, where] = v
-    for i, name in enumerate(spec.names):
-        if name in spec.fixed:
-            rows[:, i] = spec.fixed[name]
-    with np.errstate(all="ignore"):
-        # a diverging start (a strong softening cubic's far rows) costs inf, not a warning
-        pred = spec.predict(rows, prob.dt, prob.y.shape[0])
-        cost = np.nan_to_num(np.sum((pred - prob.y[None]) ** 2, axis=(1, 2)), nan=np.inf)
-    return [np.asarray(rows[k], dtype=np.float64) for k in np.argsort(cost, kind="stable")[:count]]
+    rows = []
+    for v in values:
+        row = theta.astype(np.float64).copy()
+        row[where] = v
+        rows.append(row)
+    return cheapest(spec, prob, rows, count)
 
 
 def best_on_grid(spec: ModelSpec, prob: Problem, theta: FloatArray, index: int,
@@ -81,4 +92,4 @@ def ranked_on_grid(spec: ModelSpec, prob: Problem, theta: FloatArray, index: int
     return ranked_rows(spec, prob, theta, slice(index, index + 1), [np.array([v]) for v in values], count)
 
 
-__all__ = ["Bounds", "FloatArray", "Problem", "best_on_grid", "best_rows", "ranked_on_grid", "ranked_rows"]
+__all__ = ["Bounds", "FloatArray", "Problem", "best_on_grid", "best_rows", "cheapest", "ranked_on_grid", "ranked_rows"]

@@ -48,6 +48,7 @@ from ident.errors import IdentDimensionError, IdentValueError
 from ident.physics.chain import LINEAR_NAMES, modes
 from ident.physics.free import switched_input
 from ident.physics.measures import fit_percent, noise_std
+from ident.releases.record import HELD_FRACTION
 from schemas.diagnosis import Candidate, DiagnosisReport, EffectFit, Evidence, ModelFit
 
 _T = TypeVar("_T")
@@ -56,7 +57,6 @@ FloatArray = NDArray[np.float64]
 
 MODEL_NAMES = {1: "single cart m x'' + c x' + k (x - rest) = 0",
                2: "two-cart chain M x'' + C x' + K (x - rest) = 0"}
-HELD_FRACTION = 0.3
 
 
 @dataclass(frozen=True)

@@ -37,11 +37,9 @@ from ident.releases.instant import release_instant
 from ident.releases.joined import joined_instant
 from ident.releases.misfit import free_misfit, rest
 from ident.releases.motion import FloatArray, Motion, motion, moving_samples, turning_indices
-from ident.releases.record import EndedBy, Release
+from ident.releases.record import HELD_FRACTION, EndedBy, Release
 from ident.releases.restart import moved_after_rest
 
-#: A cart whose amplitude is below this fraction of the pulled cart's is held.
-HELD_FRACTION = 0.25
 #: During a touch the held cart moves at least this fraction of what the pulled cart moves.
 TOUCH_FRACTION = 0.2
 #: A release rings: at least this many turning points in its free response (the cart swings

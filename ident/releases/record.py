@@ -9,6 +9,11 @@ from typing import Any, Literal
 #: the other cart moved), or the end of the record.
 EndedBy = Literal["release", "touch", "record_end"]
 
+#: A cart whose swing is below this fraction of the pulled (largest-swinging) cart's is held:
+#: it may wander by hand or follow weakly through the spring, and enters a fit as measured
+#: input, never as a free cart (`ident releases`' moving carts, `ident diagnose`'s carts).
+HELD_FRACTION = 0.25
+
 
 @dataclass(frozen=True)
 class Release:
