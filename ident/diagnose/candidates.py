@@ -24,7 +24,7 @@ from ident.diagnose.friction_fit import fit_friction, fit_static_friction
 from ident.diagnose.held_fit import fit_held_cart
 from ident.diagnose.lattice import Lattice, lattice_likelihood_gain, reading_noise
 from ident.diagnose.models import ModelSpec, smoothed_staircase
-from ident.diagnose.problem import Bounds, FloatArray, Problem, best_on_grid, best_rows, ranked_on_grid, ranked_rows
+from ident.diagnose.problem import Bounds, FloatArray, Problem, best_on_grid, best_rows, cheapest, ranked_on_grid
 
 
 def available(effect: str, current: ModelSpec, prob: Problem, ev: EvidenceResult) -> bool:
@@ -143,7 +143,7 @@ def _cubic_rows(spec: ModelSpec, prob: Problem, theta0: FloatArray, at: int, ev:
                 rows.append(np.clip(row, lower, upper))
     if not rows:
         return [theta0]
-    return ranked_rows(spec, prob, rows[0], slice(0, rows[0].size), rows, 2)
+    return cheapest(spec, prob, rows, 2)
 
 
 def _scale_stiffness(theta: FloatArray, carts: int, factor: float) -> None:

@@ -12,7 +12,7 @@ from ident.diagnose.baseline import linear_starts
 from ident.diagnose.evidence import EvidenceResult
 from ident.diagnose.fitting import FitResult, fit
 from ident.diagnose.models import ModelSpec
-from ident.diagnose.problem import FloatArray, Problem, best_rows, ranked_rows
+from ident.diagnose.problem import FloatArray, Problem, best_rows, cheapest, ranked_rows
 from ident.physics.chain import modes
 from ident.simple_start import envelope_friction
 
@@ -65,7 +65,7 @@ def fit_friction(spec: ModelSpec, prob: Problem, theta0: FloatArray, lower: Floa
     # every start through the smooth large-amplitude stage; those that then fit the whole
     # window best (where the carts stick tells the starts apart: one batch) go on to every sample
     rows = np.array([f.theta for f in firsts])
-    on_all = ranked_rows(spec, prob, rows[0], slice(0, rows.shape[1]), list(rows), FULL_FITS)
+    on_all = cheapest(spec, prob, list(rows), FULL_FITS)
     best: FitResult | None = None
     for start in on_all:
         result = fit(spec, start, lower, upper, typical, prob.dt, prob.y, prob.train, max_nfev=max_nfev)
