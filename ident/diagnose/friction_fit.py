@@ -12,7 +12,7 @@ from ident.diagnose.baseline import linear_starts
 from ident.diagnose.evidence import EvidenceResult
 from ident.diagnose.fitting import FitResult, fit
 from ident.diagnose.models import ModelSpec
-from ident.diagnose.problem import FloatArray, Problem, best_rows, cheapest, ranked_rows
+from ident.diagnose.problem import FloatArray, Problem, best_rows, cheapest, ranked_plateaus, ranked_rows
 from ident.physics.chain import modes
 from ident.simple_start import envelope_friction
 
@@ -330,22 +330,23 @@ def fit_static_friction(spec: ModelSpec, prob: Problem, theta0: FloatArray, lowe
     generated Coulomb + held-cart runs (seed 45) β and the friction within 5 %: 31 -> 37.
     """
     block = spec.block("static_friction")
+    rows = static_rows(prob.carts)
     # with a held cart's coupling in the model every row is fitted (above)
-    starts = ranked_rows(spec, prob, theta0, block, static_rows(prob.carts),
-                         len(STATIC_GRID) if "held_cart_motion" in spec.effects else 2)
+    starts = (ranked_rows(spec, prob, theta0, block, rows, len(rows)) if "held_cart_motion" in spec.effects
+              else ranked_plateaus(spec, prob, theta0, block, rows, 2))
     if prob.carts == 1:
         # the model refitted where the cart rings freely, the ratios ranked from there
         cut = _large_amplitude_samples(prob, ev)
         free_fit = fit(spec.cut(cut), theta0, lower, upper, typical, prob.dt, prob.y[:cut], prob.train[:cut],
                        max_nfev=2 * max_nfev)
-        starts += ranked_rows(spec, prob, free_fit.theta, block, static_rows(prob.carts), 2)
+        starts += ranked_plateaus(spec, prob, free_fit.theta, block, rows, 2)
     ring = None if prob.carts != 1 else envelope_friction(prob.tau, prob.y[:, 0], float(prob.tau[0]) - 1.0,
                                                           float(theta0[0]))
     if ring is not None:
         row = theta0.copy()
         for at, value in ((spec.names.index("zeta"), ring[0]), (spec.block("coulomb_friction").start, ring[1])):
             row[at] = float(np.clip(value, lower[at], upper[at]))
-        starts += ranked_rows(spec, prob, row, block, static_rows(prob.carts), 1)
+        starts += ranked_plateaus(spec, prob, row, block, rows, 1)
     if prob.carts == 2 and spec.observed < spec.carts:
         starts += _lowered_kinetic_rows(spec, theta0)
     fits = [fit(spec, row, lower, upper, typical, prob.dt, prob.y, prob.train, max_nfev=max_nfev)

@@ -57,13 +57,29 @@ def best_rows(spec: ModelSpec, prob: Problem, theta: FloatArray, where: slice,
     return np.asarray(rows[int(np.argmin(_costs(spec, prob, rows)))], dtype=np.float64)
 
 
-def cheapest(spec: ModelSpec, prob: Problem, rows: list[FloatArray], count: int) -> list[FloatArray]:
-    """The `count` parameter rows of least cost, best first (one batch; the fixed parameters
-    set to their values)."""
+def _with_fixed(spec: ModelSpec, rows: list[FloatArray]) -> FloatArray:
+    """`rows` as one batch (K, P), the fixed parameters set to their values."""
     batch = np.array(rows, dtype=np.float64)
     for i, name in enumerate(spec.names):
         if name in spec.fixed:
             batch[:, i] = spec.fixed[name]
+    return batch
+
+
+def _block_set(theta: FloatArray, where: slice, values: list[FloatArray]) -> list[FloatArray]:
+    """`theta` with the block `where` set to each of `values`."""
+    rows = []
+    for v in values:
+        row = theta.astype(np.float64).copy()
+        row[where] = v
+        rows.append(row)
+    return rows
+
+
+def cheapest(spec: ModelSpec, prob: Problem, rows: list[FloatArray], count: int) -> list[FloatArray]:
+    """The `count` parameter rows of least cost, best first (one batch; the fixed parameters
+    set to their values)."""
+    batch = _with_fixed(spec, rows)
     return [batch[k].copy() for k in np.argsort(_costs(spec, prob, batch), kind="stable")[:count]]
 
 
@@ -71,12 +87,26 @@ def ranked_rows(spec: ModelSpec, prob: Problem, theta: FloatArray, where: slice,
                 count: int) -> list[FloatArray]:
     """`theta` with the block `where` set to each of the `count` candidates of least cost, best
     first (one batch; the fixed parameters kept at their values)."""
-    rows = []
-    for v in values:
-        row = theta.astype(np.float64).copy()
-        row[where] = v
-        rows.append(row)
-    return cheapest(spec, prob, rows, count)
+    return cheapest(spec, prob, _block_set(theta, where, values), count)
+
+
+def ranked_plateaus(spec: ModelSpec, prob: Problem, theta: FloatArray, where: slice, values: list[FloatArray],
+                    count: int) -> list[FloatArray]:
+    """As `ranked_rows`, for a block the cost is piecewise constant in (where a cart sticks
+    moves by steps): neighbouring candidates of equal cost (a plateau, in `values`' order)
+    count as one, and each of the `count` plateaus of least cost is started from its middle
+    candidate (a plateau's edge lies next to a step the fit cannot see, and ties had always
+    picked the first of the values)."""
+    batch = _with_fixed(spec, _block_set(theta, where, values))
+    cost = _costs(spec, prob, batch)
+    runs: list[list[int]] = []
+    for k in range(len(values)):
+        if runs and cost[k] == cost[runs[-1][0]]:
+            runs[-1].append(k)
+        else:
+            runs.append([k])
+    runs.sort(key=lambda run: float(cost[run[0]]))
+    return [batch[run[len(run) // 2]].copy() for run in runs[:count]]
 
 
 def best_on_grid(spec: ModelSpec, prob: Problem, theta: FloatArray, index: int,
@@ -92,4 +122,5 @@ def ranked_on_grid(spec: ModelSpec, prob: Problem, theta: FloatArray, index: int
     return ranked_rows(spec, prob, theta, slice(index, index + 1), [np.array([v]) for v in values], count)
 
 
-__all__ = ["Bounds", "FloatArray", "Problem", "best_on_grid", "best_rows", "cheapest", "ranked_on_grid", "ranked_rows"]
+__all__ = ["Bounds", "FloatArray", "Problem", "best_on_grid", "best_rows", "cheapest", "ranked_on_grid",
+           "ranked_plateaus", "ranked_rows"]
