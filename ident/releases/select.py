@@ -21,7 +21,7 @@ from ident.data import IdData, check_arrays, from_release
 from ident.errors import IdentValueError
 from ident.release import check_motion
 from ident.releases.finder import find_releases
-from ident.releases.record import Release
+from ident.releases.record import HELD_FRACTION, Release
 
 #: `number` meaning "the first complete release" (the default of `ident fit` and `diagnose`).
 FIRST_COMPLETE = 0
@@ -96,14 +96,14 @@ def select_release(data: IdData, number: int) -> IdData:
 
 def moving_columns(data: IdData, release: Release | None) -> list[int]:
     """0-based columns of the carts that move freely: the release's, or without one, the
-    columns whose swing is at least a quarter of the largest (a constant column never)."""
+    columns whose swing is at least `HELD_FRACTION` of the largest (a constant column never)."""
     if release is not None:
         numbers = data.cart_numbers()
         return [numbers.index(c) for c in release.moving_carts if c in numbers]
     swing = np.ptp(data.y, axis=0)
     if float(np.max(swing)) <= 0.0:
         return []
-    return [j for j in range(data.n_outputs) if swing[j] >= 0.25 * float(np.max(swing))]
+    return [j for j in range(data.n_outputs) if swing[j] >= HELD_FRACTION * float(np.max(swing))]
 
 
 def select_or_whole(data: IdData, number: int) -> IdData:

@@ -106,3 +106,31 @@ def test_a_real_release_diagnosed_the_same_from_any_time_origin_or_pull_directio
         assert other["extended"]["fit_percent"] == pytest.approx(first["extended"]["fit_percent"], abs=0.05)
         assert other["release_time_s"] - other["window_start_s"] == pytest.approx(
             first["release_time_s"] - first["window_start_s"], abs=1e-6)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["14-Feb-2025_09_22_43.txt", "14-Feb-2025_09_44_21.txt"])
+def test_the_api_on_a_whole_real_record_fits_its_first_complete_release(realdata_dir: Path, name: str) -> None:
+    """`ident.diagnose.diagnose(t, y)` on a whole record, as a notebook would call it: the first
+    complete release that `ident releases` finds, to the end of its free response (the window's
+    own scan had fitted the record's several releases and the held cart's handling as one
+    response: 19.9 and 50.9 %)."""
+    import numpy as np
+
+    from ident.data import IdData, make_uniform
+    from ident.diagnose import diagnose
+    from ident.io import load
+    from ident.releases import FIRST_COMPLETE, choose, find_releases
+
+    path = realdata_dir / "ECP210_UCSD_2025_team1" / name
+    if not path.exists():
+        pytest.skip(f"{name} not in the real-data folder")
+    raw = load(path, scale=M_PER_COUNT_2025, raw=True)
+    data = make_uniform(IdData(raw.t, np.zeros(raw.t.size), raw.y), "linear")
+    release = choose(find_releases(data.t, data.y), FIRST_COMPLETE)
+    report = diagnose(data.t, data.y).report
+    assert report.carts == 1
+    assert report.release_time_s >= release.release_time_s - 1e-9
+    assert report.window_end_s <= release.end_time_s + 1e-9
+    assert report.effects[0].effect == "coulomb_friction"
+    assert report.extended.fit_percent >= 97.5
