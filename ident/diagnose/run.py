@@ -272,8 +272,8 @@ def _first_release(t: FloatArray, y: FloatArray) -> tuple[float | None, float | 
     (else its first); (None, None) when it finds none, or one too short to diagnose. The
     window's own scan had dated generated flicks of a cart carrying a sprung mass 100-135 ms
     before the hand let go (the fit starting in the push, 70-94 % for a 98.9-99.8 % floor),
-    where `ident releases` dates them 3-23 ms off; it dates other generated flicks up to 43
-    samples early where the scan is within 3. So for one cart the later of the two is taken: a
+    where `ident releases` dates them 3-23 ms off; it dates 10 of 46 other generated flicks
+    4-67 samples early where the scan is within 3. So for one cart the later of the two is taken: a
     fit that starts a little after the let-go loses a few samples, one that starts in the push
     fits it. Not for a chain: `ident.releases` models each measured cart as one free cart, and
     two carts read through one encoder (two modes in one column) it dated up to 47 samples late
