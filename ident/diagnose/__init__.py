@@ -5,7 +5,8 @@ Modules: `window` (release, hand's influence), `modal` (variable projection, spe
 `models`
 (baseline and extensions), `starts` (start values, bounds), `fitting` (output-error fits),
 `lattice` (quantization), `evidence` (residual analysis), `select` (tests against noise),
-`explain` (words), `still` (outputs that never move, dropped before fitting), `run` (`diagnose`).
+`explain` (words), `still` (outputs that never move, dropped before fitting), `stretch` (the
+columns and samples diagnosed: checks, the release's window, free and held carts), `run` (`diagnose`).
 """
 
 from __future__ import annotations

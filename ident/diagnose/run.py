@@ -1,7 +1,8 @@
 """`diagnose(t, y)`: baseline, evidence, forward selection of effects, the extended model.
 
 Steps (arrays in, a `Diagnosis` out; no files, clocks or printing):
-1. window (`window.find_window`): hold level, where the hand's influence ends, release time;
+1. window (`stretch.release_stretch`: the release `ident.releases` finds unless given, and
+   `window.find_window`): hold level, where the hand's influence ends, release time;
    the window is decimated to at most `MAX_WORK_SAMPLES` work samples (with a force input
    the window is the whole record: the input, not a hand, starts the motion);
 2. baseline: the linear physical model (one cart or the chain) from the window start with
@@ -42,13 +43,12 @@ from ident.diagnose.identifiable import identifiable_friction, identifiable_mode
 from ident.diagnose.lattice import find_lattice, find_noisy_lattice, lattice_candidates, lattice_worth_points
 from ident.diagnose.models import EFFECTS, effect_names
 from ident.diagnose.select import Judgement, Step, forward, is_material, threshold
-from ident.diagnose.still import Outputs, moving_outputs
-from ident.diagnose.window import MAX_WORK_SAMPLES, MIN_RELEASE_SAMPLES, Window, find_window, hold_level
-from ident.errors import IdentDimensionError, IdentValueError
+from ident.diagnose.stretch import check, check_input, moving, release_stretch
+from ident.diagnose.window import Window, hold_level
+from ident.errors import IdentValueError
 from ident.physics.chain import LINEAR_NAMES, modes
 from ident.physics.free import switched_input
 from ident.physics.measures import fit_percent, noise_std
-from ident.releases.record import HELD_FRACTION
 from schemas.diagnosis import Candidate, DiagnosisReport, EffectFit, Evidence, ModelFit
 
 _T = TypeVar("_T")
@@ -105,17 +105,9 @@ def diagnose(t: FloatArray, y: FloatArray, carts: int | None = None, step_m: flo
     (1 or 2) by default counts the columns that swing at least `HELD_FRACTION` of the largest:
     a cart that moves less is held (by a hand that wanders) and enters as measured input."""
     started = time.perf_counter()
-    outputs = _moving(y, carts)   # before anything is fitted: a still column has no fit %
-    t_arr, y_arr = _check(t, outputs.y)
-    u_arr = _check_input(u, t_arr.size)
-    found = None
-    if start_s is None and stop_s is None and u_arr is None:
-        found, stop_s = _first_release(t_arr, y_arr)
-    cut = _cut(t_arr, y_arr, u_arr, carts, start_s, stop_s)
-    agree = RELEASE_AGREE * float(t_arr[1] - t_arr[0])
-    if cut.carts == 1 and found is not None and cut.win.release_time_s < found - agree:
-        # one cart dated by the scan before `ident releases` dates it: the fit starts where neither sees the hand
-        cut = _cut(t_arr, y_arr, u_arr, carts, found, stop_s)
+    outputs = moving(y, carts)   # before anything is fitted: a still column has no fit %
+    t_arr, y_arr = check(t, outputs.y)
+    cut = release_stretch(t_arr, y_arr, check_input(u, t_arr.size), carts, start_s, stop_s)
     t_arr, y_all, u_arr, carts, y_arr, other, win = (cut.t, cut.y_all, cut.u, cut.carts, cut.y, cut.other,
                                                       cut.win)
     idx = np.arange(win.start, t_arr.size, win.decimation)
@@ -222,151 +214,6 @@ def _staged(label: str, work: Callable[[], _T]) -> _T:
     """`work()` with `label` shown by a command's progress display (a no-op in library use)."""
     progress.stage(label)
     return work()
-
-
-def _check_input(u: FloatArray | None, n: int) -> FloatArray | None:
-    if u is None:
-        return None
-    u_arr = np.asarray(u, dtype=np.float64)
-    u_arr = u_arr.reshape(u_arr.shape[0], -1) if u_arr.ndim else u_arr.reshape(1, 1)
-    if u_arr.shape[0] != n:
-        raise IdentDimensionError("u", f"{n} input samples (one per time)", u_arr.shape[0])
-    if not np.all(np.isfinite(u_arr)):
-        raise IdentValueError("u", "finite input values", "NaN or inf")
-    return u_arr
-
-
-#: The window's scan and `ident.releases` agree on a release this many samples apart (the scan's
-#: window then starts its own margin after it, `window._from`).
-RELEASE_AGREE = 2.0
-
-
-@dataclass(frozen=True)
-class _Cut:
-    """The stretch diagnosed: times, every column, the input, the cart count, the fitted columns,
-    a held cart's column and the release window."""
-
-    t: FloatArray
-    y_all: FloatArray
-    u: FloatArray | None
-    carts: int
-    y: FloatArray
-    other: int | None
-    win: Window
-
-
-def _cut(t: FloatArray, y: FloatArray, u: FloatArray | None, carts: int | None, start_s: float | None,
-         stop_s: float | None) -> _Cut:
-    """The record cut to [`start_s`, `stop_s`] (a start given: the hand let go there), its
-    carts (`_free_carts` unless given) and release window."""
-    keep = _stretch(t, start_s, stop_s)
-    t_k, y_k = t[keep], y[keep]
-    u_k = None if u is None else u[keep]
-    n = carts or _free_carts(y_k)
-    fitted, other = _select_outputs(y_k, n)
-    return _Cut(t_k, y_k, u_k, n, fitted, other, _window(t_k, fitted, n, u_k, start_s is not None))
-
-
-def _first_release(t: FloatArray, y: FloatArray) -> tuple[float | None, float | None]:
-    """(release, end) s of the first complete release `ident.releases` finds in the record
-    (else its first); (None, None) when it finds none, or one too short to diagnose. The
-    window's own scan had dated generated flicks of a cart carrying a sprung mass 100-135 ms
-    before the hand let go (the fit starting in the push, 70-94 % for a 98.9-99.8 % floor),
-    where `ident releases` dates them 3-23 ms off; it dates 10 of 46 other generated flicks
-    4-67 samples early where the scan is within 3. So for one cart the later of the two is taken: a
-    fit that starts a little after the let-go loses a few samples, one that starts in the push
-    fits it. Not for a chain: `ident.releases` models each measured cart as one free cart, and
-    two carts read through one encoder (two modes in one column) it dated up to 47 samples late
-    on generated runs that the scan dates within one."""
-    from ident.releases import FIRST_COMPLETE, choose, find_releases
-
-    releases = find_releases(t, y)
-    if not releases:
-        return None, None
-    release = choose(releases, FIRST_COMPLETE)
-    inside = np.count_nonzero((t >= release.release_time_s) & (t <= release.end_time_s))
-    if inside < MIN_RELEASE_SAMPLES:
-        return None, None
-    return release.release_time_s, release.end_time_s
-
-
-def _stretch(t: FloatArray, start_s: float | None, stop_s: float | None) -> NDArray[np.bool_]:
-    keep = np.ones(t.size, dtype=bool)
-    if start_s is not None:
-        keep &= t >= start_s
-    if stop_s is not None:
-        keep &= t <= stop_s
-    if keep.sum() < MIN_RELEASE_SAMPLES:
-        raise IdentValueError("window", f"at least {MIN_RELEASE_SAMPLES} samples between start and stop",
-                              f"{int(keep.sum())} samples in [{start_s}, {stop_s}] s")
-    return keep
-
-
-def _window(t: FloatArray, y: FloatArray, carts: int, u: FloatArray | None, released_at_start: bool) -> Window:
-    """The release window; with a force input the whole record (the input drives the motion)."""
-    if u is None:
-        return find_window(t, y, carts, released_at_start)
-    hold, noise, _ = hold_level(y)
-    moved = np.flatnonzero(np.any(np.abs(u - u[0]) > 0, axis=1))
-    release = float(t[moved[0]]) if moved.size else float(t[0])
-    decimation = max(1, int(np.ceil(t.size / MAX_WORK_SAMPLES)))
-    return Window(0, decimation, hold, noise, release, float("nan"))
-
-
-def _moving(y: FloatArray, carts: int | None) -> Outputs:
-    """`y`'s columns that move (`ident.diagnose.still`); a `y` of a wrong shape is passed on
-    whole, for `_check` to refuse."""
-    y_arr = np.asarray(y, dtype=np.float64)
-    y_arr = y_arr[:, None] if y_arr.ndim == 1 else y_arr
-    if y_arr.ndim != 2:
-        return Outputs(y_arr, (), {})
-    return moving_outputs(y_arr, carts)
-
-
-def _check(t: FloatArray, y: FloatArray) -> tuple[FloatArray, FloatArray]:
-    t_arr = np.asarray(t, dtype=np.float64)
-    y_arr = np.asarray(y, dtype=np.float64)
-    if y_arr.ndim == 1:
-        y_arr = y_arr[:, None]
-    if t_arr.ndim != 1 or y_arr.ndim != 2 or y_arr.shape[0] != t_arr.shape[0]:
-        raise IdentDimensionError("t, y", "t (N,) and y (N,) or (N, n_out)",
-                                  f"t {t_arr.shape}, y {y_arr.shape}")
-    if t_arr.size < 50:
-        raise IdentValueError("run length", "at least 50 samples", t_arr.size)
-    if not (np.all(np.isfinite(t_arr)) and np.all(np.isfinite(y_arr))):
-        raise IdentValueError("t, y", "finite values", "NaN or inf")
-    dt = np.diff(t_arr)
-    if np.any(dt <= 0) or np.ptp(dt) > 0.01 * float(np.median(dt)):
-        raise IdentValueError("time steps", "a uniform increasing grid (use ident.make_uniform)",
-                              f"steps from {dt.min():.6g} to {dt.max():.6g} s")
-    return t_arr, y_arr
-
-
-def _free_carts(y: FloatArray) -> int:
-    """Carts to fit when the caller does not say: the columns of `y` (N, n_out) that swing at
-    least `HELD_FRACTION` of the largest swing, at most two (as `_select_outputs` tells a held
-    cart; a held cart that wanders by a millimetre had been fitted as a chain's free cart: the
-    real 2025 hand releases through the API at 47-59 %)."""
-    swing = np.ptp(y, axis=0)
-    return min(int(np.count_nonzero(swing >= HELD_FRACTION * float(np.max(swing)))), 2)
-
-
-def _select_outputs(y: FloatArray, carts: int) -> tuple[FloatArray, int | None]:
-    """The outputs to fit, and the column of a held cart (one-cart fits of two columns).
-    Two carts with one column: the chain read through cart 1's encoder."""
-    if carts not in (1, 2):
-        raise IdentValueError("carts", "1 or 2", carts)
-    if carts == 2 and y.shape[1] == 1:
-        return y, None                 # two carts through cart 1's encoder
-    if y.shape[1] < carts:
-        raise IdentDimensionError("positions", f"{carts} position columns", y.shape[1])
-    if carts == 1 and y.shape[1] > 1:
-        swing = np.ptp(y, axis=0)
-        main = int(np.argmax(swing))
-        others = [j for j in range(y.shape[1]) if j != main and 0 < swing[j] < HELD_FRACTION * swing[main]]
-        other = max(others, key=lambda j: swing[j]) if others else None
-        return y[:, [main]], other
-    return y[:, :carts], None
 
 
 def _fixed_rest(win: Window, carts: int, step_m: float | None) -> dict[str, float]:

@@ -1,0 +1,182 @@
+"""What a diagnosis fits: the record's columns that move, checked, cut to the release's window
+(`release_stretch`), its free carts and a held cart's column. No fitting and no I/O here."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ident.diagnose.still import Outputs, moving_outputs
+from ident.diagnose.window import MAX_WORK_SAMPLES, MIN_RELEASE_SAMPLES, Window, find_window, hold_level
+from ident.errors import IdentDimensionError, IdentValueError
+from ident.releases.record import HELD_FRACTION
+
+FloatArray = NDArray[np.float64]
+
+
+def release_stretch(t: FloatArray, y: FloatArray, u: FloatArray | None, carts: int | None,
+                    start_s: float | None, stop_s: float | None) -> Stretch:
+    """`t` (N,), `y` (N, k) cut to [`start_s`, `stop_s`] (`diagnose`'s arguments), or by default,
+    without a force input `u`, to the first complete release `ident.releases` finds, dated by
+    the window's scan and, for one cart, from the later of the two instants (`_first_release`)."""
+    found = None
+    if start_s is None and stop_s is None and u is None:
+        found, stop_s = _first_release(t, y)
+    cut = _cut(t, y, u, carts, start_s, stop_s)
+    agree = RELEASE_AGREE * float(t[1] - t[0])
+    if cut.carts == 1 and found is not None and cut.win.release_time_s < found - agree:
+        # one cart dated by the scan before `ident releases` dates it: the fit starts where neither sees the hand
+        cut = _cut(t, y, u, carts, found, stop_s)
+    return cut
+
+
+def check_input(u: FloatArray | None, n: int) -> FloatArray | None:
+    """A force input `u` (N,) or (N, m) as (N, m), checked against `n` samples; None stays None."""
+    if u is None:
+        return None
+    u_arr = np.asarray(u, dtype=np.float64)
+    u_arr = u_arr.reshape(u_arr.shape[0], -1) if u_arr.ndim else u_arr.reshape(1, 1)
+    if u_arr.shape[0] != n:
+        raise IdentDimensionError("u", f"{n} input samples (one per time)", u_arr.shape[0])
+    if not np.all(np.isfinite(u_arr)):
+        raise IdentValueError("u", "finite input values", "NaN or inf")
+    return u_arr
+
+
+#: The window's scan and `ident.releases` agree on a release this many samples apart (the scan's
+#: window then starts its own margin after it, `window._from`).
+RELEASE_AGREE = 2.0
+
+
+@dataclass(frozen=True)
+class Stretch:
+    """The stretch diagnosed: times, every column, the input, the cart count, the fitted columns,
+    a held cart's column and the release window."""
+
+    t: FloatArray
+    y_all: FloatArray
+    u: FloatArray | None
+    carts: int
+    y: FloatArray
+    other: int | None
+    win: Window
+
+
+def _cut(t: FloatArray, y: FloatArray, u: FloatArray | None, carts: int | None, start_s: float | None,
+         stop_s: float | None) -> Stretch:
+    """The record cut to [`start_s`, `stop_s`] (a start given: the hand let go there), its
+    carts (`_free_carts` unless given) and release window."""
+    keep = _kept(t, start_s, stop_s)
+    t_k, y_k = t[keep], y[keep]
+    u_k = None if u is None else u[keep]
+    n = carts or _free_carts(y_k)
+    fitted, other = _select_outputs(y_k, n)
+    return Stretch(t_k, y_k, u_k, n, fitted, other, _window(t_k, fitted, n, u_k, start_s is not None))
+
+
+def _first_release(t: FloatArray, y: FloatArray) -> tuple[float | None, float | None]:
+    """(release, end) s of the first complete release `ident.releases` finds in the record
+    (else its first); (None, None) when it finds none, or one too short to diagnose. The
+    window's own scan had dated generated flicks of a cart carrying a sprung mass 100-135 ms
+    before the hand let go (the fit starting in the push, 70-94 % for a 98.9-99.8 % floor),
+    where `ident releases` dates them 3-23 ms off; it dates 10 of 46 other generated flicks
+    4-67 samples early where the scan is within 3. So for one cart the later of the two is taken: a
+    fit that starts a little after the let-go loses a few samples, one that starts in the push
+    fits it. Not for a chain: `ident.releases` models each measured cart as one free cart, and
+    two carts read through one encoder (two modes in one column) it dated up to 47 samples late
+    on generated runs that the scan dates within one."""
+    from ident.releases import FIRST_COMPLETE, choose, find_releases
+
+    releases = find_releases(t, y)
+    if not releases:
+        return None, None
+    release = choose(releases, FIRST_COMPLETE)
+    inside = np.count_nonzero((t >= release.release_time_s) & (t <= release.end_time_s))
+    if inside < MIN_RELEASE_SAMPLES:
+        return None, None
+    return release.release_time_s, release.end_time_s
+
+
+def _kept(t: FloatArray, start_s: float | None, stop_s: float | None) -> NDArray[np.bool_]:
+    keep = np.ones(t.size, dtype=bool)
+    if start_s is not None:
+        keep &= t >= start_s
+    if stop_s is not None:
+        keep &= t <= stop_s
+    if keep.sum() < MIN_RELEASE_SAMPLES:
+        raise IdentValueError("window", f"at least {MIN_RELEASE_SAMPLES} samples between start and stop",
+                              f"{int(keep.sum())} samples in [{start_s}, {stop_s}] s")
+    return keep
+
+
+def _window(t: FloatArray, y: FloatArray, carts: int, u: FloatArray | None, released_at_start: bool) -> Window:
+    """The release window; with a force input the whole record (the input drives the motion)."""
+    if u is None:
+        return find_window(t, y, carts, released_at_start)
+    hold, noise, _ = hold_level(y)
+    moved = np.flatnonzero(np.any(np.abs(u - u[0]) > 0, axis=1))
+    release = float(t[moved[0]]) if moved.size else float(t[0])
+    decimation = max(1, int(np.ceil(t.size / MAX_WORK_SAMPLES)))
+    return Window(0, decimation, hold, noise, release, float("nan"))
+
+
+def moving(y: FloatArray, carts: int | None) -> Outputs:
+    """`y`'s columns that move (`ident.diagnose.still`); a `y` of a wrong shape is passed on
+    whole, for `check` to refuse."""
+    y_arr = np.asarray(y, dtype=np.float64)
+    y_arr = y_arr[:, None] if y_arr.ndim == 1 else y_arr
+    if y_arr.ndim != 2:
+        return Outputs(y_arr, (), {})
+    return moving_outputs(y_arr, carts)
+
+
+def check(t: FloatArray, y: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """`t` (N,) and `y` as (N, k): finite, at least 50 samples, on a uniform increasing grid."""
+    t_arr = np.asarray(t, dtype=np.float64)
+    y_arr = np.asarray(y, dtype=np.float64)
+    if y_arr.ndim == 1:
+        y_arr = y_arr[:, None]
+    if t_arr.ndim != 1 or y_arr.ndim != 2 or y_arr.shape[0] != t_arr.shape[0]:
+        raise IdentDimensionError("t, y", "t (N,) and y (N,) or (N, n_out)",
+                                  f"t {t_arr.shape}, y {y_arr.shape}")
+    if t_arr.size < 50:
+        raise IdentValueError("run length", "at least 50 samples", t_arr.size)
+    if not (np.all(np.isfinite(t_arr)) and np.all(np.isfinite(y_arr))):
+        raise IdentValueError("t, y", "finite values", "NaN or inf")
+    dt = np.diff(t_arr)
+    if np.any(dt <= 0) or np.ptp(dt) > 0.01 * float(np.median(dt)):
+        raise IdentValueError("time steps", "a uniform increasing grid (use ident.make_uniform)",
+                              f"steps from {dt.min():.6g} to {dt.max():.6g} s")
+    return t_arr, y_arr
+
+
+def _free_carts(y: FloatArray) -> int:
+    """Carts to fit when the caller does not say: the columns of `y` (N, n_out) that swing at
+    least `HELD_FRACTION` of the largest swing, at most two (as `_select_outputs` tells a held
+    cart; a held cart that wanders by a millimetre had been fitted as a chain's free cart: the
+    real 2025 hand releases through the API at 47-59 %)."""
+    swing = np.ptp(y, axis=0)
+    return min(int(np.count_nonzero(swing >= HELD_FRACTION * float(np.max(swing)))), 2)
+
+
+def _select_outputs(y: FloatArray, carts: int) -> tuple[FloatArray, int | None]:
+    """The outputs to fit, and the column of a held cart (one-cart fits of two columns).
+    Two carts with one column: the chain read through cart 1's encoder."""
+    if carts not in (1, 2):
+        raise IdentValueError("carts", "1 or 2", carts)
+    if carts == 2 and y.shape[1] == 1:
+        return y, None                 # two carts through cart 1's encoder
+    if y.shape[1] < carts:
+        raise IdentDimensionError("positions", f"{carts} position columns", y.shape[1])
+    if carts == 1 and y.shape[1] > 1:
+        swing = np.ptp(y, axis=0)
+        main = int(np.argmax(swing))
+        others = [j for j in range(y.shape[1]) if j != main and 0 < swing[j] < HELD_FRACTION * swing[main]]
+        other = max(others, key=lambda j: swing[j]) if others else None
+        return y[:, [main]], other
+    return y[:, :carts], None
+
+
+__all__ = ["RELEASE_AGREE", "Stretch", "check", "check_input", "moving", "release_stretch"]
