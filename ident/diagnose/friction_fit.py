@@ -359,6 +359,10 @@ def fit_static_friction(spec: ModelSpec, prob: Problem, theta0: FloatArray, lowe
             row = ratios.copy()
             row[i] = max(1.0, ratios[i] * k)
             steps.append(row)
+    if "held_cart_motion" in spec.effects:   # every step fitted, as every grid row (above)
+        tried = [fit(spec, row, lower, upper, typical, prob.dt, prob.y, prob.train, max_nfev=max_nfev)
+                 for row in ranked_rows(spec, prob, best.theta, block, steps, len(steps))]
+        return min([best, *tried], key=lambda r: r.sse_train)
     moved = ranked_rows(spec, prob, best.theta, block, [ratios, *steps], 1)[0]
     if np.array_equal(moved[block], ratios):
         return best

@@ -100,8 +100,8 @@ def diagnose(t: FloatArray, y: FloatArray, carts: int | None = None, step_m: flo
     (N, m) a measured force input (any unit), `start_s`/`stop_s` the stretch to use (a
     release window on the run's time base, `start_s` its release as `ident.releases` dates
     it: the fit starts there; by default, without a force input, the first complete release
-    `ident.releases` finds, as `ident diagnose` takes on a raw record, dated by this window's
-    scan (`window.find_window`), for one cart from the later of the two). `carts`
+    `ident.releases` finds, up to the next release, dated by the window's scan
+    (`window.find_window`), for one cart from the later of the two; `stretch.release_stretch`). `carts`
     (1 or 2) by default counts the columns that swing at least `HELD_FRACTION` of the largest:
     a cart that moves less is held (by a hand that wanders) and enters as measured input."""
     started = time.perf_counter()

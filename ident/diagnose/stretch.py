@@ -19,8 +19,9 @@ FloatArray = NDArray[np.float64]
 def release_stretch(t: FloatArray, y: FloatArray, u: FloatArray | None, carts: int | None,
                     start_s: float | None, stop_s: float | None) -> Stretch:
     """`t` (N,), `y` (N, k) cut to [`start_s`, `stop_s`] (`diagnose`'s arguments), or by default,
-    without a force input `u`, to the first complete release `ident.releases` finds, dated by
-    the window's scan and, for one cart, from the later of the two instants (`_first_release`)."""
+    without a force input `u`, to the first complete release `ident.releases` finds (up to the
+    next release), dated by the window's scan and, for one cart, from the later of the two
+    instants (`_first_release`)."""
     found = None
     if start_s is None and stop_s is None and u is None:
         found, stop_s = _first_release(t, y)
@@ -78,7 +79,10 @@ def _cut(t: FloatArray, y: FloatArray, u: FloatArray | None, carts: int | None, 
 
 def _first_release(t: FloatArray, y: FloatArray) -> tuple[float | None, float | None]:
     """(release, end) s of the first complete release `ident.releases` finds in the record
-    (else its first); (None, None) when it finds none, or one too short to diagnose. The
+    (else its first), the end None unless the next release ends it: a touch of the held cart
+    is its measured motion, an input the diagnosis takes (ended there, generated held-cart runs
+    lost the breakaways a wandering hand causes after the cart stuck: Coulomb + held cart seed
+    2086437318 named only a mode); (None, None) when it finds none, or one too short to diagnose. The
     window's own scan had dated generated flicks of a cart carrying a sprung mass 100-135 ms
     before the hand let go (the fit starting in the push, 70-94 % for a 98.9-99.8 % floor),
     where `ident releases` dates them 3-23 ms off; it dates 10 of 46 other generated flicks
@@ -96,7 +100,7 @@ def _first_release(t: FloatArray, y: FloatArray) -> tuple[float | None, float | 
     inside = np.count_nonzero((t >= release.release_time_s) & (t <= release.end_time_s))
     if inside < MIN_RELEASE_SAMPLES:
         return None, None
-    return release.release_time_s, release.end_time_s
+    return release.release_time_s, (release.end_time_s if release.ended_by == "release" else None)
 
 
 def _kept(t: FloatArray, start_s: float | None, stop_s: float | None) -> NDArray[np.bool_]:

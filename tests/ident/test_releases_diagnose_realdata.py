@@ -112,9 +112,9 @@ def test_a_real_release_diagnosed_the_same_from_any_time_origin_or_pull_directio
 @pytest.mark.parametrize("name", ["14-Feb-2025_09_22_43.txt", "14-Feb-2025_09_44_21.txt"])
 def test_the_api_on_a_whole_real_record_fits_its_first_complete_release(realdata_dir: Path, name: str) -> None:
     """`ident.diagnose.diagnose(t, y)` on a whole record, as a notebook would call it: the first
-    complete release that `ident releases` finds, to the end of its free response (the window's
-    own scan had fitted the record's several releases and the held cart's handling as one
-    response: 19.9 and 50.9 %)."""
+    complete release that `ident releases` finds, to the next release (the window's own scan had
+    fitted the record's several releases and the held cart's handling as one response: 19.9 and
+    50.9 %)."""
     import numpy as np
 
     from ident.data import IdData, make_uniform
@@ -131,6 +131,7 @@ def test_the_api_on_a_whole_real_record_fits_its_first_complete_release(realdata
     report = diagnose(data.t, data.y).report
     assert report.carts == 1
     assert report.release_time_s >= release.release_time_s - 1e-9
-    assert report.window_end_s <= release.end_time_s + 1e-9
-    assert report.effects[0].effect == "coulomb_friction"
+    if release.ended_by == "release":
+        assert report.window_end_s <= release.end_time_s + 1e-9
+    assert "coulomb_friction" in {e.effect for e in report.effects}
     assert report.extended.fit_percent >= 97.5
