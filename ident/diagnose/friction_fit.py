@@ -326,8 +326,9 @@ def fit_static_friction(spec: ModelSpec, prob: Problem, theta0: FloatArray, lowe
     first, and from them the fit ended with β 45 % off (at 4.3e-6 m² where the truth's basin
     has 3.9e-7). So one cart also fits the current model where it rings freely (the peaks down
     to 30 % of the first, `_large_amplitude_samples`), which the breakaway hardly touches, and
-    ranks the grid from that fit; and with β in the model every grid row is fitted. On 40
-    generated Coulomb + held-cart runs (seed 45) β and the friction within 5 %: 31 -> 37.
+    ranks the grid from that fit; and with β in the model every grid row and every step is
+    fitted. On 40 generated Coulomb + held-cart runs (seed 45) β and the friction within 5 %:
+    31 -> 38.
     """
     block = spec.block("static_friction")
     rows = static_rows(prob.carts)
