@@ -51,9 +51,7 @@ def _costs(spec: ModelSpec, prob: Problem, rows: FloatArray) -> FloatArray:
 def best_rows(spec: ModelSpec, prob: Problem, theta: FloatArray, where: slice,
               values: list[FloatArray]) -> FloatArray:
     """`theta` with the block `where` set to the candidate of least cost (one batch)."""
-    rows = np.repeat(theta[None, :], len(values), axis=0)
-    for k, v in enumerate(values):
-        rows[k, where] = v
+    rows = np.array(_block_set(theta, where, values))
     return np.asarray(rows[int(np.argmin(_costs(spec, prob, rows)))], dtype=np.float64)
 
 

@@ -21,7 +21,14 @@ def release_stretch(t: FloatArray, y: FloatArray, u: FloatArray | None, carts: i
     """`t` (N,), `y` (N, k) cut to [`start_s`, `stop_s`] (`diagnose`'s arguments), or by default,
     without a force input `u`, to the first complete release `ident.releases` finds (up to the
     next release), dated by the window's scan and, for one cart, from the later of the two
-    instants (`_first_release`)."""
+    instants. The window's own scan had dated generated flicks of a cart carrying a sprung mass
+    100-135 ms before the hand let go (the fit starting in the push, 70-94 % for a 98.9-99.8 %
+    floor), where `ident releases` dates them 3-23 ms off; that dates 10 of 46 other generated
+    flicks 4-67 samples early where the scan is within 3. So for one cart the later of the two
+    is taken: a fit that starts a little after the let-go loses a few samples, one that starts
+    in the push fits it. Not for a chain: `ident.releases` models each measured cart as one
+    free cart, and two carts read through one encoder (two modes in one column) it dated up to
+    47 samples late on generated runs that the scan dates within one."""
     found = None
     if start_s is None and stop_s is None and u is None:
         found, stop_s = _first_release(t, y)
@@ -82,15 +89,8 @@ def _first_release(t: FloatArray, y: FloatArray) -> tuple[float | None, float | 
     (else its first), the end None unless the next release ends it: a touch of the held cart
     is its measured motion, an input the diagnosis takes (ended there, generated held-cart runs
     lost the breakaways a wandering hand causes after the cart stuck: Coulomb + held cart seed
-    2086437318 named only a mode); (None, None) when it finds none, or one too short to diagnose. The
-    window's own scan had dated generated flicks of a cart carrying a sprung mass 100-135 ms
-    before the hand let go (the fit starting in the push, 70-94 % for a 98.9-99.8 % floor),
-    where `ident releases` dates them 3-23 ms off; it dates 10 of 46 other generated flicks
-    4-67 samples early where the scan is within 3. So for one cart the later of the two is taken: a
-    fit that starts a little after the let-go loses a few samples, one that starts in the push
-    fits it. Not for a chain: `ident.releases` models each measured cart as one free cart, and
-    two carts read through one encoder (two modes in one column) it dated up to 47 samples late
-    on generated runs that the scan dates within one."""
+    2086437318 named only a mode); (None, None) when it finds none, or one too short to
+    diagnose."""
     from ident.releases import FIRST_COMPLETE, choose, find_releases
 
     releases = find_releases(t, y)
