@@ -52,9 +52,13 @@ HAND_WINDOW = 0.2
 HAND_LOOKBACK_S = 0.025
 FREE_MIN_SAMPLES = 16
 # the largest share of a cart's stiffness the coupling spring to the other cart may have in
-# `driven_by_other` (1 when all of it: 1.25 leaves room for a spring fitted on a short window)
+# `fits_across` (1 when all of it: 1.25 leaves room for a spring fitted on a short window)
 MAX_COUPLING_SHARE = 1.25
-# ... and the other carts' motion must take the misfit of a free response below this fraction
+# a ringing is driven by the other cart when its free response driven by the other's measured
+# motion fits across the release within DRIVEN_FIT times the ringing's own residual, and the
+# other's motion takes the misfit of the free response alone below DRIVEN_EXPLAINS of it (a
+# real 2025 flick, gently let go, fits 3.4 times its residual with it or without)
+DRIVEN_FIT = 4.0
 DRIVEN_EXPLAINS = 0.5
 
 
@@ -209,9 +213,13 @@ def date_ringing(s: Samples, t_now: float, channel: int, turns: tuple[Turn, Turn
     if date is None or date.t0_s - first_t < too_early:
         return Rejected(t_now, 0.0, "ringing: in motion since the stream started (no release seen)"
                         if t[0] <= first_t else "ringing: no release in view (it rang before)")
-    others = np.delete(s.pos, channel, axis=1)
-    if others.shape[1] and driven_by_other(t, y, others, date, half, max(free.rms_m, 0.0003 * s2)):
+    ref = max(free.rms_m, 0.0003 * s2)
+    driven, alone = fits_across(t, y, np.delete(s.pos, channel, axis=1), date, half)
+    if driven <= DRIVEN_FIT * ref and driven <= DRIVEN_EXPLAINS * alone:
         return Rejected(t_now, 0.0, "ringing: the other cart moved this one (no hand on it)")
+    if alone <= DRIVEN_FIT * ref and date.t0_s - 2.0 * half < first_t:
+        # no hand in the half-period before t0, and nothing of the stream before that half-period
+        return Rejected(t_now, 0.0, "ringing: in motion since the stream started (no hand seen)")
     k0 = int(np.searchsorted(t, date.t0_s))
     x0 = y[min(k0, y.size - 1)]
     away = np.flatnonzero(np.abs(y[k0:] - x0) > settings.fire_m)
@@ -236,46 +244,42 @@ def date_ringing_release(s: Samples, t_now: float, channel: int, turns: tuple[Tu
 
 
 # --- driven by the other cart ---------------------------------------------------------------
-def driven_by_other(t: Array, y: Array, others: Array, date: ReleaseDate, half_s: float, ref_m: float) -> bool:
-    """True when the cart's motion from a half-period before `date.t0_s` to 1.5 half-periods after
-    is its free response driven through the coupling spring by the other carts' measured motion
-    (`others` (N,) or (N, K) m): a hand that moved the held cart, not one that let this one go.
+def fits_across(t: Array, y: Array, others: Array, date: ReleaseDate, half_s: float) -> tuple[float, float]:
+    """RMS (m) of a free response fitted across the release, from a half-period before
+    `date.t0_s` to 1.5 half-periods after: driven through the coupling spring by the other carts'
+    measured motion (`others` (N, K) m, K may be 0), and alone. A released cart was held or
+    swung by the hand before t0: no free response, however driven, follows it there, and both
+    stay far above the ringing's own residual; a cart that a hand moving the held cart drove
+    fits driven (`date_ringing` judges both against `DRIVEN_FIT` times that residual).
 
     The free cart obeys `x'' + 2σ x' + (σ² + ω²)(x - c - dτ) = Σ κ_k u_k(t) - μ sign(x')`, u_k the
     other carts' positions; each forced response `r_k` (from rest at the window's start,
     `forced_response`) joins the free model's columns with its own κ_k, the dry friction's with
     the signs of the cart's measured motion, and σ, ω are fitted again over the window (the
     ringing's, fitted later, left a touch of the held cart at 7-12 times the ringing's residual
-    on a simulated student's record: a 1 % error in ω over a 13 mm forced swing). A released cart
-    was held or swung by the hand before t0: no free response, however driven, follows it
-    there, and the fit stays far above the ringing's own residual `ref_m` (m); a driven one fits
-    within four times it (on simulated and red-team records: released 12-250 times, driven 0.7-2.8
-    times).
+    on a simulated student's record: a 1 % error in ω over a 13 mm forced swing). Each κ_k / Ω²
+    is the coupling spring's share of the cart's stiffness, between 0 and `MAX_COUPLING_SHARE`
+    (unbounded, the held cart's measured motion with a share of -51 mimicked the hand that
+    flicked this one on a real ECP-210 record). Released carts fitted 12-250 times the
+    ringing's residual driven, driven ones 0.7-2.8 times (simulated and red-team records).
     """
     keep = (t >= date.t0_s - half_s) & (t <= date.t0_s + 1.5 * half_s)
     n = int(np.count_nonzero(keep))
     if n < 12:
-        return False
+        return math.inf, math.inf
     tw, yw, vw = _even_clock(t[keep]), y[keep], motion_sign(t, y)[keep]
     u = others[keep].reshape(n, -1)
     t_ref = date.free.t_ref
 
-    # each κ_k / Ω² is the coupling spring's share of the cart's stiffness: between 0 and 1
-    # (a little over, for σ and ω fitted on a short window); unbounded, the held cart's measured
-    # motion with a share of -51 mimicked the hand that flicked this one (a real ECP-210 flick)
-    shares = (np.zeros(u.shape[1]), np.full(u.shape[1], MAX_COUPLING_SHARE))
+    def rms(k: int) -> float:
+        bounds = (np.r_[np.full(5, -np.inf), np.zeros(k)], np.r_[np.full(5, np.inf), np.full(k, MAX_COUPLING_SHARE)])
 
-    def rms(forced: bool) -> float:
         def residual(p: Array) -> Array:
             sigma, omega = float(p[0]), float(p[1])
             g1, g2, _, _ = basis(tw, t_ref, sigma, omega)
             columns = [np.ones_like(tw), tw - t_ref, friction_response(tw, vw, sigma, omega), g1, g2]
-            if forced:
-                columns += [forced_response(tw, u[:, k] - u[0, k], sigma, omega) for k in range(u.shape[1])]
-            free_inf = np.full(5, np.inf)
-            lower = np.r_[-free_inf, shares[0]] if forced else -free_inf
-            upper = np.r_[free_inf, shares[1]] if forced else free_inf
-            out: Array = lsq_linear(np.stack(columns, axis=1), yw, bounds=(lower, upper)).fun
+            columns += [forced_response(tw, u[:, j] - u[0, j], sigma, omega) for j in range(k)]
+            out: Array = lsq_linear(np.stack(columns, axis=1), yw, bounds=bounds).fun
             return out
 
         sigma0, omega0 = date.free.sigma, date.free.omega
@@ -283,10 +287,8 @@ def driven_by_other(t: Array, y: Array, others: Array, date: ReleaseDate, half_s
                                bounds=([0.0, 0.8 * omega0], [max(5.0 * sigma0, 2.0), 1.2 * omega0]))
         return float(np.sqrt(np.mean(fitted.fun ** 2)))
 
-    # driven: the other carts' motion explains most of what a free response misses (the 2025
-    # rig's third flick of a record, gently let go, fits 3.4 times its residual with it or without)
-    driven = rms(forced=True)
-    return driven <= 4.0 * ref_m and driven <= DRIVEN_EXPLAINS * rms(forced=False)
+    alone = rms(0)
+    return (rms(u.shape[1]) if u.shape[1] else alone), alone
 
 
 # --- the joined model -------------------------------------------------------------------------

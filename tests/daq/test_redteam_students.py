@@ -29,7 +29,7 @@ def cases10() -> ModuleType:
 
 
 @pytest.mark.parametrize(("seed", "rate"), [(s, None) for s in range(9)] + [(s, "50") for s in range(220, 227)]
-                         + [(1006, None)])
+                         + [(1006, None), (1315, None)])
 def test_every_release_of_a_red_team_student_is_dated_within_20_ms(cases10: ModuleType, seed: int,
                                                                      rate: str | None) -> None:
     """Seeds 220-226 at 50 Hz (the red team's batch 5): springs up to 40 rad/s leave 4 samples a
@@ -39,7 +39,9 @@ def test_every_release_of_a_red_team_student_is_dated_within_20_ms(cases10: Modu
     go where the hand's acceleration nearly equals the spring's (a 2.8 m/s² jump, 0.6 mm in a
     20 ms sample) is dated 33 ms early. Seed 1006 (50 Hz, drawn 2026-11-28): a ring so fast that
     the first quarter of its half-period held no sample crashed the dating (and `daq run` with
-    it, every later release of the record lost)."""
+    it, every later release of the record lost). Seed 1315 (100 Hz, drawn 2026-11-29): a record
+    that starts in a swing of two coupled carts, whose free response fits across the instant
+    the joined model dated 0.11 s in; with no stream before that half-period, not a release."""
     record = cases10.make_record(seed, rate=rate)
     t = np.asarray(record.t, dtype=np.float64)
     t = t / 1000.0 if record.t.dtype.kind in "iu" else t     # the ECP clock counts whole ms
