@@ -72,6 +72,24 @@ def _estimate(report: Any, name: str) -> float | None:
     return None
 
 
+def _std(report: Any, name: str) -> float | None:
+    owner = OWNER.get(name)
+    for fit in accepted(report):
+        if fit.effect == owner and name in getattr(fit, "parameter_std", {}):
+            return float(fit.parameter_std[name])
+    return None
+
+
+def parameter_sigmas(case: Case, report: Any) -> dict[str, float]:
+    """Per parameter of the truth, |estimate - truth| in the report's own 1-sigma uncertainty
+    (`parameter_std`); inf where the report gives no estimate or no uncertainty."""
+    out = {}
+    for name, value in case.truth.parameters.items():
+        got, std = _estimate(report, name), _std(report, name)
+        out[name] = float("inf") if got is None or not std else abs(got - value) / std
+    return out
+
+
 def parameter_errors(case: Case, report: Any) -> dict[str, float]:
     truth = case.truth.parameters
     frictions = [abs(v) for k, v in {**case.truth.details, **truth}.items() if k.startswith("coulomb_accel")]
