@@ -89,15 +89,20 @@ def test_two_minutes_of_handling_make_no_run(rate_hz: int) -> None:
     assert detect(stream) == []
 
 
+def _every_release_once(rate_hz: int, seed: int, releases: int) -> None:
+    """A student record's `releases` releases each recorded once, and nothing else."""
+    stream, truth = samples(f"sim://?realtime=0&rate_hz={rate_hz}&student=releases&seed={seed}")
+    tally = Tally()
+    tally.add(truth, detect(stream), 0.25, f"seed={seed}")
+    assert tally.releases == releases
+    assert tally.recorded == releases and tally.false_runs == 0, (tally.misses, tally.false)
+
+
 def test_a_record_that_starts_in_motion_makes_no_run_before_its_first_release() -> None:
     # seed 50137 at 50 Hz starts in a swing whose joined fit lands just inside the first
     # half-period (its slid-back start just outside): it was taken for a release, and the run it
     # opened hid the record's two real releases
-    stream, truth = samples("sim://?realtime=0&rate_hz=50&student=releases&seed=50137")
-    tally = Tally()
-    tally.add(truth, detect(stream), 0.25, "seed=50137")
-    assert tally.releases == 2
-    assert tally.recorded == 2 and tally.false_runs == 0, (tally.misses, tally.false)
+    _every_release_once(50, 50137, 2)
 
 
 def test_a_touch_of_the_held_cart_that_swings_the_ringing_one_makes_no_second_run() -> None:
@@ -105,8 +110,4 @@ def test_a_touch_of_the_held_cart_that_swings_the_ringing_one_makes_no_second_ru
     # while cart 2 still rings by 20 mm; cart 2's swing grows (the run ends, "handled"), and its
     # ringing was dated as a release at the touch: the driven model's spring, taken from the
     # ringing a period on, left 7-12 times its residual (the bench's one false run)
-    stream, truth = samples("sim://?realtime=0&rate_hz=100&student=releases&seed=100152")
-    tally = Tally()
-    tally.add(truth, detect(stream), 0.25, "seed=100152")
-    assert tally.releases == 1
-    assert tally.recorded == 1 and tally.false_runs == 0, (tally.misses, tally.false)
+    _every_release_once(100, 100152, 1)
