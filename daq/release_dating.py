@@ -285,8 +285,11 @@ def fits_across(t: Array, y: Array, others: Array, date: ReleaseDate, half_s: fl
             return out
 
         sigma0, omega0 = date.free.sigma, date.free.omega
-        fitted = least_squares(residual, np.array([sigma0, omega0]), max_nfev=40,
-                               bounds=([0.0, 0.8 * omega0], [max(5.0 * sigma0, 2.0), 1.2 * omega0]))
+        try:
+            fitted = least_squares(residual, np.array([sigma0, omega0]), max_nfev=40,
+                                   bounds=([0.0, 0.8 * omega0], [max(5.0 * sigma0, 2.0), 1.2 * omega0]))
+        except (ValueError, np.linalg.LinAlgError):
+            return math.inf     # no fit: neither driven nor a swing that was going on
         return float(np.sqrt(np.mean(fitted.fun ** 2)))
 
     alone = rms(0)
