@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -11,7 +12,7 @@ from numpy.typing import NDArray
 from ident.diagnose.still import Outputs, moving_outputs
 from ident.diagnose.window import MAX_WORK_SAMPLES, MIN_RELEASE_SAMPLES, Window, find_window, hold_level
 from ident.errors import IdentDimensionError, IdentValueError
-from ident.releases.record import HELD_FRACTION
+from ident.releases.record import HELD_FRACTION, Release
 
 FloatArray = NDArray[np.float64]
 
@@ -28,16 +29,43 @@ def release_stretch(t: FloatArray, y: FloatArray, u: FloatArray | None, carts: i
     is taken: a fit that starts a little after the let-go loses a few samples, one that starts
     in the push fits it. Not for a chain: `ident.releases` models each measured cart as one
     free cart, and two carts read through one encoder (two modes in one column) it dated up to
-    47 samples late on generated runs that the scan dates within one."""
+    47 samples late on generated runs that the scan dates within one. From a still hold
+    (`_from_hold`; one cart, or a chain read cart by cart) the motion's onset is the release:
+    `ident releases` dates it within a sample where the scan dated generated Coulomb holds up to
+    72 samples late, and its instant is taken."""
     found = None
     if start_s is None and stop_s is None and u is None:
         found, stop_s = _first_release(t, y)
     cut = _cut(t, y, u, carts, start_s, stop_s)
+    if found is None or cut.y.shape[1] < cut.carts:
+        return cut      # a chain read through one encoder: the scan's instant
     agree = RELEASE_AGREE * float(t[1] - t[0])
-    if cut.carts == 1 and found is not None and cut.win.release_time_s < found - agree:
-        # one cart dated by the scan before `ident releases` dates it: the fit starts where neither sees the hand
-        cut = _cut(t, y, u, carts, found, stop_s)
+    scan, instant = cut.win.release_time_s, found.release_time_s
+    pulled = cut.y_all[:, min(found.pulled_cart, cut.y_all.shape[1]) - 1]
+    early = cut.carts == 1 and scan < instant - agree
+    if early or (scan > instant + agree and _from_hold(cut.t, pulled, found)):
+        # the fit starts where `ident releases` dates the release: for one cart after the scan's
+        # instant, and at a still hold's onset, which the scan dates late
+        cut = _cut(t, y, u, carts, instant, stop_s)
     return cut
+
+
+#: A release is from a still hold when the cart moved less than this share of its first free
+#: swing in the quarter period before it (a hand's tremor: under 0.5 %; a flick's push: 30-100 %).
+HOLD_STILL = 0.05
+
+
+def _from_hold(t: FloatArray, y: FloatArray, release: Release) -> bool:
+    """Whether the cart (`y` (N,)) was held still before `release`: its span over the quarter
+    period before it under `HOLD_STILL` of its span over the half-period after."""
+    instant, period = release.release_time_s, release.period_s
+    if not np.isfinite(period) or period <= 0:
+        return False
+    before = y[(t >= instant - 0.25 * period) & (t < instant)]
+    after = y[(t >= instant) & (t <= instant + 0.5 * period)]
+    if before.size < 3 or after.size < 3:
+        return False
+    return float(np.ptp(before)) < HOLD_STILL * float(np.ptp(after))
 
 
 def check_input(u: FloatArray | None, n: int) -> FloatArray | None:
@@ -74,21 +102,25 @@ class Stretch:
 
 def _cut(t: FloatArray, y: FloatArray, u: FloatArray | None, carts: int | None, start_s: float | None,
          stop_s: float | None) -> Stretch:
-    """The record cut to [`start_s`, `stop_s`] (a start given: the hand let go there), its
-    carts (`_free_carts` unless given) and release window."""
+    """The record cut to [`start_s`, `stop_s`] (a start given: the hand let go there, the
+    release reported at that instant), its carts (`_free_carts` unless given) and release
+    window."""
     keep = _kept(t, start_s, stop_s)
     t_k, y_k = t[keep], y[keep]
     u_k = None if u is None else u[keep]
     n = carts or _free_carts(y_k)
     fitted, other = _select_outputs(y_k, n)
-    return Stretch(t_k, y_k, u_k, n, fitted, other, _window(t_k, fitted, n, u_k, start_s is not None))
+    win = _window(t_k, fitted, n, u_k, start_s is not None)
+    if start_s is not None and u is None:   # the instant itself, not the first sample after it
+        win = dataclasses.replace(win, release_time_s=max(start_s, float(t[0])))
+    return Stretch(t_k, y_k, u_k, n, fitted, other, win)
 
 
-def _first_release(t: FloatArray, y: FloatArray) -> tuple[float | None, float | None]:
-    """(release, end) s of the first complete release `ident.releases` finds in the record
-    (else its first), the end None unless the next release ends it: a touch of the held cart
-    is its measured motion, an input the diagnosis takes (ended there, generated held-cart runs
-    lost the breakaways a wandering hand causes after the cart stuck: Coulomb + held cart seed
+def _first_release(t: FloatArray, y: FloatArray) -> tuple[Release | None, float | None]:
+    """The first complete release `ident.releases` finds in the record (else its first) and
+    the window's end (s), None unless the next release ends it: a touch of the held cart is its
+    measured motion, an input the diagnosis takes (ended there, generated held-cart runs lost
+    the breakaways a wandering hand causes after the cart stuck: Coulomb + held cart seed
     2086437318 named only a mode); (None, None) when it finds none, or one too short to
     diagnose."""
     from ident.releases import FIRST_COMPLETE, choose, find_releases
@@ -100,7 +132,7 @@ def _first_release(t: FloatArray, y: FloatArray) -> tuple[float | None, float | 
     inside = np.count_nonzero((t >= release.release_time_s) & (t <= release.end_time_s))
     if inside < MIN_RELEASE_SAMPLES:
         return None, None
-    return release.release_time_s, (release.end_time_s if release.ended_by == "release" else None)
+    return release, (release.end_time_s if release.ended_by == "release" else None)
 
 
 def _kept(t: FloatArray, start_s: float | None, stop_s: float | None) -> NDArray[np.bool_]:
