@@ -123,3 +123,15 @@ def test_the_subset_spans_one_and_two_carts_holds_and_flicks() -> None:
     assert {c.observed.carts for c in cases} == {1, 2}
     assert {c.truth.release for c in cases} == {"hold", "flick"}
     assert {c.truth.family for c in cases} == set(FAMILIES) and set(PAIRS) <= set(FAMILIES)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("seed", [433647530, 776616176])
+def test_a_release_from_a_still_hold_is_dated_where_the_cart_leaves_it(seed: int) -> None:
+    # bench_diagnose --seed 45, coulomb_friction cases 4 and 16 (two carts at 411 Hz, one cart at
+    # 131 Hz, both released from a still hold): the window's scan dated them 71.6 and 6.4 samples
+    # late, and the API took its later instant; `ident releases` dates the hold's onset
+    case = make_case(seed, "coulomb_friction")
+    report = _run(case)
+    assert judge(case, report).right
+    assert abs(report.release_time_s - case.truth.release_time_s) * case.truth.rate_hz <= 1.0
