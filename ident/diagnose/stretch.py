@@ -51,7 +51,8 @@ def release_stretch(t: FloatArray, y: FloatArray, u: FloatArray | None, carts: i
 
 
 #: A release is from a still hold when the cart moved less than this share of its first free
-#: swing in the quarter period before it (a hand's tremor: under 0.5 %; a flick's push: 30-100 %).
+#: swing in the quarter period before it (the two generated holds above: 0.1 %; a flick's push
+#: moves the cart by much of its swing).
 HOLD_STILL = 0.05
 
 
