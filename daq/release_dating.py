@@ -189,7 +189,7 @@ def date_ringing(s: Samples, t_now: float, channel: int, turns: tuple[Turn, Turn
     t_from = b.t_s + 0.25 * half
     span = free_span(half, float(np.median(np.diff(t[-20:]))))
     window = (t >= t_from) & (t <= t_from + span)
-    vs = motion_sign(t, y)
+    signs = vs = motion_sign(t, y)
     free = fit_free(t[window], y[window], vs[window], sigma0, math.pi / half)
     linear = fit_free(t[window], y[window], 0.0 * vs[window], sigma0, math.pi / half)
     if linear is not None and (free is None or free.rms_m > 0.7 * linear.rms_m):
@@ -214,7 +214,7 @@ def date_ringing(s: Samples, t_now: float, channel: int, turns: tuple[Turn, Turn
         return Rejected(t_now, 0.0, "ringing: in motion since the stream started (no release seen)"
                         if t[0] <= first_t else "ringing: no release in view (it rang before)")
     ref = max(free.rms_m, 0.0003 * s2)
-    driven, alone = fits_across(t, y, np.delete(s.pos, channel, axis=1), date, half)
+    driven, alone = fits_across(t, y, signs, np.delete(s.pos, channel, axis=1), date, half)
     if driven <= DRIVEN_FIT * ref and driven <= DRIVEN_EXPLAINS * alone:
         return Rejected(t_now, 0.0, "ringing: the other cart moved this one (no hand on it)")
     if alone <= DRIVEN_FIT * ref and date.t0_s - 2.0 * half < first_t:
@@ -244,10 +244,12 @@ def date_ringing_release(s: Samples, t_now: float, channel: int, turns: tuple[Tu
 
 
 # --- driven by the other cart ---------------------------------------------------------------
-def fits_across(t: Array, y: Array, others: Array, date: ReleaseDate, half_s: float) -> tuple[float, float]:
+def fits_across(t: Array, y: Array, signs: Array, others: Array, date: ReleaseDate,
+                half_s: float) -> tuple[float, float]:
     """RMS (m) of a free response fitted across the release, from a half-period before
     `date.t0_s` to 1.5 half-periods after: driven through the coupling spring by the other carts'
-    measured motion (`others` (N, K) m, K may be 0), and alone. A released cart was held or
+    measured motion (`others` (N, K) m, K may be 0), and alone; `signs` (N,) are the signs of
+    the cart's measured velocity (`motion_sign`), for its dry friction. A released cart was held or
     swung by the hand before t0: no free response, however driven, follows it there, and both
     stay far above the ringing's own residual; a cart that a hand moving the held cart drove
     fits driven (`date_ringing` judges both against `DRIVEN_FIT` times that residual).
@@ -269,7 +271,7 @@ def fits_across(t: Array, y: Array, others: Array, date: ReleaseDate, half_s: fl
     n = int(np.count_nonzero(keep))
     if n < 12:
         return math.inf, math.inf
-    tw, yw, vw = _even_clock(t[keep]), y[keep], motion_sign(t, y)[keep]
+    tw, yw, vw = _even_clock(t[keep]), y[keep], signs[keep]
     u = others[keep].reshape(n, -1)
     t_ref = date.free.t_ref
 
