@@ -64,7 +64,7 @@ from daq.detector_events import (
     Settled,
 )
 from daq.onset import OnsetFit, fit_onset
-from daq.release_dating import Samples, date_ringing_release, fit_onset_at, free_span, redate_hold
+from daq.release_dating import Samples, date_ringing_release, fit_onset_at, free_span, redate_hold, spring_of_pull
 from daq.ringing import RingingLimits, Turn, Zigzag, is_ringing
 
 log = logging.getLogger(__name__)
@@ -256,7 +256,10 @@ class ReleaseDetector:
             self._restart_anchor(t_s, sample)
             return Rejected(t_s, accel, reason)
         assert fit is not None
-        t0 = redate_hold(samples, channel, hold, trigger_t, fit, self.settings)
+        rest = self._rest
+        pull = hold[channel] - rest[channel] if rest is not None and len(rest) == len(hold) else 0.0
+        fit, spring = spring_of_pull(samples, channel, hold, trigger_t, fit, pull, self.settings)
+        t0 = redate_hold(samples, channel, hold, trigger_t, fit, self.settings, spring)
         return self._release(Released(t0, trigger_t, t_s, channel, abs(fit.accel_m_s2), hold))
 
     def _release(self, release: Released) -> Released:

@@ -51,6 +51,9 @@ HAND_WINDOW = 0.2
 # date: a quarter of a 7-12 Hz tremor's cycle, over which a quadratic follows it
 HAND_LOOKBACK_S = 0.025
 FREE_MIN_SAMPLES = 16
+# ω from a pull's start acceleration, refitted this many times (`spring_of_pull`; the second
+# pass moves a 40 rad/s cart's date by 0.1 ms at 1 kHz, a third by less than 0.02)
+PULL_SPRING_PASSES = 2
 # the largest share of a cart's stiffness the coupling spring to the other cart may have in
 # `fits_across` (1 when all of it: 1.25 leaves room for a spring fitted on a short window)
 MAX_COUPLING_SHARE = 1.25
@@ -110,6 +113,32 @@ def fit_onset_at(s: Samples, channel: int, hold: tuple[float, ...], trigger_t: f
     y = s.pos[first:last, channel] - hold[channel]
     return fit_onset(t, y, settings.fit_powers, trigger_offset_s=trigger_t, spring=spring,
                      hand_motion=onset_t is not None)
+
+
+def spring_of_pull(s: Samples, channel: int, hold: tuple[float, ...], trigger_t: float, fit: OnsetFit,
+                   pull_m: float, settings: DetectorSettings) -> tuple[OnsetFit, tuple[float, float] | None]:
+    """The onset fit of a release from a hold pulled `pull_m` from the cart's rest, with the
+    spring's motion from rest (σ 0, ω² = a / |pull|) in place of τ², τ³ when it fits as well.
+
+    Over the fitted window a stiff spring turns (ωτ ≈ 2 at 40 rad/s and 50 ms) and τ², τ³
+    date the release late (1.1 ms for a 40 rad/s cart at 1 kHz); ω from the fitted start
+    acceleration and the pull, refitted `PULL_SPRING_PASSES` times, follows it. Dry friction
+    lowers that acceleration a little (ω a little low), a wrong rest a lot: the spring is kept
+    only when its fit is no worse than the polynomial's. Returns (the fit, the spring or None).
+    """
+    best, spring = fit, None
+    current = fit
+    for _ in range(PULL_SPRING_PASSES):
+        if not (current.accel_m_s2 != 0.0 and abs(pull_m) > settings.rest_margin_m):
+            break
+        omega = math.sqrt(abs(current.accel_m_s2) / abs(pull_m))
+        again = fit_onset_at(s, channel, hold, trigger_t, settings, (0.0, omega))
+        if again is None:
+            break
+        current = again
+        if again.rms_m <= fit.rms_m:
+            best, spring = again, (0.0, omega)
+    return best, spring
 
 
 def redate_hold(s: Samples, channel: int, hold: tuple[float, ...], trigger_t: float, fit: OnsetFit,

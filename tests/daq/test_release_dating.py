@@ -15,6 +15,8 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
+from daq.detector import ReleaseDetector
+from daq.detector_events import Released
 from daq.release_dating import date_release
 from daq.ringing import fit_free, motion_sign
 
@@ -67,3 +69,63 @@ def test_a_hand_force_ending_at_the_release_is_dated_within_one_sample(rate_hz: 
         # the spring's and damper's acceleration at the release, from the fitted free response
         print(rate_hz, (date.t0_s - t_r) * rate_hz, date.accel_m_s2 / abs(WN ** 2 * x_r + 2 * ZETA * WN * v_r))
     assert max(abs(e) for e in errors) <= 1.0 / rate_hz, errors
+
+
+def _pull_hold_release(wn: float, x0: float, mu_m_s2: float, tremor_m: float, t_r: float, rate_hz: float,
+                       rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    """Samples (t, (N, 2) m) of a cart pulled from rest to `x0` by a hand (a smooth 0.6 s path),
+    held there trembling (`tremor_m` at 7-11 Hz) and let go at `t_r`: from then on
+    `x'' = -wn² x - 2 ζ wn x' - mu sign(x')` solved by `solve_ivp` turn by turn (stuck when the
+    spring's pull no longer beats friction). The other cart sits still. Quantized to the
+    ECP-210's 1/56000 m with 0.1 count of noise before it."""
+    zeta, w_tr = 0.02, 2 * math.pi * rng.uniform(7.0, 11.0)
+    t_pull = t_r - rng.uniform(0.5, 1.5) - 0.6
+
+    def hand(t: np.ndarray) -> np.ndarray:
+        s = np.clip((t - t_pull) / 0.6, 0.0, 1.0)
+        held = x0 * (10 * s ** 3 - 15 * s ** 4 + 6 * s ** 5)
+        ramp = np.clip((t - t_pull - 0.6) / 0.2, 0.0, 1.0)
+        return held + ramp * tremor_m * np.sin(w_tr * (t - t_pull - 0.6))
+
+    t = (np.arange(int((t_r + 1.0) * rate_hz)) + rng.uniform(0.0, 1.0)) / rate_hz
+    x = hand(t)
+    around = hand(np.array([t_r - 1e-6, t_r, t_r + 1e-6]))
+    state = [float(around[1]), float(around[2] - around[0]) / 2e-6]
+    t_now = t_r
+    while t_now < t[-1] and abs(wn ** 2 * state[0]) > mu_m_s2:
+        sign = -math.copysign(1.0, state[0])     # it moves towards rest until the next turn
+
+        def rhs(_: float, z: np.ndarray, sign: float = sign) -> list[float]:
+            return [z[1], -wn ** 2 * z[0] - 2 * zeta * wn * z[1] - mu_m_s2 * sign]
+
+        def turn(_: float, z: np.ndarray) -> float:
+            return float(z[1])
+        turn.terminal, turn.direction = True, sign * -1.0   # type: ignore[attr-defined]
+        sol = solve_ivp(rhs, (t_now, t[-1]), state, events=turn, dense_output=True, rtol=1e-10, atol=1e-12,
+                        max_step=1e-3)
+        t_end = float(sol.t[-1])
+        span = (t >= t_now) & (t <= t_end)
+        x[span] = sol.sol(t[span])[0]
+        state, t_now = [float(sol.y[0, -1]), 0.0], t_end + 1e-9
+    x[t >= t_now] = state[0]
+    counts = np.stack([x, np.zeros_like(x)], axis=1) * 56000.0 + rng.normal(0.0, 0.1, (t.size, 2))
+    return t, np.round(counts) / 56000.0
+
+
+@pytest.mark.parametrize("rate_hz", [200, 1000])
+def test_a_stiff_spring_let_go_from_a_hold_is_dated_within_one_sample(rate_hz: int) -> None:
+    # a stiff spring turns over the onset fit's window (ωτ ≈ 2 at 40 rad/s and 50 ms), where
+    # τ², τ³ after t0 dated it up to 1.2 ms late; ω from the pull and its start acceleration
+    rng = np.random.default_rng(rate_hz + 7)
+    errors = []
+    for _ in range(6):
+        wn, x0 = rng.uniform(20.0, 60.0), rng.uniform(0.03, 0.12) * rng.choice([-1.0, 1.0])
+        mu = wn ** 2 * abs(x0) * rng.uniform(0.005, 0.05)   # dry friction 0.5-5 % of the spring's pull
+        t_r = 2.0 + rng.uniform(0.0, 1.0)
+        t, pos = _pull_hold_release(wn, x0, mu, rng.uniform(0.0, 5e-5), t_r, rate_hz, rng)
+        detector = ReleaseDetector()
+        found = [e.t_release_s for k in range(t.size) for e in detector.feed(float(t[k]), tuple(pos[k]))
+                 if isinstance(e, Released)]
+        assert len(found) == 1, (wn, x0, found)
+        errors.append((found[0] - t_r) * rate_hz)
+    assert max(abs(e) for e in errors) <= 1.0, errors
