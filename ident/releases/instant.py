@@ -58,7 +58,8 @@ def release_instant(m: Motion, model: FreeModel, first: int, last: int) -> float
                        model.speed if extra.size else None,
                        None if model.hidden is None else model.hidden[lo:hi])
     resid = _local_stiffness(fine.a[:, model.column] - basis @ coef, basis[:, 0],
-                             last - lo + max(m.window, period_n // 8), min(hi, last + period_n) - lo)
+                             last - lo + max(m.window, period_n // 8), min(hi, last + period_n) - lo,
+                             _curved_from(model, period_n))
     after = resid[last + m.samples(m.period_s / 4) - lo:last + period_n - lo]
     # about its median: a held cart moved elsewhere offsets the residual for good
     level = float(np.median(after)) if after.size else 0.0
@@ -110,10 +111,10 @@ def _local_stiffness(resid: NDArray[np.float64], minus_x: NDArray[np.float64], a
     period) after the episode, clear of the hand. With `curved_from` and a stretch that long
     (half a period: the swing's whole range), x² and x³ about its mean are refitted too: a
     cubic spring's force departs from any straight line most at the first extreme, right
-    after a hold's let-go (a 24 % hardening: 10 % of the hold's force). Only the coarse
-    residual's check takes that (`_coarse_hand_after`): on the fine residual it also took in
-    a one-encoder chain's second mode, lowered the noise level read after the episode and
-    dated a two-cart release 9 samples late (red team two_cart_coulomb_y1 801)."""
+    after a hold's let-go (a 24 % hardening: 10 % of the hold's force). Not with an unread
+    mass (`FreeModel.hidden`): there the curve also took in a one-encoder chain's second
+    mode, lowered the noise level read after the episode and dated a two-cart release 9
+    samples late (red team two_cart_coulomb_y1 801)."""
     if b - a < MIN_LOCAL_SAMPLES:
         return resid
     columns = [minus_x, np.ones_like(minus_x)]
@@ -124,6 +125,12 @@ def _local_stiffness(resid: NDArray[np.float64], minus_x: NDArray[np.float64], a
     coef, *_ = np.linalg.lstsq(design[a:b], resid[a:b], rcond=None)
     out: NDArray[np.float64] = resid - design @ coef
     return out
+
+
+def _curved_from(model: FreeModel, period_n: int) -> int | None:
+    """How long a free stretch `_local_stiffness` refits a curved spring on: half a period,
+    or never with an unread mass (see there)."""
+    return period_n // 2 if model.hidden is None else None
 
 
 def _coarse_hand_after(m: Motion, model: FreeModel, start: int, last: int, period_n: int) -> bool:
@@ -137,7 +144,7 @@ def _coarse_hand_after(m: Motion, model: FreeModel, start: int, last: int, perio
         return False
     j = model.column
     local = _local_stiffness(model.residual, -m.x[:, j], last + max(m.window, period_n // 8),
-                             min(m.n_samples, last + period_n), period_n // 2)
+                             min(m.n_samples, last + period_n), _curved_from(model, period_n))
     r = np.abs(local - float(np.median(local[~model.hand])))
     allowance = model.allowance if model.allowance is not None else np.zeros_like(r)
     return bool(np.any(r[start:last + 1] > HAND_SIGMAS * model.scale + allowance[start:last + 1]))
