@@ -33,6 +33,10 @@ NOISE_SIGMAS = 4.0
 QUIET_FRACTION = 1.0 / 12.0
 #: The local stiffness is refitted on at least this many free samples (`_local_stiffness`).
 MIN_LOCAL_SAMPLES = 10
+#: ... and a curved spring (x², x³) on at least this many, when it leaves at most this share of
+#: the straight refit's squared residual (`_local_stiffness`).
+MIN_CURVED_SAMPLES = 40
+CURVED_GAIN = 0.5
 
 
 def release_instant(m: Motion, model: FreeModel, first: int, last: int) -> float:
@@ -114,13 +118,23 @@ def _local_stiffness(resid: NDArray[np.float64], minus_x: NDArray[np.float64], a
     after a hold's let-go (a 24 % hardening: 10 % of the hold's force). Not with an unread
     mass (`FreeModel.hidden`): there the curve also took in a one-encoder chain's second
     mode, lowered the noise level read after the episode and dated a two-cart release 9
-    samples late (red team two_cart_coulomb_y1 801)."""
+    samples late (red team two_cart_coulomb_y1 801). And only where the spring is curved: the
+    curve kept when it halves the straight refit's squared residual (`CURVED_GAIN`) on at
+    least `MIN_CURVED_SAMPLES`; a real 2025 flick read at 45 Hz (a period of 25 samples) was
+    dated 40 ms late with any curve taken."""
     if b - a < MIN_LOCAL_SAMPLES:
         return resid
-    columns = [minus_x, np.ones_like(minus_x)]
-    if curved_from is not None and b - a >= curved_from:
-        centre = float(np.mean(minus_x[a:b]))
-        columns += [(minus_x - centre) ** 2, (minus_x - centre) ** 3]
+    straight = _refit(resid, [minus_x, np.ones_like(minus_x)], a, b)
+    if curved_from is None or b - a < max(curved_from, MIN_CURVED_SAMPLES):
+        return straight
+    centre = float(np.mean(minus_x[a:b]))
+    curved = _refit(resid, [minus_x, np.ones_like(minus_x), (minus_x - centre) ** 2, (minus_x - centre) ** 3], a, b)
+    kept = float(np.sum(curved[a:b] ** 2)) < CURVED_GAIN * float(np.sum(straight[a:b] ** 2))
+    return curved if kept else straight
+
+
+def _refit(resid: NDArray[np.float64], columns: list[NDArray[np.float64]], a: int, b: int) -> NDArray[np.float64]:
+    """`resid` less its least-squares fit by `columns` on [a, b)."""
     design = np.column_stack(columns)
     coef, *_ = np.linalg.lstsq(design[a:b], resid[a:b], rcond=None)
     out: NDArray[np.float64] = resid - design @ coef
