@@ -126,10 +126,11 @@ def spring_of_pull(s: Samples, channel: int, hold: tuple[float, ...], trigger_t:
     lowers that acceleration a little (ω a little low), a wrong rest a lot: the spring is kept
     only when its fit is no worse than the polynomial's. Returns (the fit, the spring or None).
     """
-    best, spring = fit, None
-    current = fit
+    best, spring, current = fit, None, fit
+    if abs(pull_m) <= settings.rest_margin_m:
+        return best, spring
     for _ in range(PULL_SPRING_PASSES):
-        if not (current.accel_m_s2 != 0.0 and abs(pull_m) > settings.rest_margin_m):
+        if current.accel_m_s2 == 0.0:
             break
         omega = math.sqrt(abs(current.accel_m_s2) / abs(pull_m))
         again = fit_onset_at(s, channel, hold, trigger_t, settings, (0.0, omega))
