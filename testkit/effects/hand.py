@@ -41,10 +41,11 @@ def wander(rng: np.random.Generator, amplitude: float) -> Trajectory:
     phase = rng.uniform(0.0, 2 * np.pi, 3)
     weight = rng.dirichlet(np.ones(3))
     amp = 0.5 * amplitude * weight
+    omega, start = 2 * np.pi * freq, np.sin(phase)
+    speed = amp * 2 * np.pi * freq
 
-    def trajectory(t: float) -> tuple[float, float]:
-        arg = 2 * np.pi * freq * t + phase
-        return (float(np.sum(amp * (np.sin(arg) - np.sin(phase)))),
-                float(np.sum(amp * 2 * np.pi * freq * np.cos(arg))))
+    def trajectory(t: float) -> tuple[float, float]:    # at every integrator stage: few array calls
+        arg = omega * t + phase
+        return float((amp * (np.sin(arg) - start)).sum()), float((speed * np.cos(arg)).sum())
 
     return trajectory

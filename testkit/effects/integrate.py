@@ -85,16 +85,16 @@ def _initial_modes(rig: Rig, phase: Phase, z: FloatArray) -> FloatArray:
 def _rhs(rig: Rig, phase: Phase, mode: FloatArray) -> Derivative:
     n = rig.n
     slipping = np.abs(mode) == 1
-    stuck = mode == STUCK
-    held = mode == PRESCRIBED
+    friction = rig.kinetic[slipping] * mode[slipping]
+    still = (mode == STUCK) | (mode == PRESCRIBED)
 
     def rhs(t: float, s: FloatArray) -> FloatArray:
         z = _apply(phase, t, s, n)
         a = rig.accel(t, z[:n], z[n:])
-        a[slipping] -= rig.kinetic[slipping] * mode[slipping]
+        a[slipping] -= friction
         v = z[n:].copy()
-        a[stuck | held] = 0.0
-        v[stuck | held] = 0.0
+        a[still] = 0.0
+        v[still] = 0.0
         return np.concatenate([v, a])
 
     return rhs

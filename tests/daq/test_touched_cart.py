@@ -31,8 +31,14 @@ from testkit.release_tally import detect
 Q_M = 5e-5
 
 
-def _min_jerk(u: np.ndarray | float) -> np.ndarray | float:
+def _min_jerk(u: np.ndarray) -> np.ndarray:
     u = np.clip(u, 0.0, 1.0)
+    return u * u * u * (10.0 - 15.0 * u + 6.0 * u * u)
+
+
+def _min_jerk_at(u: float) -> float:
+    """`_min_jerk` of one value (the integrator calls it at every stage)."""
+    u = min(max(u, 0.0), 1.0)
     return u * u * u * (10.0 - 15.0 * u + 6.0 * u * u)
 
 
@@ -54,7 +60,7 @@ def _record(rng: np.random.Generator, rate_hz: float,
 
     def other(t: float) -> float:
         x = sum(a * math.sin(w * t + p) for a, w, p in wander) - sum(a * math.sin(p) for a, w, p in wander)
-        return x + touch_m * float(_min_jerk((t - t_touch) / touch_s))
+        return x + touch_m * _min_jerk_at((t - t_touch) / touch_s)
 
     def rhs(t: float, z: np.ndarray) -> list[float]:
         return [z[1], -wn ** 2 * (z[0] - share * other(t)) - 2 * zeta * wn * z[1]]

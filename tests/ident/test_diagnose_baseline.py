@@ -12,8 +12,6 @@ free cart's position spectrum peaks below half the ring's frequency.
 
 from __future__ import annotations
 
-import itertools
-
 import numpy as np
 import pytest
 
@@ -24,8 +22,12 @@ from ident.physics.measures import spectral_peaks
 from testkit.effects import Case, judge, make_case
 
 
-def _drift_dominates(seed: int) -> bool:
-    case = make_case(seed, "coulomb+held_cart")
+#: the first two seeds of `default_rng(20261125).integers(0, 2**31, 80)` whose drift dominates
+#: (`_drift_dominates`): listed, as searching the stream makes ~20 cases (32 s) each run
+DRIFT_SEEDS = (494206500, 1684674824)
+
+
+def _drift_dominates(case: Case) -> bool:
     y = case.observed.y[:, 1]
     moved = np.flatnonzero(np.abs(y - y[0]) > 0.05 * np.max(np.abs(y - y[0])))
     after = y[moved[0]:] - np.mean(y[moved[0]:])
@@ -46,13 +48,12 @@ def _free_response(case: Case) -> Problem:
 
 @pytest.mark.slow
 def test_a_ring_stopped_by_friction_beside_a_wandering_held_cart_is_fitted_not_the_drift() -> None:
-    stream = np.random.default_rng(20261125).integers(0, 2**31, 80)
-    seeds = list(itertools.islice((int(s) for s in stream if _drift_dominates(int(s))), 2))
-    assert len(seeds) == 2
-    # and bench seed 1437021865 (tools/bench_diagnose.py --seed 11, coulomb+held_cart case 17), where
-    # the window's own spectrum peaked at the drift and the baseline fitted it (fit 1.2 %, no effect)
-    for seed in [*seeds, 1437021865]:
+    # DRIFT_SEEDS (checked here to be such cases) and bench seed 1437021865 (tools/bench_diagnose.py
+    # --seed 11, coulomb+held_cart case 17), where the window's own spectrum peaked at the drift
+    # and the baseline fitted it (fit 1.2 %, no effect)
+    for seed in [*DRIFT_SEEDS, 1437021865]:
         case = make_case(seed, "coulomb+held_cart")
+        assert _drift_dominates(case) or seed == 1437021865, f"seed {seed}: the drift does not dominate"
         wn = case.truth.details["wn_rad_s"]
         # the baseline is started at the ring too, not only at the drift
         starts = [float(theta[0]) for theta in linear_starts(_free_response(case))]

@@ -21,7 +21,7 @@ added to a cart (`Cart.force`, constant within a `run`: a pulse is three runs). 
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -60,21 +60,24 @@ class Chain:
     # hand position constraints: cart index -> path, set and cleared between segments
     held: dict[int, Path] = field(default_factory=dict)
 
-    def forces(self, t: float, x: np.ndarray, v: np.ndarray) -> np.ndarray:
-        """Every force but dry friction on each cart (N), shape (n,)."""
+    def forces(self, t: float, x: Sequence[float], v: Sequence[float]) -> list[float]:
+        """Every force but dry friction on each cart (N), one per cart (scalar arithmetic: this
+        runs at every stage of the integrator)."""
         n = len(self.carts)
-        f = np.zeros(n)
-        f[0] = -self.k1 * (x[0] + self.e1 * x[0] ** 3)
+        x0 = x[0]
+        f = [-self.k1 * (x0 + self.e1 * x0 ** 3)]
         if n == 1:
-            f[0] -= self.k2 * x[0]
+            f[0] -= self.k2 * x0
         else:
-            f[0] -= self.k2 * (x[0] - x[1])
-            f[1] = -self.k3 * (x[1] + self.e3 * x[1] ** 3) - self.k2 * (x[1] - x[0])
+            x1 = x[1]
+            f[0] -= self.k2 * (x0 - x1)
+            f.append(-self.k3 * (x1 + self.e3 * x1 ** 3) - self.k2 * (x1 - x0))
         for i, cart in enumerate(self.carts):
-            f[i] -= cart.c * v[i] + cart.q * cart.m * v[i] * abs(v[i])
+            vi = v[i]
+            f[i] -= cart.c * vi + cart.q * cart.m * vi * abs(vi)
             if cart.h is not None:
                 hp, hv = cart.h(t)
-                f[i] -= cart.kh * (x[i] - hp) + cart.ch * (v[i] - hv)
+                f[i] -= cart.kh * (x[i] - hp) + cart.ch * (vi - hv)
             f[i] += cart.force
         return f
 
@@ -107,18 +110,10 @@ class Simulator:
             else:
                 self.mode[i], self.sign[i] = "slide", np.sign(f[i])
 
-    def _accel(self, t: float, x: np.ndarray, v: np.ndarray) -> np.ndarray:
-        f = self.chain.forces(t, x, v)
-        a = np.zeros_like(f)
-        for i, cart in enumerate(self.chain.carts):
-            if self.mode[i] == "slide":
-                a[i] = (f[i] - cart.fk * self.sign[i]) / cart.m
-        return a
-
-    def _unpack(self, t: float, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        x, v = self.x.copy(), self.v.copy()
+    def _unpack(self, t: float, s: Sequence[float]) -> tuple[list[float], list[float]]:
+        x, v = [float(a) for a in self.x], [float(a) for a in self.v]
         for j, i in enumerate(self._free):
-            x[i], v[i] = s[2 * j], s[2 * j + 1]
+            x[i], v[i] = float(s[2 * j]), float(s[2 * j + 1])
         for i, p in self.chain.held.items():
             x[i], v[i] = p(t)
         return x, v
@@ -137,13 +132,19 @@ class Simulator:
         self._free = [i for i in range(len(self.chain.carts)) if self.mode[i] != "hand"]
         s0 = np.ravel([[self.x[i], self.v[i]] for i in self._free]) if self._free else np.zeros(0)
 
+        carts = self.chain.carts
+        # per free cart: sliding, and its kinetic friction with the sliding sign (N)
+        sliding = [self.mode[i] == "slide" for i in self._free]
+        kinetic = [carts[i].fk * self.sign[i] for i in self._free]
+
         def rhs(t: float, s: np.ndarray) -> np.ndarray:
-            x, v = self._unpack(t, s)
-            a = self._accel(t, x, v)
-            d = np.zeros_like(s)
+            x, v = self._unpack(t, s.tolist())
+            f = self.chain.forces(t, x, v)
+            d = [0.0] * (2 * len(self._free))
             for j, i in enumerate(self._free):
-                d[2 * j], d[2 * j + 1] = (v[i], a[i]) if self.mode[i] == "slide" else (0.0, 0.0)
-            return d
+                if sliding[j]:
+                    d[2 * j], d[2 * j + 1] = v[i], (f[i] - kinetic[j]) / carts[i].m
+            return np.array(d)
 
         events = []
         for j, i in enumerate(self._free):
@@ -165,15 +166,18 @@ class Simulator:
             # switched on at t_end would then be seen as an event at once, again and again)
             sol_t = float(t_end) if sol.status == 0 else float(sol.t[-1])
             state = sol.y[:, -1]
-            sel = (t_out >= self.t) & (t_out <= sol_t)
-            for k in np.flatnonzero(sel):
-                x, _ = self._unpack(float(t_out[k]), sol.sol(t_out[k]))
-                out[k] = x
+            sel = np.flatnonzero((t_out >= self.t) & (t_out <= sol_t))
+            if sel.size:
+                states = sol.sol(t_out[sel])            # (2 free, len(sel)), one call
+                for j, i in enumerate(self._free):
+                    out[sel, i] = states[2 * j]
+                for i, p in self.chain.held.items():
+                    out[sel, i] = [p(float(tk))[0] for tk in t_out[sel]]
         x, v = self._unpack(sol_t, state)
         for i in self._free:
             if self.mode[i] == "slide" and self.chain.carts[i].fk > 0 and abs(v[i]) < 1e-9:
                 v[i] = 0.0  # stopped at a velocity event: _classify decides stick or reverse
-        self.x, self.v, self.t = x, v, sol_t
+        self.x, self.v, self.t = np.array(x), np.array(v), sol_t
 
     def _force(self, t: float, s: np.ndarray, i: int) -> float:
         x, v = self._unpack(t, s)
