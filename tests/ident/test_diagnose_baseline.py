@@ -21,7 +21,6 @@ from ident.diagnose.problem import Problem
 from ident.physics.measures import spectral_peaks
 from testkit.effects import Case, judge, make_case
 
-
 #: the first two seeds of `default_rng(20261125).integers(0, 2**31, 80)` whose drift dominates
 #: (`_drift_dominates`): listed, as searching the stream makes ~20 cases (32 s) each run
 DRIFT_SEEDS = (494206500, 1684674824)
