@@ -399,4 +399,15 @@ class ReleaseDetector:
             return Rejected(t_s, 0.0, f"ringing: dating failed ({type(exc).__name__})")
         if isinstance(event, Released):
             self._hold = event.hold_pos
+            self._rest_of_ringing(channel, event.hold_pos, a, b, c)
         return event
+
+    def _rest_of_ringing(self, channel: int, hold: tuple[float, ...], a: Turn, b: Turn, c: Turn) -> None:
+        """A free ringing swings about the cart's rest: (A + 2B + C) / 4 of three turning points
+        is the rest exactly under dry friction's linear decay and to first order under viscous
+        decay. It replaces the rest taken at start-up where the carts were first still, which
+        may have been a cart held pulled (a later release from a hold near the true rest was then
+        taken for a release "toward the rest"; a hand's swing from there was dated at its start)."""
+        rest = list(self._rest if self._rest is not None and len(self._rest) == len(hold) else hold)
+        rest[channel] = 0.25 * (a.x_m + 2.0 * b.x_m + c.x_m)
+        self._rest = tuple(rest)
