@@ -25,7 +25,7 @@ from typing import Any
 
 import numpy as np
 
-from ident.releases import find_releases
+from ident.releases import Release, find_releases
 
 REDTEAM = Path(__file__).resolve().parents[2] / "tools" / "redteam"
 FAMILIES = ("cubic_hardening", "cubic_softening", "coupled_light", "coupled_pinned", "coulomb+held_cart")
@@ -45,10 +45,16 @@ def _cases() -> list[Any]:
     return [make_case(family, seed) for family in FAMILIES for seed in SEEDS]
 
 
+@functools.cache
+def _listed() -> list[tuple[Any, list[Release]]]:
+    """Each case with what `find_releases` lists in it (both tests read the same listing)."""
+    return [(case, find_releases(np.asarray(case.t, dtype=np.float64), np.asarray(case.y, dtype=np.float64)))
+            for case in _cases()]
+
+
 def test_a_free_response_with_a_cubic_spring_a_second_mode_or_a_held_cart_is_one_release() -> None:
     found, problems = 0, []
-    for case in _cases():
-        releases = find_releases(np.asarray(case.t, dtype=np.float64), np.asarray(case.y, dtype=np.float64))
+    for case, releases in _listed():
         truth = float(case.truth["release_time_s"])
         times = [r.release_time_s for r in releases]
         if len(releases) == 1 and abs(times[0] - truth) < NEAR_S:
@@ -64,8 +70,8 @@ def test_nothing_but_the_record_end_ends_their_free_responses() -> None:
     windows ended 0.13-0.29 s after the release (`ident diagnose` then refused them as too
     short for a window)."""
     early = []
-    for case in _cases():
-        for r in find_releases(np.asarray(case.t, dtype=np.float64), np.asarray(case.y, dtype=np.float64)):
+    for case, releases in _listed():
+        for r in releases:
             if r.ended_by != "record_end":
                 early.append(f"{case.family} seed {case.seed}: {r.release_time_s:.3f}-{r.end_time_s:.3f} s "
                              f"ended by {r.ended_by}")
