@@ -20,7 +20,6 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from functools import cached_property
 
 import numpy as np
 from numpy.typing import NDArray
@@ -60,7 +59,7 @@ class Rig:
 
     def accel(self, t: float, x: FloatArray, v: FloatArray) -> FloatArray:
         """Every force but dry friction, per unit mass (m/s²), shape (n,)."""
-        force = self._minus_stiffness @ x - self.damping @ v
+        force = -self.stiffness @ x - self.damping @ v
         for i, j, k_gamma in self.cubic:     # k γ e³ (N) of a spring with extension e
             pull = k_gamma * (x[i] - (0.0 if j is None else x[j])) ** 3
             force[i] -= pull
@@ -70,11 +69,6 @@ class Rig:
             w, w_dot = hand.target(t)
             force[hand.index] += hand.stiffness * (w - x[hand.index]) + hand.damping * (w_dot - v[hand.index])
         return np.asarray(force / self.masses - self.cubic_per_mass * x ** 3 - self.drag * v * np.abs(v))
-
-    @cached_property
-    def _minus_stiffness(self) -> FloatArray:
-        """-K, once: `accel` runs at every stage of the integrator."""
-        return -self.stiffness
 
     def linear_matrix(self) -> FloatArray:
         """A of z' = A z for z = (x, v), the linear part with the hands' springs (2n, 2n)."""
