@@ -23,8 +23,8 @@ demo: $(STAMP)
 # Two workers (pytest-xdist): the suite is written to pass on a busy 2-core machine, and takes
 # about half the time (14-16 min here in 2026-11, see docs/benchmarks.md); `$(PY) -m pytest FILE`
 # still runs in one process. Each module runs whole on one worker (loadscope): a module's tests
-# may share its fixtures' state in file order (the browser tests' run; `--dist loadgroup` no longer groups under pytest 9.2,
-# pytest-xdist issue 1386).
+# may share its fixtures' state in file order (the browser tests' run; `--dist loadgroup` no
+# longer groups under pytest 9.2, pytest-xdist issue 1386).
 test: $(STAMP)
 	OPENBLAS_NUM_THREADS=1 $(PY) -m pytest -n 2 --dist loadscope
 
