@@ -34,7 +34,7 @@ from schemas.daq import (
     SampleBatch,
     ZeroReply,
 )
-from schemas.fit import FitReport
+from schemas.fit import FitReport, ModeRec, PemFitRec, SimpleFitRec, TransferFunctionRec
 
 COUNTS_PER_M = 20000.0
 
@@ -362,3 +362,16 @@ def diagnosis_record(cause: str, gain_points: float, base_fit: float) -> Any:
                            gain_points=gain_points, corrected_linear={}, evidence=evidence,
                            validation="second half", explanation=f"the peaks decay by a constant step: {cause}",
                            elapsed_s=0.1)
+
+
+def fit_record(bench: str, run_id: str, release_time_s: float, figures: list[str]) -> FitReport:
+    """A cart-1 `FitReport` as a worker would publish it (values set by the test): simple and
+    PEM fits of a 5.5 rad/s, ζ 0.04 cart, 97.3 % PEM fit, Coulomb friction diagnosed (+0.8 pts)."""
+    tf = TransferFunctionRec(output=1, num=[30.25], den=[1.0, 0.44, 30.25])
+    return FitReport(
+        bench=bench, run_id=run_id, worker="test", status="ok", case="cart1", release_time_s=release_time_s,
+        simple=[SimpleFitRec(method="rk4", output=1, tf=tf, wn_rad_s=5.49, zeta=0.041, gain=1.0,
+                             fit_percent=96.1)],
+        pem=PemFitRec(order=2, tfs=[tf], modes=[ModeRec(wn_rad_s=5.5, zeta=0.04)],
+                      fit_percent=[97.3], outputs=[1]),
+        diagnosis=diagnosis_record("coulomb_friction", 0.8, 97.3), figures=figures)

@@ -30,7 +30,7 @@ from schemas import keys
 from schemas.bus import BusConfig
 from schemas.daq import DaqStatus, RunFinished, RunList
 from schemas.diagnosis import EffectFit
-from schemas.fit import FitReport, ModeRec, PemFitRec, SimpleFitRec, TransferFunctionRec
+from schemas.fit import FitReport, SimpleFitRec, TransferFunctionRec
 from testkit import ports
 from testkit.browser_page import (
     NEEDS_CHROMIUM,
@@ -46,7 +46,7 @@ from testkit.browser_page import (
     run_ids,
 )
 from testkit.waiting import wait_until
-from testkit.web_support import DaqProcess, FakeDaq, PageServer, chromium_driver, diagnosis_record
+from testkit.web_support import DaqProcess, FakeDaq, PageServer, chromium_driver, diagnosis_record, fit_record
 
 pytestmark = [NEEDS_CHROMIUM, pytest.mark.timeout(90)]
 
@@ -150,15 +150,7 @@ def test_live_trace_moves_release_settles_and_the_run_appears_with_its_fit(
     fit_dir = runs_dir / f"{run_id}.fit"
     fit_dir.mkdir()
     (fit_dir / "pem_cart1.png").write_bytes(b"\x89PNG\r\n\x1a\n")
-    tf = TransferFunctionRec(output=1, num=[30.25], den=[1.0, 0.44, 30.25])
-    report = FitReport(
-        bench=BENCH, run_id=run_id, worker="test", status="ok", case="cart1",
-        release_time_s=finished.release_time_s,
-        simple=[SimpleFitRec(method="rk4", output=1, tf=tf, wn_rad_s=5.49, zeta=0.041, gain=1.0,
-                             fit_percent=96.1)],
-        pem=PemFitRec(order=2, tfs=[tf], modes=[ModeRec(wn_rad_s=5.5, zeta=0.04)],
-                      fit_percent=[97.3], outputs=[1]),
-        diagnosis=diagnosis_record("coulomb_friction", 0.8, 97.3), figures=["pem_cart1.png"])
+    report = fit_record(BENCH, run_id, finished.release_time_s, figures=["pem_cart1.png"])
     (fit_dir / "report.json").write_bytes(report.to_json_bytes())
     publisher = zenoh.ext.declare_advanced_publisher(
         session, keys.run_fit(BENCH, run_id), cache=zenoh.ext.CacheConfig(max_samples=1),
