@@ -160,16 +160,21 @@ def _coarse_hand_after(m: Motion, model: FreeModel, start: int, last: int, perio
     local = _local_stiffness(model.residual, -m.x[:, j], last + max(m.window, period_n // 8),
                              min(m.n_samples, last + period_n), _curved_from(model, period_n))
     r = np.abs(local - float(np.median(local[~model.hand])))
-    allowance = model.allowance if model.allowance is not None else np.zeros_like(r)
-    return bool(np.any(r[start:last + 1] > HAND_SIGMAS * model.scale + allowance[start:last + 1]))
+    return bool(np.any(r[start:last + 1] > _hand_limit(model)[start:last + 1]))
+
+
+def _hand_limit(model: FreeModel) -> NDArray[np.float64]:
+    """The coarse residual's limit for a hand (N,) m/s²: `HAND_SIGMAS` scales plus the allowance."""
+    allowance = model.allowance if model.allowance is not None else np.zeros_like(model.residual)
+    limit: NDArray[np.float64] = HAND_SIGMAS * model.scale + allowance
+    return limit
 
 
 def _coarse_end(m: Motion, model: FreeModel, last: int) -> float:
     """The release (samples) where the coarse residual |r| crosses the hand's limit after
     the episode's last sample `last`, less the coarse smoothing's delay."""
     r = np.abs(model.residual - float(np.median(model.residual[~model.hand])))
-    allowance = model.allowance if model.allowance is not None else np.zeros_like(r)
-    limit = float(HAND_SIGMAS * model.scale + allowance[last])
+    limit = float(_hand_limit(model)[last])
     if last + 1 >= m.n_samples or r[last] <= limit:
         return float(last)
     before = float(np.max(r[max(0, last - m.window):last + 1]))
