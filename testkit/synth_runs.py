@@ -27,7 +27,8 @@ class Trace:
     release_t_s: float | None
 
 
-def _min_jerk(s: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
+def min_jerk(s: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
+    """The minimum-jerk path from 0 to 1 over s in [0, 1] (0 before, 1 after)."""
     s = np.clip(s, 0.0, 1.0)
     return 10 * s**3 - 15 * s**4 + 6 * s**5
 
@@ -68,7 +69,7 @@ def lab_run(case: str, rate_hz: float, seed: int, counts_per_m: float = 20000.0,
     held[pulled] = -pull_m
     x = np.zeros((len(t), 2))
     before = t < release
-    shape = _min_jerk((t[before] - rest_s) / pull_s)
+    shape = min_jerk((t[before] - rest_s) / pull_s)
     w, phase = 2 * np.pi * 9.0, rng.uniform(0, 6)
     tremor = 2e-4 * np.sin(w * t[before] + phase) * (shape > 0)
     x[before, pulled] = -pull_m * shape + tremor
@@ -93,7 +94,7 @@ def idle_handling(rate_hz: float, seed: int, duration_s: float = 600.0, counts_p
         target = level.copy()
         target[cart] = rng.uniform(-0.15, 0.15) if rng.random() < 0.7 else 0.0
         span = (t >= start) & (t < start + move_s + 0.5)
-        shape = _min_jerk((t[span] - start) / move_s)[:, None]
+        shape = min_jerk((t[span] - start) / move_s)[:, None]
         x[span] = level + (target - level) * shape
         tail = t >= start + move_s + 0.5
         x[tail] = target

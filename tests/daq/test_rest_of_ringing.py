@@ -28,14 +28,10 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from testkit.release_tally import detect
+from testkit.synth_runs import min_jerk
 
 Q_M = 5e-5
 LIMIT_S = 0.040     # a fifth of the swing: its start is 120-240 ms before the let-go
-
-
-def _min_jerk(u: np.ndarray) -> np.ndarray:
-    u = np.clip(u, 0.0, 1.0)
-    return u * u * u * (10.0 - 15.0 * u + 6.0 * u * u)
 
 
 def _free(t: np.ndarray, t0: float, x0: float, v0: float, wn: float, zeta: float) -> np.ndarray:
@@ -62,11 +58,11 @@ def _record(rng: np.random.Generator, rate_hz: float) -> tuple[np.ndarray, np.nd
     x[ring] = _free(t[ring], t1, pull, 0.0, wn, zeta)
     x_catch = float(_free(np.array([catch]), t1, pull, 0.0, wn, zeta)[0])
     hand = t >= catch
-    x[hand] = (x_catch + (hold_at - x_catch) * _min_jerk((t[hand] - catch) / bring_s)
-               + (amp - hold_at) * _min_jerk((t[hand] - swing0) / swing_s))
+    x[hand] = (x_catch + (hold_at - x_catch) * min_jerk((t[hand] - catch) / bring_s)
+               + (amp - hold_at) * min_jerk((t[hand] - swing0) / swing_s))
     # the hand's position and velocity where it lets go, then the free cart
     u = (t2 - swing0) / swing_s
-    x2 = hold_at + (amp - hold_at) * float(_min_jerk(np.array([u]))[0])
+    x2 = hold_at + (amp - hold_at) * float(min_jerk(np.array([u]))[0])
     v2 = (amp - hold_at) * 30.0 * u * u * (1.0 - u) ** 2 / swing_s
     after = t >= t2
     x[after] = _free(t[after], t2, x2, v2, wn, zeta)
