@@ -64,7 +64,10 @@ def _min_jerk(u: float) -> float:
 
 
 def _sines(t: float, terms: Sines, t0: float) -> float:
-    return sum(a * math.sin(w * (t - t0) + ph) for a, w, ph in terms)
+    total = 0.0
+    for a, w, ph in terms:
+        total += a * math.sin(w * (t - t0) + ph)
+    return total
 
 
 @dataclass(frozen=True, slots=True)

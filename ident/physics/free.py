@@ -29,6 +29,7 @@ rounding. Shapes: parameter sets P, samples N, carts c. No fitting and no I/O he
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -170,17 +171,39 @@ def run_maps(maps: StepMaps, z0: FloatArray, n_samples: int, u: FloatArray | Non
     # the compiled kernel imports numba (~0.5-1.5 s): loaded when a simulation first runs
     from ident.physics.kernel import simulate_rows
     p, c = maps.fk.shape
-    m = 0 if u is None else np.size(u) // n_samples
-    u_arr = (np.zeros((n_samples, 0)) if u is None
-             else _owned(np.asarray(u, dtype=np.float64).reshape(n_samples, -1), (n_samples, m)))
-    switches = np.full((n_samples, m), np.nan) if switch is None else _owned(switch, (n_samples, m))
+    if u is None:
+        u_arr, switches = _NO_INPUT, _NO_INPUT
+    else:
+        m = np.size(u) // n_samples
+        u_arr = _read_only_arg(np.reshape(u, (n_samples, m)), (n_samples, m))
+        switches = _linear(n_samples, m) if switch is None else _read_only_arg(switch, (n_samples, m))
     out = np.empty((p, n_samples, c))
     end = np.empty((p, 2 * c))
-    with np.errstate(all="ignore"):
-        simulate_rows(maps.phi, maps.gam, maps.phih, maps.gamh, maps.kt, _owned(z0, (p, 2 * c)), maps.fk, maps.fs,
-                      maps.sigma, maps.drag, maps.cubic, maps.kappa, maps.gin, u_arr, switches, maps.dt, maps.substeps,
-                      out, end)
+    # numba's compiled code raises no floating-point warnings: no errstate needed around it
+    simulate_rows(maps.phi, maps.gam, maps.phih, maps.gamh, maps.kt, _read_only_arg(z0, (p, 2 * c)), maps.fk, maps.fs,
+                  maps.sigma, maps.drag, maps.cubic, maps.kappa, maps.gin, u_arr, switches, maps.dt, maps.substeps,
+                  out, end)
     return out, end
+
+
+#: No input (the kernel reads no column of it): one shared (1, 0) array for `u` and `switch`.
+_NO_INPUT: FloatArray = np.zeros((1, 0))
+
+
+@functools.lru_cache(maxsize=8)
+def _linear(n_samples: int, m: int) -> FloatArray:
+    """The `switch` of inputs linear between samples (all NaN), shared: the kernel only reads it."""
+    return np.full((n_samples, m), np.nan)
+
+
+def _read_only_arg(a: FloatArray, shape: tuple[int, ...]) -> FloatArray:
+    """`a` itself when it already is what the kernel is compiled for (writable, C-contiguous
+    float64 of `shape`; the kernel only reads it), else an owned copy (`_owned`): the rig steps
+    one sample at a time, where the copies cost more than the step."""
+    if (isinstance(a, np.ndarray) and a.dtype == np.float64 and a.shape == shape and a.flags.c_contiguous
+            and a.flags.writeable):
+        return a
+    return _owned(a, shape)
 
 
 def simulate_free(lin: FloatArray, z0: FloatArray, dt: float, n_samples: int, carts: int,

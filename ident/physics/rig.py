@@ -211,19 +211,19 @@ def _driven(p: ChainParams, s: ChainState, dt: float, steps: int, held: tuple[in
             grips: tuple[tuple[int, Grip], ...]) -> None:
     """Carts held on a path (`held`: cart 0 or 1 and its path) and/or gripped (module docstring)."""
     x, v = [s.x1, s.x2], [s.v1, s.v2]
-    columns = []
+    u = np.empty((steps + 1, (held is not None) + len(grips)))
     q_held = None
     if held is not None:
         q_held = _half_steps(held[1], s.t, dt, steps)
         x[held[0]], v[held[0]] = float(q_held[0]), float((-3.0 * q_held[0] + 4.0 * q_held[1] - q_held[2]) / dt)
-        columns.append(_path_acceleration(q_held, dt))
-    for _, grip in grips:
+        u[:, 0] = _path_acceleration(q_held, dt)
+    for j, (_, grip) in enumerate(grips, start=int(held is not None)):
         q = _half_steps(grip.path, s.t, dt, steps)
-        columns.append(grip.omega ** 2 * q[::2] + 2.0 * grip.zeta * grip.omega * _path_velocity(q, dt))
+        u[:, j] = grip.omega ** 2 * q[::2] + 2.0 * grip.zeta * grip.omega * _path_velocity(q, dt)
     key = tuple((c, g.omega, g.zeta) for c, g in grips)
     maps = _maps(p, dt, None if held is None else held[0], key)
     z0 = np.array([[x[0], v[0]]]) if p.carts == 1 else np.array([[x[0], x[1], v[0], v[1]]])
-    _, end = run_maps(maps, z0, steps + 1, np.stack(columns, axis=1))
+    _, end = run_maps(maps, z0, steps + 1, u)
     if p.carts == 1:
         s.x1, s.v1 = float(end[0, 0]), float(end[0, 1])
         s.t += steps * dt
