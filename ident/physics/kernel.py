@@ -26,7 +26,7 @@ from numpy.typing import NDArray
 FloatArray = NDArray[np.float64]
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def _input_value(u: FloatArray, switch: FloatArray, k: int, q: int, frac: float, lo: float, hi: float) -> float:
     """Input column q at fraction `frac` of the step from sample k - 1 to k: linear between
     the samples where `switch[k - 1, q]` is NaN; else held, u[k - 1] until the switch
@@ -41,7 +41,7 @@ def _input_value(u: FloatArray, switch: FloatArray, k: int, q: int, frac: float,
     return float(u[k - 1, q] * before + u[k, q] * (1.0 - before))
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def _accel(z: FloatArray, w: FloatArray, inp: FloatArray, c: int, kt: FloatArray, drag: FloatArray,
            cubic: float, kappa: FloatArray, sigma: FloatArray, out: FloatArray) -> None:
     """Extra accelerations (beyond the linear chain) at state z into `out` (c,)."""
@@ -62,7 +62,7 @@ def _accel(z: FloatArray, w: FloatArray, inp: FloatArray, c: int, kt: FloatArray
             out[1] -= cubic * (a2 * z[1] ** 3 + b2 * e12 ** 3)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def _dahl(w: FloatArray, z: FloatArray, c: int, f: FloatArray, sigma: FloatArray, h: float,
           out: FloatArray) -> None:
     """Dahl state after h with the velocity held: w → F sgn v exponentially (rate σ|v|/F)."""
@@ -75,7 +75,7 @@ def _dahl(w: FloatArray, z: FloatArray, c: int, f: FloatArray, sigma: FloatArray
         out[i] = target + (w[i] - target) * np.exp(-sigma[i] * abs(v) * h / f[i])
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def _matvec_add(m: FloatArray, x: FloatArray, out: FloatArray, add: bool) -> None:
     for i in range(m.shape[0]):
         s = 0.0
@@ -84,7 +84,7 @@ def _matvec_add(m: FloatArray, x: FloatArray, out: FloatArray, add: bool) -> Non
         out[i] = out[i] + s if add else s
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def _coulomb(z: FloatArray, wz: FloatArray, gam: FloatArray, kt: FloatArray, c: int, fk: FloatArray,
              fs: FloatArray, sigma: FloatArray, inp: FloatArray, h: float, af: FloatArray,
              sgn: FloatArray, held: NDArray[np.bool_], x_rev: FloatArray, theta: FloatArray,
@@ -168,6 +168,10 @@ def simulate_rows(phi: FloatArray, gam: FloatArray, phih: FloatArray, gamh: Floa
     h = dt / substeps
     step = 1.0 / substeps
     for p in range(n_rows):
+        # this row's maps and coefficients, bound once (a view per use costs more than the step)
+        phi_p, gam_p, phih_p, gamh_p, kt_p = phi[p], gam[p], phih[p], gamh[p], kt[p]
+        fk_p, fs_p, sigma_p, drag_p, kappa_p = fk[p], fs[p], sigma[p], drag[p], kappa[p]
+        gin_p, cubic_p = gin[p], cubic[p]
         z = z0[p].copy()
         w = np.zeros(c)
         w_mid = np.zeros(c)
@@ -181,10 +185,11 @@ def simulate_rows(phi: FloatArray, gam: FloatArray, phih: FloatArray, gamh: Floa
         x_rev = np.zeros(c)
         theta = np.zeros(c)
         rev = np.zeros(c, dtype=np.bool_)
-        has_input = m_in > 0 and np.any(gin[p] != 0.0)
-        smooth = (has_input or np.any(drag[p] != 0.0) or cubic[p] != 0.0 or np.any(kappa[p] != 0.0)
-                  or np.any(sigma[p] > 0.0))
-        coulomb = np.any((fk[p] > 0.0) & (sigma[p] <= 0.0))
+        has_input = m_in > 0 and np.any(gin_p != 0.0)
+        presliding = np.any(sigma_p > 0.0)
+        smooth = has_input or np.any(drag_p != 0.0) or cubic_p != 0.0 or np.any(kappa_p != 0.0) or presliding
+        coulomb = np.any((fk_p > 0.0) & (sigma_p <= 0.0))
+        can_stop = coulomb and not has_input and not presliding
         for i in range(c):
             out[p, 0, i] = z[i]
         k = 1
@@ -195,24 +200,24 @@ def simulate_rows(phi: FloatArray, gam: FloatArray, phih: FloatArray, gamh: Floa
                 for i in range(c):
                     inp[i] = 0.0
                     for q in range(m_in):
-                        inp[i] += gin[p, i, q] * _input_value(u, switch, k, q, frac0, frac0, frac0 + step)
-                _matvec_add(phi[p], z, wz, False)
+                        inp[i] += gin_p[i, q] * _input_value(u, switch, k, q, frac0, frac0, frac0 + step)
+                _matvec_add(phi_p, z, wz, False)
                 if smooth:
-                    _accel(z, w, inp, c, kt[p], drag[p], cubic[p], kappa[p], sigma[p], acc)
-                    _matvec_add(phih[p], z, mid, False)
-                    _matvec_add(gamh[p], acc, mid, True)
-                    _dahl(w, z, c, fk[p], sigma[p], 0.5 * h, w_mid)
+                    _accel(z, w, inp, c, kt_p, drag_p, cubic_p, kappa_p, sigma_p, acc)
+                    _matvec_add(phih_p, z, mid, False)
+                    _matvec_add(gamh_p, acc, mid, True)
+                    _dahl(w, z, c, fk_p, sigma_p, 0.5 * h, w_mid)
                     for i in range(c):
                         inp[i] = 0.0
                         for q in range(m_in):
-                            inp[i] += gin[p, i, q] * _input_value(u, switch, k, q, frac0 + 0.5 * step,
-                                                                  frac0, frac0 + step)
-                    _accel(mid, w_mid, inp, c, kt[p], drag[p], cubic[p], kappa[p], sigma[p], acc)
-                    _matvec_add(gam[p], acc, wz, True)
+                            inp[i] += gin_p[i, q] * _input_value(u, switch, k, q, frac0 + 0.5 * step,
+                                                                 frac0, frac0 + step)
+                    _accel(mid, w_mid, inp, c, kt_p, drag_p, cubic_p, kappa_p, sigma_p, acc)
+                    _matvec_add(gam_p, acc, wz, True)
                 if coulomb:
-                    _coulomb(z, wz, gam[p], kt[p], c, fk[p], fs[p], sigma[p], inp, h, af, sgn, held, x_rev, theta, rev)
+                    _coulomb(z, wz, gam_p, kt_p, c, fk_p, fs_p, sigma_p, inp, h, af, sgn, held, x_rev, theta, rev)
                 if smooth:
-                    _dahl(w, mid, c, fk[p], sigma[p], h, w_mid)
+                    _dahl(w, mid, c, fk_p, sigma_p, h, w_mid)
                     for i in range(c):
                         w[i] = w_mid[i]
                 for i in range(n):
@@ -220,7 +225,7 @@ def simulate_rows(phi: FloatArray, gam: FloatArray, phih: FloatArray, gamh: Floa
             for i in range(c):
                 out[p, k, i] = z[i]
             k += 1
-            if coulomb and not has_input and not np.any(sigma[p] > 0.0) and _all_held(z, kt[p], fs[p], c):
+            if can_stop and _all_held(z, kt_p, fs_p, c):
                 for kk in range(k, n_samples):
                     for i in range(c):
                         out[p, kk, i] = z[i]
@@ -229,7 +234,7 @@ def simulate_rows(phi: FloatArray, gam: FloatArray, phih: FloatArray, gamh: Floa
             end[p, i] = z[i]
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def _all_held(z: FloatArray, kt: FloatArray, fs: FloatArray, c: int) -> bool:
     """Every cart at rest and held by static friction: nothing moves again."""
     for i in range(c):
