@@ -15,6 +15,10 @@ length h (see `ident.physics.free` for the derivation):
     w⁺    = F sgn v + (w - F sgn v) e^{-σ|v|h/F}   (v at mid-step; Dahl, exact for v fixed)
 
 then Coulomb friction with stick on the carts without pre-sliding (`_coulomb`). No I/O.
+
+Compiled with numpy's error model (no division here can be by zero: each divisor is checked or
+is a difference of opposite signs; the Python model's checks cost ~10 % of a step) and the
+small helpers inlined (a call passing arrays costs their reference counts, more than a step).
 """
 
 from __future__ import annotations
@@ -26,7 +30,7 @@ from numpy.typing import NDArray
 FloatArray = NDArray[np.float64]
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(error_model="numpy", cache=True, inline="always")
 def _input_value(u: FloatArray, switch: FloatArray, k: int, q: int, frac: float, lo: float, hi: float) -> float:
     """Input column q at fraction `frac` of the step from sample k - 1 to k: linear between
     the samples where `switch[k - 1, q]` is NaN; else held, u[k - 1] until the switch
@@ -41,7 +45,7 @@ def _input_value(u: FloatArray, switch: FloatArray, k: int, q: int, frac: float,
     return float(u[k - 1, q] * before + u[k, q] * (1.0 - before))
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(error_model="numpy", cache=True, inline="always")
 def _accel(z: FloatArray, w: FloatArray, inp: FloatArray, c: int, kt: FloatArray, drag: FloatArray,
            cubic: float, kappa: FloatArray, sigma: FloatArray, out: FloatArray) -> None:
     """Extra accelerations (beyond the linear chain) at state z into `out` (c,)."""
@@ -51,18 +55,25 @@ def _accel(z: FloatArray, w: FloatArray, inp: FloatArray, c: int, kt: FloatArray
         if sigma[i] > 0.0:
             out[i] -= w[i]
     if cubic != 0.0:
-        if c == 1:
-            out[0] -= kt[0, 0] * cubic * z[0] ** 3
-        else:
-            # per spring: k1 on e1, k2 on e2 - e1, k3 on e2 (mass-normalised rows of Kt)
-            b1, b2 = -kt[0, 1], -kt[1, 0]
-            a1, a2 = kt[0, 0] - b1, kt[1, 1] - b2
-            e12 = z[1] - z[0]
-            out[0] -= cubic * (a1 * z[0] ** 3 - b1 * e12 ** 3)
-            out[1] -= cubic * (a2 * z[1] ** 3 + b2 * e12 ** 3)
+        _cubic_springs(z, c, kt, cubic, out)
 
 
-@numba.njit(cache=True, inline="always")
+# not inlined: inlined into `_accel`, it made every smooth sub-step ~10x slower, cubic or not
+@numba.njit(error_model="numpy", cache=True)
+def _cubic_springs(z: FloatArray, c: int, kt: FloatArray, cubic: float, out: FloatArray) -> None:
+    """The cubic part `cubic`·k·e³ of each spring of the chain (mass-normalised `kt`), off `out`."""
+    if c == 1:
+        out[0] -= kt[0, 0] * cubic * z[0] ** 3
+    else:
+        # per spring: k1 on e1, k2 on e2 - e1, k3 on e2 (mass-normalised rows of Kt)
+        b1, b2 = -kt[0, 1], -kt[1, 0]
+        a1, a2 = kt[0, 0] - b1, kt[1, 1] - b2
+        e12 = z[1] - z[0]
+        out[0] -= cubic * (a1 * z[0] ** 3 - b1 * e12 ** 3)
+        out[1] -= cubic * (a2 * z[1] ** 3 + b2 * e12 ** 3)
+
+
+@numba.njit(error_model="numpy", cache=True, inline="always")
 def _dahl(w: FloatArray, z: FloatArray, c: int, f: FloatArray, sigma: FloatArray, h: float,
           out: FloatArray) -> None:
     """Dahl state after h with the velocity held: w → F sgn v exponentially (rate σ|v|/F)."""
@@ -75,7 +86,7 @@ def _dahl(w: FloatArray, z: FloatArray, c: int, f: FloatArray, sigma: FloatArray
         out[i] = target + (w[i] - target) * np.exp(-sigma[i] * abs(v) * h / f[i])
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(error_model="numpy", cache=True, inline="always")
 def _matvec_add(m: FloatArray, x: FloatArray, out: FloatArray, add: bool) -> None:
     for i in range(m.shape[0]):
         s = 0.0
@@ -84,7 +95,7 @@ def _matvec_add(m: FloatArray, x: FloatArray, out: FloatArray, add: bool) -> Non
         out[i] = out[i] + s if add else s
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(error_model="numpy", cache=True, inline="always")
 def _coulomb(z: FloatArray, wz: FloatArray, gam: FloatArray, kt: FloatArray, c: int, fk: FloatArray,
              fs: FloatArray, sigma: FloatArray, inp: FloatArray, h: float, af: FloatArray,
              sgn: FloatArray, held: NDArray[np.bool_], x_rev: FloatArray, theta: FloatArray,
@@ -148,7 +159,7 @@ def _coulomb(z: FloatArray, wz: FloatArray, gam: FloatArray, kt: FloatArray, c: 
             wz[c + i] += 2.0 * fk[i] * sgn[i] * rem
 
 
-@numba.njit(cache=True)
+@numba.njit(error_model="numpy", cache=True)
 def simulate_rows(phi: FloatArray, gam: FloatArray, phih: FloatArray, gamh: FloatArray, kt: FloatArray,
                   z0: FloatArray, fk: FloatArray, fs: FloatArray, sigma: FloatArray, drag: FloatArray,
                   cubic: FloatArray, kappa: FloatArray, gin: FloatArray, u: FloatArray, switch: FloatArray,
@@ -234,7 +245,7 @@ def simulate_rows(phi: FloatArray, gam: FloatArray, phih: FloatArray, gamh: Floa
             end[p, i] = z[i]
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(error_model="numpy", cache=True, inline="always")
 def _all_held(z: FloatArray, kt: FloatArray, fs: FloatArray, c: int) -> bool:
     """Every cart at rest and held by static friction: nothing moves again."""
     for i in range(c):
@@ -248,7 +259,7 @@ def _all_held(z: FloatArray, kt: FloatArray, fs: FloatArray, c: int) -> bool:
     return True
 
 
-@numba.njit(cache=True)
+@numba.njit(error_model="numpy", cache=True)
 def march_affine(phi: FloatArray, gam: FloatArray, x0: FloatArray, substeps: int, out: FloatArray) -> None:
     """States after each step k of x ← Φ_k x + γ_k, applied `substeps` times per step, from
     x0 (n,), into `out` (K, n); Φ (K, n, n), γ (K, n): a linear system's steps of varying
