@@ -3,7 +3,8 @@
 Why compiled: the diagnosis simulates each candidate model hundreds of times (finite-
 difference Jacobians, forward selection, blocked cross-validation), with dry friction that
 needs per-step branching (stick, reversal). In numpy every sub-step costs ~20 array calls
-on 4-element states; here it costs ~100 ns.
+on 4-element states; here one cart costs ~20 ns linear and ~90-200 ns with dry friction
+(`tools/bench_kernel.py`).
 
 State of one parameter set, c carts (n = 2c): deviation from rest e = x - s and velocity v
 (`z = (e, v)`, shape (n,)), and the pre-sliding friction state w (c,). One sub-step of
