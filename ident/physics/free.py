@@ -188,7 +188,7 @@ def run_maps(maps: StepMaps, z0: FloatArray, n_samples: int, u: FloatArray | Non
     (deviations, velocities) at the last sample (P, 2c). `u` (N, m) inputs at the samples,
     linear between them, or held where `switch` (N, m) is finite (`switched_input`)."""
     # the compiled kernel imports numba (~0.5-1.5 s): loaded when a simulation first runs
-    from ident.physics.kernel import simulate_rows
+    from ident.physics.kernel import SCRATCH_ROWS, simulate_rows
     p, c = maps.fk.shape
     if u is None:
         u_arr, switches = _NO_INPUT, _NO_INPUT
@@ -201,7 +201,7 @@ def run_maps(maps: StepMaps, z0: FloatArray, n_samples: int, u: FloatArray | Non
     # numba's compiled code raises no floating-point warnings: no errstate needed around it
     simulate_rows(maps.phi, maps.gam, maps.phih, maps.gamh, maps.kt, _read_only_arg(z0, (p, 2 * c)), maps.fk, maps.fs,
                   maps.sigma, maps.drag, maps.cubic, maps.kappa, maps.gin, u_arr, switches, maps.dt, maps.substeps,
-                  out, end)
+                  out, end, np.empty((SCRATCH_ROWS, 2 * c)))
     return out, end
 
 

@@ -3,7 +3,7 @@
 Why compiled: the diagnosis simulates each candidate model hundreds of times (finite-
 difference Jacobians, forward selection, blocked cross-validation), with dry friction that
 needs per-step branching (stick, reversal). In numpy every sub-step costs ~20 array calls
-on 4-element states; here one cart costs ~20 ns linear and ~90-200 ns with dry friction
+on 4-element states; here one cart costs ~10 ns linear and ~25 ns with dry friction
 (`tools/bench_kernel.py`).
 
 State of one parameter set, c carts (n = 2c): deviation from rest e = x - s and velocity v
@@ -18,8 +18,8 @@ length h (see `ident.physics.free` for the derivation):
 then Coulomb friction with stick on the carts without pre-sliding (`_coulomb`). No I/O.
 
 Compiled with numpy's error model (no division here can be by zero: each divisor is checked or
-is a difference of opposite signs; the Python model's checks cost ~10 % of a step) and the
-small helpers inlined (a call passing arrays costs their reference counts, more than a step).
+is a difference of opposite signs; the Python model's checks cost ~10 % of a step), the small
+helpers inlined, and `simulate_rows` without reference counting (see there).
 """
 
 from __future__ import annotations
@@ -56,22 +56,15 @@ def _accel(z: FloatArray, w: FloatArray, inp: FloatArray, c: int, kt: FloatArray
         if sigma[i] > 0.0:
             out[i] -= w[i]
     if cubic != 0.0:
-        _cubic_springs(z, c, kt, cubic, out)
-
-
-# not inlined: inlined into `_accel`, it made every smooth sub-step ~10x slower, cubic or not
-@numba.njit(error_model="numpy", cache=True)
-def _cubic_springs(z: FloatArray, c: int, kt: FloatArray, cubic: float, out: FloatArray) -> None:
-    """The cubic part `cubic`·k·e³ of each spring of the chain (mass-normalised `kt`), off `out`."""
-    if c == 1:
-        out[0] -= kt[0, 0] * cubic * z[0] ** 3
-    else:
-        # per spring: k1 on e1, k2 on e2 - e1, k3 on e2 (mass-normalised rows of Kt)
-        b1, b2 = -kt[0, 1], -kt[1, 0]
-        a1, a2 = kt[0, 0] - b1, kt[1, 1] - b2
-        e12 = z[1] - z[0]
-        out[0] -= cubic * (a1 * z[0] ** 3 - b1 * e12 ** 3)
-        out[1] -= cubic * (a2 * z[1] ** 3 + b2 * e12 ** 3)
+        if c == 1:
+            out[0] -= kt[0, 0] * cubic * z[0] ** 3
+        else:
+            # per spring: k1 on e1, k2 on e2 - e1, k3 on e2 (mass-normalised rows of Kt)
+            b1, b2 = -kt[0, 1], -kt[1, 0]
+            a1, a2 = kt[0, 0] - b1, kt[1, 1] - b2
+            e12 = z[1] - z[0]
+            out[0] -= cubic * (a1 * z[0] ** 3 - b1 * e12 ** 3)
+            out[1] -= cubic * (a2 * z[1] ** 3 + b2 * e12 ** 3)
 
 
 @numba.njit(error_model="numpy", cache=True, inline="always")
@@ -99,8 +92,8 @@ def _matvec_add(m: FloatArray, x: FloatArray, out: FloatArray, add: bool) -> Non
 @numba.njit(error_model="numpy", cache=True, inline="always")
 def _coulomb(z: FloatArray, wz: FloatArray, gam: FloatArray, kt: FloatArray, c: int, fk: FloatArray,
              fs: FloatArray, sigma: FloatArray, inp: FloatArray, h: float, af: FloatArray,
-             sgn: FloatArray, held: NDArray[np.bool_], x_rev: FloatArray, theta: FloatArray,
-             rev: NDArray[np.bool_]) -> None:
+             sgn: FloatArray, held: FloatArray, x_rev: FloatArray, theta: FloatArray,
+             rev: FloatArray) -> None:
     """Dry friction on the end state `wz` (n,) of a step from `z`, in place.
 
     Friction opposes the velocity at the step's start (from rest: the motion about to
@@ -112,7 +105,7 @@ def _coulomb(z: FloatArray, wz: FloatArray, gam: FloatArray, kt: FloatArray, c: 
     any_f = False
     for i in range(c):
         af[i] = 0.0
-        held[i] = False
+        held[i] = 0.0
         sgn[i] = 0.0
         if fk[i] <= 0.0 or sigma[i] > 0.0:
             continue
@@ -122,7 +115,7 @@ def _coulomb(z: FloatArray, wz: FloatArray, gam: FloatArray, kt: FloatArray, c: 
         sgn[i] = s
         g = gam[c + i, i]
         if v_old == 0.0 and abs(wz[c + i]) <= g * fs[i]:
-            held[i] = True
+            held[i] = 1.0
             af[i] = -wz[c + i] / g if g > 0.0 else 0.0
         else:
             af[i] = -fk[i] * s
@@ -130,23 +123,23 @@ def _coulomb(z: FloatArray, wz: FloatArray, gam: FloatArray, kt: FloatArray, c: 
         return
     _matvec_add(gam, af, wz, True)
     for i in range(c):
-        if held[i]:
+        if held[i] != 0.0:
             # exactly at rest: g·(-v/g) leaves ~1e-20 m/s, and a cart that is not exactly at
             # rest is slipping (kinetic friction), so a held cart would creep away
             wz[c + i] = 0.0
     for i in range(c):
         x_rev[i] = z[i]
         theta[i] = 0.0
-        rev[i] = False
+        rev[i] = 0.0
         v_old = z[c + i]
-        if fk[i] <= 0.0 or sigma[i] > 0.0 or held[i] or v_old == 0.0:
+        if fk[i] <= 0.0 or sigma[i] > 0.0 or held[i] != 0.0 or v_old == 0.0:
             continue
         if np.sign(wz[c + i]) == -sgn[i]:
-            rev[i] = True
+            rev[i] = 1.0
             theta[i] = min(max(v_old / (v_old - wz[c + i]), 0.0), 1.0)
             x_rev[i] = z[i] + 0.5 * v_old * theta[i] * h
     for i in range(c):
-        if not rev[i]:
+        if rev[i] == 0.0:
             continue
         pull = inp[i]
         for j in range(c):
@@ -160,11 +153,39 @@ def _coulomb(z: FloatArray, wz: FloatArray, gam: FloatArray, kt: FloatArray, c: 
             wz[c + i] += 2.0 * fk[i] * sgn[i] * rem
 
 
-@numba.njit(error_model="numpy", cache=True)
+#: Rows of `simulate_rows`' scratch array (SCRATCH_ROWS, 2c): the state and the step's work.
+SCRATCH_ROWS = 13
+
+
+@numba.njit(error_model="numpy", cache=True, inline="always")
+def _row_terms(c: int, m_in: int, gin: FloatArray, drag: FloatArray, cubic: float, kappa: FloatArray,
+               sigma: FloatArray, fk: FloatArray) -> tuple[bool, bool, bool, bool]:
+    """Which terms a parameter row has: (an input, pre-sliding, a smooth force, Coulomb friction)."""
+    has_input = False
+    for i in range(c):
+        for q in range(m_in):
+            if gin[i, q] != 0.0:
+                has_input = True
+    presliding, nonlinear, coulomb = False, cubic != 0.0, False
+    for i in range(c):
+        if sigma[i] > 0.0:
+            presliding = True
+        if drag[i] != 0.0 or kappa[i] != 0.0:
+            nonlinear = True
+        if fk[i] > 0.0 and sigma[i] <= 0.0:
+            coulomb = True
+    return has_input, presliding, has_input or nonlinear or presliding, coulomb
+
+
+# Without numba's reference counting (`_nrt=False`): every array the loop binds, an inlined
+# helper's arguments included, took an atomic increment and decrement per sub-step (~150 ns of a
+# dry-friction step's ~200); so nothing is allocated here: `scratch` holds the work arrays.
+# (`_nrt` is numba's own target option, `numba.core.options.TargetOptions`, absent from its stubs.)
+@numba.njit(error_model="numpy", cache=True, _nrt=False)  # type: ignore[call-overload]
 def simulate_rows(phi: FloatArray, gam: FloatArray, phih: FloatArray, gamh: FloatArray, kt: FloatArray,
                   z0: FloatArray, fk: FloatArray, fs: FloatArray, sigma: FloatArray, drag: FloatArray,
                   cubic: FloatArray, kappa: FloatArray, gin: FloatArray, u: FloatArray, switch: FloatArray,
-                  dt: float, substeps: int, out: FloatArray, end: FloatArray) -> None:
+                  dt: float, substeps: int, out: FloatArray, end: FloatArray, scratch: FloatArray) -> None:
     """Deviations e (P, N, c) into `out`, and the last sample's state (P, 2c) into `end`,
     for every parameter row.
 
@@ -172,35 +193,28 @@ def simulate_rows(phi: FloatArray, gam: FloatArray, phih: FloatArray, gamh: Floa
     mass-normalised stiffness; z0 (P, n); fk, fs, sigma, drag, kappa (P, c); cubic (P,); gin
     (P, c, m) input gains; u (N, m) inputs at the samples, linear between them where
     `switch` (N, m) is NaN, else held (`_input_value`); dt the sample step (s), split into
-    `substeps`.
+    `substeps`; `scratch` (SCRATCH_ROWS, n) work space.
     """
     n_rows, n_samples, c = out.shape
     n = 2 * c
     m_in = u.shape[1]
     h = dt / substeps
     step = 1.0 / substeps
+    z, mid, wz = scratch[0], scratch[1], scratch[2]
+    w, w_mid, acc, inp = scratch[3, :c], scratch[4, :c], scratch[5, :c], scratch[6, :c]
+    af, sgn, held, x_rev, theta, rev = (scratch[7, :c], scratch[8, :c], scratch[9, :c], scratch[10, :c],
+                                        scratch[11, :c], scratch[12, :c])
     for p in range(n_rows):
         # this row's maps and coefficients, bound once (a view per use costs more than the step)
         phi_p, gam_p, phih_p, gamh_p, kt_p = phi[p], gam[p], phih[p], gamh[p], kt[p]
         fk_p, fs_p, sigma_p, drag_p, kappa_p = fk[p], fs[p], sigma[p], drag[p], kappa[p]
         gin_p, cubic_p = gin[p], cubic[p]
-        z = z0[p].copy()
-        w = np.zeros(c)
-        w_mid = np.zeros(c)
-        acc = np.zeros(c)
-        inp = np.zeros(c)
-        mid = np.zeros(n)
-        wz = np.zeros(n)
-        af = np.zeros(c)
-        sgn = np.zeros(c)
-        held = np.zeros(c, dtype=np.bool_)
-        x_rev = np.zeros(c)
-        theta = np.zeros(c)
-        rev = np.zeros(c, dtype=np.bool_)
-        has_input = m_in > 0 and np.any(gin_p != 0.0)
-        presliding = np.any(sigma_p > 0.0)
-        smooth = has_input or np.any(drag_p != 0.0) or cubic_p != 0.0 or np.any(kappa_p != 0.0) or presliding
-        coulomb = np.any((fk_p > 0.0) & (sigma_p <= 0.0))
+        for r in range(SCRATCH_ROWS):
+            for i in range(n):
+                scratch[r, i] = 0.0
+        for i in range(n):
+            z[i] = z0[p, i]
+        has_input, presliding, smooth, coulomb = _row_terms(c, m_in, gin_p, drag_p, cubic_p, kappa_p, sigma_p, fk_p)
         can_stop = coulomb and not has_input and not presliding
         for i in range(c):
             out[p, 0, i] = z[i]
