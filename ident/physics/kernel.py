@@ -18,8 +18,8 @@ length h (see `ident.physics.free` for the derivation):
 then Coulomb friction with stick on the carts without pre-sliding (`_coulomb`). No I/O.
 
 Compiled with numpy's error model (no division here can be by zero: each divisor is checked or
-is a difference of opposite signs; the Python model's checks cost ~10 % of a step), the small
-helpers inlined, and `simulate_rows` without reference counting (see there).
+is a difference of opposite signs, so the Python model's check of every division is spared), the
+small helpers inlined, and `simulate_rows` without reference counting (see there).
 """
 
 from __future__ import annotations
@@ -205,7 +205,7 @@ def simulate_rows(phi: FloatArray, gam: FloatArray, phih: FloatArray, gamh: Floa
     af, sgn, held, x_rev, theta, rev = (scratch[7, :c], scratch[8, :c], scratch[9, :c], scratch[10, :c],
                                         scratch[11, :c], scratch[12, :c])
     for p in range(n_rows):
-        # this row's maps and coefficients, bound once (a view per use costs more than the step)
+        # this row's maps and coefficients
         phi_p, gam_p, phih_p, gamh_p, kt_p = phi[p], gam[p], phih[p], gamh[p], kt[p]
         fk_p, fs_p, sigma_p, drag_p, kappa_p = fk[p], fs[p], sigma[p], drag[p], kappa[p]
         gin_p, cubic_p = gin[p], cubic[p]
