@@ -3,7 +3,8 @@
 The hand episodes (`hand`) come from accelerations smoothed over a tenth of a period, which
 blurs where a force ends by half that window. Here the same free equation of motion is
 evaluated with derivatives over a window 2.5 times shorter (a 25th of a period, at least
-5 samples), which is noisier but sharp, and the release is the sample after the last one,
+5 samples, wider where the reading noise would bury the hand's force: `fine_window`), which
+is noisier but sharp, and the release is the sample after the last one,
 after the episode's peak force and before the first stretch of T/12 where it stays
 below the limit, where that finer residual |r| exceeds
 
@@ -24,9 +25,12 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ident.releases.hand import HAND_SIGMAS, FreeModel, regressors
-from ident.releases.motion import Motion, smoothed_noise
+from ident.releases.motion import Motion, accel_noise_gain, smoothed_noise
 
 FINE_FRACTION = 1.0 / 25.0
+#: ... widened (up to the coarse window) until its limit from white reading noise,
+#: NOISE_SIGMAS · noise · gain, is at most this share of the hand's peak force (`fine_window`)
+FINE_NOISE_SHARE = 0.2
 FRACTION_OF_PEAK = 0.02
 NOISE_SIGMAS = 4.0
 #: The force has ended when the residual stays below the limit this fraction of a period.
@@ -43,7 +47,7 @@ def release_instant(m: Motion, model: FreeModel, first: int, last: int) -> float
     """The release time (s, on `m.t`) after the hand episode [first, last] of `model.column`."""
     from scipy.signal import savgol_filter  # deferred: keeps `import ident` fast
     period_n = m.samples(m.period_s)
-    window = max(5, 2 * round(FINE_FRACTION * period_n / 2) + 1)
+    window = fine_window(m, model, first, last)
     lo = max(0, first - window)
     hi = min(m.n_samples, last + 2 * period_n)
     if hi - lo <= window:
@@ -103,6 +107,24 @@ def release_instant(m: Motion, model: FreeModel, first: int, last: int) -> float
         # response whose unmodelled effects make the fine residual noisy)
         release = _coarse_end(m, model, last)
     return float(m.t[0] + np.clip(release, first, m.n_samples - 1) * m.dt)
+
+
+def fine_window(m: Motion, model: FreeModel, first: int, last: int) -> int:
+    """The fine residual's window (samples, odd): a 25th of a period (at least 5 samples),
+    widened two samples at a time, up to the coarse window, while the reading noise alone
+    would put its limit (`NOISE_SIGMAS` of that noise through the filter) above
+    `FINE_NOISE_SHARE` of the hand's peak force in the episode [first, last] (the coarse
+    residual's). At a 25th of a period (9 samples) a flick read with 0.11 mm of noise at
+    976 Hz had 12 m/s² of noise per width, a limit of 47 m/s² over a hand that peaked at 30:
+    its release was dated 23 samples early, where the noise last peaked, and the diagnosis
+    took the hand for a 17.6 Hz mode (testkit.effects coupled_mode, seed 1642837041); over
+    21 samples, 2.4 samples early and the true 9.1 Hz mode."""
+    window = max(5, 2 * round(FINE_FRACTION * m.samples(m.period_s) / 2) + 1)
+    peak = float(np.max(_coarse_force(model)[first:last + 1]))
+    noise = float(m.noise_m[model.column])
+    while window + 2 <= m.window and NOISE_SIGMAS * noise * accel_noise_gain(window, m.dt) > FINE_NOISE_SHARE * peak:
+        window += 2
+    return window
 
 
 def _local_stiffness(resid: NDArray[np.float64], minus_x: NDArray[np.float64], a: int,
@@ -173,13 +195,19 @@ def _hand_limit(model: FreeModel) -> NDArray[np.float64]:
 def _coarse_end(m: Motion, model: FreeModel, last: int) -> float:
     """The release (samples) where the coarse residual |r| crosses the hand's limit after
     the episode's last sample `last`, less the coarse smoothing's delay."""
-    r = np.abs(model.residual - float(np.median(model.residual[~model.hand])))
+    r = _coarse_force(model)
     limit = float(_hand_limit(model)[last])
     if last + 1 >= m.n_samples or r[last] <= limit:
         return float(last)
     before = float(np.max(r[max(0, last - m.window):last + 1]))
     crossing = last + min(1.0, (r[last] - limit) / max(r[last] - r[last + 1], 1e-300))
     return crossing - smoothing_delay(m.window, limit / before)
+
+
+def _coarse_force(model: FreeModel) -> NDArray[np.float64]:
+    """|the coarse residual| (N,) m/s² about its median on the free samples: the hand's force."""
+    r = model.residual
+    return np.asarray(np.abs(r - float(np.median(r[~model.hand]))), dtype=np.float64)
 
 
 def _loud(seg: NDArray[np.float64], limit: float, lo: int, hi: int, uneven_stamps: bool) -> NDArray[np.intp]:

@@ -23,12 +23,10 @@ from testkit.effects import SINGLE, make_case
 #: hold at 641 Hz).
 KNOWN = ((2035121339, "quadratic_drag"),)
 N_DRAWN = 24
-#: Drawn cases whose release must be found once and on time: 21 of these 24 are. The rest:
-#: a coarse lattice hiding a flick's end (seeds 1150721785 and 1500255062: no release, and
-#: 16 samples early), and a hold at 972 Hz read with 0.2 mm of noise dated 8.7 samples early
-#: (1706154916). On 60 other draws (scratch survey), 55 pass: two coarse-lattice flicks, two
-#: second modes (a hold and a flick: the second mode's misfit early in the free response is
-#: taken for the hand again within a period) and a cubic-spring flick 12 samples early.
+#: Drawn cases whose release must be found once and on time: all 24 of these are (23 before
+#: the fine residual's window followed the noise: a hold at 972 Hz read with 0.2 mm of noise
+#: was dated 8.7 samples early, seed 1706154916; earlier finders also missed coarse lattices
+#: hiding a flick's end, seeds 1150721785 and 1500255062).
 MIN_FOUND = 0.85
 HOLD_SAMPLES = 3.0
 FLICK_PERIODS = 0.1
@@ -57,3 +55,29 @@ def test_releases_of_runs_with_unmodelled_effects_are_found_on_time() -> None:
     plan = [(int(rng.integers(2 ** 31)), SINGLE[i % len(SINGLE)]) for i in range(N_DRAWN)]
     problems = [p for seed, family in plan if (p := _problem(seed, family))]
     assert len(problems) <= (1.0 - MIN_FOUND) * N_DRAWN, problems
+
+
+#: Holds read with heavy noise at a high rate: at a 25th of a period the fine residual's noise
+#: alone was 10-40 m/s², above the spring's force that a weak, short hold lets go of.
+NOISY_HOLDS = 24
+NOISY_MIN_M = 1e-4           # the generator draws 5 µm-0.2 mm: its upper half-decade
+NOISY_RATES_HZ = (700.0, 1000.0)
+#: These 24 are all within three samples (at most 2.2); before the fine window followed the
+#: noise 21 were. On 40 others (another seed) 38, before 35.
+NOISY_MIN_ON_TIME = 22
+
+
+def test_holds_read_with_heavy_noise_at_a_high_rate_are_dated_within_three_samples() -> None:
+    rng = np.random.default_rng(20261129)
+    errors: list[float] = []
+    while len(errors) < NOISY_HOLDS:
+        seed = int(rng.integers(2 ** 31))
+        case = make_case(seed, "coulomb_friction", release="hold", rate_hz=float(rng.uniform(*NOISY_RATES_HZ)),
+                         record_s=5.0)
+        if case.truth.noise_m < NOISY_MIN_M:
+            continue
+        found = find_releases(case.observed.t, case.observed.y)
+        dt = float(np.median(np.diff(case.observed.t)))
+        errors.append(min((abs(f.release_time_s - case.truth.release_time_s) / dt for f in found), default=np.inf))
+    on_time = sum(e <= HOLD_SAMPLES for e in errors)
+    assert on_time >= NOISY_MIN_ON_TIME, sorted(round(e, 1) for e in errors)
