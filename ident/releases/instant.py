@@ -3,7 +3,7 @@
 The hand episodes (`hand`) come from accelerations smoothed over a tenth of a period, which
 blurs where a force ends by half that window. Here the same free equation of motion is
 evaluated with derivatives over a window 2.5 times shorter (a 25th of a period, at least
-5 samples, wider where the reading noise would bury the hand's force: `fine_window`), which
+5 samples, wider where the reading noise would bury the hand's force: `_fine_window`), which
 is noisier but sharp, and the release is the sample after the last one,
 after the episode's peak force and before the first stretch of T/12 where it stays
 below the limit, where that finer residual |r| exceeds
@@ -29,7 +29,7 @@ from ident.releases.motion import Motion, accel_noise_gain, smoothed_noise
 
 FINE_FRACTION = 1.0 / 25.0
 #: ... widened (up to the coarse window) until its limit from white reading noise,
-#: NOISE_SIGMAS · noise · gain, is at most this share of the hand's peak force (`fine_window`)
+#: NOISE_SIGMAS · noise · gain, is at most this share of the hand's peak force (`_fine_window`)
 FINE_NOISE_SHARE = 0.2
 FRACTION_OF_PEAK = 0.02
 NOISE_SIGMAS = 4.0
@@ -47,7 +47,7 @@ def release_instant(m: Motion, model: FreeModel, first: int, last: int) -> float
     """The release time (s, on `m.t`) after the hand episode [first, last] of `model.column`."""
     from scipy.signal import savgol_filter  # deferred: keeps `import ident` fast
     period_n = m.samples(m.period_s)
-    window = fine_window(m, model, first, last)
+    window = _fine_window(m, model, first, last)
     lo = max(0, first - window)
     hi = min(m.n_samples, last + 2 * period_n)
     if hi - lo <= window:
@@ -109,7 +109,7 @@ def release_instant(m: Motion, model: FreeModel, first: int, last: int) -> float
     return float(m.t[0] + np.clip(release, first, m.n_samples - 1) * m.dt)
 
 
-def fine_window(m: Motion, model: FreeModel, first: int, last: int) -> int:
+def _fine_window(m: Motion, model: FreeModel, first: int, last: int) -> int:
     """The fine residual's window (samples, odd): a 25th of a period (at least 5 samples),
     widened two samples at a time, up to the coarse window, while the reading noise alone
     would put its limit (`NOISE_SIGMAS` of that noise through the filter) above
