@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 from ident.releases import find_releases
-from ident.releases.hand import hidden_mode
+from ident.releases.hand import _oscillator_foh, hidden_mode
 from ident.releases.motion import motion
 from testkit.redteam import redteam_module
 
@@ -38,6 +38,20 @@ def test_the_hidden_mass_follows_the_cart_as_a_driven_oscillator() -> None:
     expected = 0.04 * abs(gain) * np.sin(w * t + np.angle(gain))
     late = t > 6.0   # the start's transient has decayed (e^(-zeta·wn·6 s) ~ 1e-9)
     assert np.max(np.abs(z[late] - expected[late])) < 1e-3 * 0.04 * abs(gain)
+
+
+@pytest.mark.parametrize("zeta", [0.005, 0.03, 0.15])
+@pytest.mark.parametrize("wn_dt", [0.002, 0.05, 0.4, 1.5])
+def test_the_oscillator_is_discretized_as_scipy_does_with_a_first_order_hold(zeta: float, wn_dt: float) -> None:
+    """The search's own discretization against `scipy.signal.cont2discrete(method="foh")`, over
+    the frequencies it searches (up to half the Nyquist frequency: wn·dt <= pi/2)."""
+    from scipy.signal import cont2discrete
+    dt = 0.004
+    wn = wn_dt / dt
+    num, den, _ = cont2discrete(([wn * wn], [1.0, 2.0 * zeta * wn, wn * wn]), dt, method="foh")
+    b, a = _oscillator_foh(wn, zeta, dt)
+    np.testing.assert_allclose(b, np.ravel(num), rtol=1e-9, atol=1e-15)
+    np.testing.assert_allclose(a, np.ravel(den), rtol=1e-9, atol=1e-15)
 
 
 @pytest.mark.parametrize(("family", "seed"), [("coupled_span", 801), ("coupled_span", 802),
