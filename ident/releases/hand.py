@@ -48,32 +48,34 @@ STATE_MISFIT_CAP = 0.25
 NOISE_SHARE = 1.0
 #: A cart alone (no other cart read) may pull an unread mass through a spring: a second cart
 #: or a light mass, free of the hand (`hidden_mode`). Its frequency with this cart held is
-#: searched over these multiples of the ringing's ω (below the Nyquist frequency), 3 % apart:
-#: a lightly damped mass's misfit has a valley a few per cent wide in frequency (a red-team
-#: two-cart record, 907 Hz: robust scale 0.43 m/s² at 1.65 ω, 2.8 at 1.58), and these damping ratios ...
+#: searched over these multiples of the ringing's ω (below half the Nyquist frequency), 3 % apart
+#: (a lightly damped mass's misfit has a valley a few per cent wide in frequency: a red-team
+#: two-cart record at 907 Hz, robust scale 0.43 m/s² at 1.65 ω, 2.8 at 1.58), and these damping
+#: ratios ...
 HIDDEN_RATIOS = tuple(float(r) for r in np.geomspace(0.25, 6.0, 109))
 HIDDEN_DAMPING = (0.005, 0.03, 0.15)
 #: ... first every this many of those ratios, then all of them around the best this many
-#: minima of the coarse ones
+#: minima of the coarse ones ...
 HIDDEN_COARSE_STEP = 4
 HIDDEN_VALLEYS = 3
-#: ... and taken when it divides what the free model's robust residual scale has beyond the
-#: acceleration's noise (root of the difference of squares) by at least this (the real
-#: records' one-cart fits: at most 1.26; an unread cart: 1.8-7).
-HIDDEN_GAIN = 1.5
-#: ... and the scale itself drops below this fraction of the free model's (a one-cart record
-#: whose residual is nearly the noise: 0.85 -> 0.78 m/s² beside a noise of 0.75 halved the excess)
-HIDDEN_SCALE_DROP = 0.8
-#: ... searched on a record with at least this many moving samples (8 per coefficient of the
-#: extended model: a two-cart flick that friction stops in a second at 72-84 Hz has 67-84) ...
+#: ... on a record with at least this many moving samples (8 per coefficient of the extended
+#: model: a two-cart flick that friction stops in a second at 72-84 Hz has 67-84), at most this
+#: many of them, evenly spread (a 1 kHz record's smoothed acceleration changes little from one
+#: sample to the next) ...
 HIDDEN_MIN_MOVING = 64
-#: ... on at most this many of them, evenly spread (the smoothed acceleration of a 1 kHz
-#: record changes little from one sample to the next) ...
 HIDDEN_SEARCH_SAMPLES = 2000
 #: ... each candidate fitted by least squares and again on the samples within this many robust
 #: scales of it (twice): the hand's phase, which no free model follows (a flick from rest is a
-#: fifth of a one-second ringing's samples), drags a plain fit off the free motion
+#: fifth of a one-second ringing's samples), drags a plain fit off the free motion ...
 HIDDEN_TRIM_SIGMAS = 3.0
+#: ... and taken when it divides what the free model's robust residual scale has beyond the
+#: acceleration's noise (root of the difference of squares) by at least this (the real
+#: records' one-cart fits: at most 1.26; an unread cart: 1.8-7) ...
+HIDDEN_GAIN = 1.5
+#: ... and the scale itself drops below this fraction of the free model's (near the noise a
+#: small drop is a large one of the excess: a one-cart flick, 0.84 -> 0.78 m/s² beside 0.75 of
+#: noise, had lost its release).
+HIDDEN_SCALE_DROP = 0.8
 
 
 @dataclass(frozen=True)
@@ -224,10 +226,10 @@ def fit_free_model(m: Motion, column: int, others: tuple[int, ...] = (),
     the `slow` columns among `others` enter by their period average (`regressors`). A spring
     to another cart is part of this cart's own stiffness (|k_ji| <= k_jj): a fit that breaks
     that (a short record where a held cart's average says nothing) is redone without them.
-    A cart alone (no free cart read beside it) is fitted with a `hidden_mode` too, kept
-    when it divides the residual's scale beyond the noise by `HIDDEN_GAIN`: a second cart
-    or mass coupled to it and not read (a one-encoder record of two carts) rings in its
-    free response."""
+    A cart alone (no free cart read beside it) is fitted with a `hidden_mode` too (the better
+    of `_hidden_mode_candidates`), kept when it divides the residual's scale beyond the noise
+    by `HIDDEN_GAIN` and the scale itself by 1 / `HIDDEN_SCALE_DROP`: a second cart or mass
+    coupled to it and not read (a one-encoder record of two carts) rings in its free response."""
     model = _fit(m, column, others, slow)
     k = model.stiffness
     if slow and any(abs(float(k[1 + others.index(i)])) > abs(float(k[0])) for i in slow if i in others):
