@@ -16,13 +16,13 @@ coupled to), near zero during a free response. No I/O.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
 
 from ident.releases.motion import FloatArray, Motion, accel_noise, moving_samples, typical_speed
+from ident.releases.unread import coupling_holds, mass_candidates
 
 #: Tukey bisquare tuning constant (95 % efficiency for Gaussian residuals).
 TUKEY_C = 4.685
@@ -46,29 +46,8 @@ STATE_MISFIT_FACTOR = 2.0
 STATE_MISFIT_CAP = 0.25
 #: ... counting only what |r| exceeds this many residual scales by (the noise is not a force).
 NOISE_SHARE = 1.0
-#: A cart alone (no other cart read) may pull an unread mass through a spring: a second cart
-#: or a light mass, free of the hand (`hidden_mode`). Its frequency with this cart held is
-#: searched over these multiples of the ringing's ω (below half the Nyquist frequency), 3 % apart
-#: (a lightly damped mass's misfit has a valley a few per cent wide in frequency: a red-team
-#: two-cart record at 907 Hz, robust scale 0.43 m/s² at 1.65 ω, 2.8 at 1.58), and these damping
-#: ratios ...
-HIDDEN_RATIOS = tuple(float(r) for r in np.geomspace(0.25, 6.0, 109))
-HIDDEN_DAMPING = (0.005, 0.03, 0.15)
-#: ... first every this many of those ratios, then all of them around the best this many
-#: minima of the coarse ones ...
-HIDDEN_COARSE_STEP = 4
-HIDDEN_VALLEYS = 3
-#: ... on a record with at least this many moving samples (8 per coefficient of the extended
-#: model: a two-cart flick that friction stops in a second at 72-84 Hz has 67-84), at most this
-#: many of them, evenly spread (a 1 kHz record's smoothed acceleration changes little from one
-#: sample to the next) ...
-HIDDEN_MIN_MOVING = 64
-HIDDEN_SEARCH_SAMPLES = 2000
-#: ... each candidate fitted by least squares and again on the samples within this many robust
-#: scales of it (twice): the hand's phase, which no free model follows (a flick from rest is a
-#: fifth of a one-second ringing's samples), drags a plain fit off the free motion ...
-HIDDEN_TRIM_SIGMAS = 3.0
-#: ... and taken when it divides what the free model's robust residual scale has beyond the
+#: A cart alone (no other cart read) may pull an unread mass through a spring (`unread`): the
+#: mass is taken when it divides what the free model's robust residual scale has beyond the
 #: acceleration's noise (root of the difference of squares) by at least this (the real
 #: records' one-cart fits: at most 1.26; an unread cart: 1.8-7) ...
 HIDDEN_GAIN = 1.5
@@ -142,54 +121,6 @@ def regressors(m: Motion, column: int, others: tuple[int, ...], v_smooth: float,
     return np.column_stack(cols)
 
 
-def hidden_mode(m: Motion, column: int, wn: float, zeta: float,
-                moving: NDArray[np.bool_] | None = None) -> FloatArray:
-    """The regressors (N, 2) of an unread mass that cart `column` pulls through a spring: its
-    position, which with this cart held rings at `wn` (rad/s) with damping `zeta`, driven by
-    this cart's position (a hand on this cart moves it only through the spring),
-
-        z = G·x_j,  G = wn² / (s² + 2·zeta·wn·s + wn²),
-
-    and its dry friction's share, G·(-sgn ż) (sgn smoothed over a hundredth of ż's range)
-    while this cart moves (where it rests, z's leftover linear ringing is not the mass's,
-    which friction stops, and its sign would drive G at resonance), both from rest at their
-    first values (a record starts with the carts at rest; one that
-    starts in motion fits worse, and the free model stays without them). The spring's force
-    on this cart is a combination of the two. `moving`: `moving_samples` of the cart's
-    velocity, when the caller has them."""
-    from scipy.signal import lfilter, lfilter_zi  # deferred: keeps `import ident` fast
-    b, a = _oscillator_foh(wn, zeta, m.dt)
-    zi = lfilter_zi(b, a)
-
-    def response(u: FloatArray) -> FloatArray:
-        return np.asarray(lfilter(b, a, u, zi=zi * u[0])[0], dtype=np.float64)
-
-    z = response(m.x[:, column])
-    dz = np.gradient(z, m.dt)
-    if moving is None:
-        moving = moving_samples(m.v[:, column])
-    return np.column_stack([z, response(-np.tanh(dz / max(0.01 * float(np.ptp(dz)), 1e-12)) * moving)])
-
-
-def _oscillator_foh(wn: float, zeta: float, dt: float) -> tuple[FloatArray, FloatArray]:
-    """(b, a) of wn² / (s² + 2·zeta·wn·s + wn²) discretized with a first-order hold over `dt`,
-    as `scipy.signal.cont2discrete(..., method="foh")` gives them (to rounding), from one 4×4
-    matrix exponential: the search calls it ~100 times a record, and the general routine's
-    conversions took three quarters of its time."""
-    from scipy.linalg import expm  # deferred: keeps `import ident` fast
-    aug = np.zeros((4, 4))
-    aug[:2, :2] = np.array([[0.0, 1.0], [-wn * wn, -2.0 * zeta * wn]]) * dt
-    aug[1, 2] = wn * wn * dt
-    aug[2, 3] = 1.0
-    e = expm(aug)
-    ad, g1, g2 = e[:2, :2], e[:2, 2], e[:2, 3]
-    bd = g1 - g2 + ad @ g2
-    den = np.array([1.0, -(ad[0, 0] + ad[1, 1]), ad[0, 0] * ad[1, 1] - ad[0, 1] * ad[1, 0]])
-    # C·adj(zI - Ad)·Bd + D·det(zI - Ad), C = (1, 0), D = g2[0]
-    num = g2[0] * den + np.array([0.0, bd[0], ad[0, 1] * bd[1] - ad[1, 1] * bd[0]])
-    return num, den
-
-
 def state_terms(m: Motion, column: int, speed: float) -> list[FloatArray]:
     """The smooth force of the state a linear free model lacks, as a regressor (N,): quadratic
     drag -w|w| (w = v/`speed`, order one): an effect present all along a free response and
@@ -226,8 +157,8 @@ def fit_free_model(m: Motion, column: int, others: tuple[int, ...] = (),
     the `slow` columns among `others` enter by their period average (`regressors`). A spring
     to another cart is part of this cart's own stiffness (|k_ji| <= k_jj): a fit that breaks
     that (a short record where a held cart's average says nothing) is redone without them.
-    A cart alone (no free cart read beside it) is fitted with a `hidden_mode` too (the better
-    of `_hidden_mode_candidates`), kept when it divides the residual's scale beyond the noise
+    A cart alone (no free cart read beside it) is fitted with an unread mass's `unread.hidden_mode` too (the
+    better of `unread.mass_candidates`), kept when it divides the residual's scale beyond the noise
     by `HIDDEN_GAIN` and the scale itself by 1 / `HIDDEN_SCALE_DROP`: a second cart or mass
     coupled to it and not read (a one-encoder record of two carts) rings in its free response."""
     model = _fit(m, column, others, slow)
@@ -237,7 +168,8 @@ def fit_free_model(m: Motion, column: int, others: tuple[int, ...] = (),
         model = _fit(m, column, kept, ())
     if any(i not in model.slow for i in model.others):
         return model
-    fits = [_fit(m, column, model.others, model.slow, h) for h in _hidden_mode_candidates(m, model)]
+    base = regressors(m, column, model.others, model.v_smooth, model.slow, model.speed)
+    fits = [_fit(m, column, model.others, model.slow, h) for h in mass_candidates(m, column, base)]
     if not fits:
         return model
     other = min(fits, key=lambda f: f.scale)
@@ -249,85 +181,11 @@ def fit_free_model(m: Motion, column: int, others: tuple[int, ...] = (),
 
     # (strictly: a residual within the noise either way gains nothing; and near the noise a
     # small drop of the scale is a large one of its excess: the scale itself must drop too)
-    if _coupling_holds(float(other.extra[-2]), float(other.stiffness[0])) \
+    if coupling_holds(float(other.extra[-2]), float(other.stiffness[0])) \
             and excess(model.scale) > HIDDEN_GAIN * excess(other.scale) \
             and other.scale <= HIDDEN_SCALE_DROP * model.scale:
         return other
     return model
-
-
-def _coupling_holds(kappa: float, own: float) -> bool:
-    """Whether the hidden mass pulls as a spring can: its position's coefficient `kappa`
-    (1/s²) positive and below this cart's `own` stiffness (the coupling spring is part of
-    it; κ near it makes z a copy of x_j, a degenerate fit)."""
-    return 0.0 < kappa < own
-
-
-def _hidden_mode_candidates(m: Motion, model: FreeModel) -> list[FloatArray]:
-    """The `hidden_mode` regressors (N, 2) whose fit beside the free model's leaves the least
-    median |residual| over the moving samples (at most `HIDDEN_SEARCH_SAMPLES` of them), by
-    a least-squares fit and by one trimmed to the samples within `HIDDEN_TRIM_SIGMAS` robust
-    scales (twice; the hand's phase drags the plain fit, and its valley lies elsewhere): per
-    fit, its frequency on `HIDDEN_RATIOS` of the ringing's ω below half the Nyquist frequency
-    (at the middle damping, every `HIDDEN_COARSE_STEP`-th ratio, then every ratio around the
-    best `HIDDEN_VALLEYS` minima), then the damping on `HIDDEN_DAMPING`, then the frequency
-    refined between its grid neighbours. One or two candidates; none on a short record."""
-    from scipy.optimize import minimize_scalar  # deferred: keeps `import ident` fast
-    j = model.column
-    moving = moving_samples(m.v[:, j])
-    if np.count_nonzero(moving) < HIDDEN_MIN_MOVING:
-        return []
-    rows = np.flatnonzero(moving)
-    rows = rows[::math.ceil(rows.size / HIDDEN_SEARCH_SAMPLES)]
-    base = regressors(m, j, model.others, model.v_smooth, model.slow, model.speed)[rows]
-    target = m.a[rows, j]
-    wn = 2.0 * np.pi / m.period_s
-    ratios = [r for r in HIDDEN_RATIOS if r * wn <= 0.5 * np.pi / m.dt]
-    if not ratios:
-        return []
-
-    def spreads(ratio: float, zeta: float) -> tuple[float, float]:
-        """(plain, trimmed): median |residual| of each fit (1e300 where the coupling fails:
-        finite, as the bounded search needs)."""
-        basis = np.column_stack([base, hidden_mode(m, j, ratio * wn, zeta, moving)[rows]])
-        keep = np.ones(target.size, dtype=bool)
-        out = []
-        for _ in range(3):
-            coef = np.linalg.lstsq(basis[keep], target[keep], rcond=None)[0]
-            residual = np.abs(target - basis @ coef)
-            holds = _coupling_holds(float(coef[base.shape[1]]), float(coef[0]))
-            out.append(float(np.median(residual)) if holds else 1e300)
-            keep = residual < HIDDEN_TRIM_SIGMAS * max(float(np.median(residual)) / 0.6745, 1e-12)
-            if np.count_nonzero(keep) < 2 * basis.shape[1]:
-                break
-        return out[0], out[-1]
-
-    middle = HIDDEN_DAMPING[len(HIDDEN_DAMPING) // 2]
-    costs = np.full((2, len(ratios)), np.inf)
-    coarse = range(0, len(ratios), HIDDEN_COARSE_STEP)
-    for c in coarse:
-        costs[:, c] = spreads(ratios[c], middle)
-    # the valley of a lightly damped mass lies between coarse points: look closer around the
-    # best few coarse minima of either fit
-    for k in range(2):
-        minima = [c for c in coarse if costs[k, c] <= min(costs[k, max(0, c - HIDDEN_COARSE_STEP)],
-                                                          costs[k, min(len(ratios) - 1, c + HIDDEN_COARSE_STEP)])]
-        for c in sorted(minima, key=lambda c: costs[k, c])[:HIDDEN_VALLEYS]:
-            for f in range(max(0, c - HIDDEN_COARSE_STEP + 1), min(len(ratios), c + HIDDEN_COARSE_STEP)):
-                if not np.isfinite(costs[k, f]):
-                    costs[:, f] = spreads(ratios[f], middle)
-
-    def refined(k: int) -> tuple[float, float]:
-        """(ratio, damping) of fit `k`'s best grid point, its damping chosen, then refined."""
-        i = int(np.argmin(costs[k]))
-        zeta = min(HIDDEN_DAMPING, key=lambda z: spreads(ratios[i], z)[k])
-        lo, hi = ratios[max(0, i - 1)], ratios[min(len(ratios) - 1, i + 1)]
-        best = minimize_scalar(lambda r: spreads(float(r), zeta)[k], bounds=(lo, hi), method="bounded",
-                               options={"xatol": 1e-3 * ratios[i]})
-        return float(best.x), zeta
-
-    found = dict.fromkeys(refined(k) for k in range(2))
-    return [hidden_mode(m, j, ratio * wn, zeta, moving) for ratio, zeta in found]
 
 
 def _fit(m: Motion, column: int, others: tuple[int, ...], slow: tuple[int, ...],

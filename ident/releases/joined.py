@@ -14,7 +14,7 @@ first date (the cart's free equation, `FreeModel`, gives its stiffness and dampi
 `free` spans the cart's own motion (constant, drift, e^{-στ}cos ωτ, e^{-στ}sin ωτ) and its
 responses, from rest at the window's start, to what else pushes it: dry friction against the
 measured motion, every other cart's measured position through the spring and an unread
-mass's pull (`hand.hidden_mode`). `D_k` is the
+mass's pull (`unread.hidden_mode`). `D_k` is the
 cart's response to a hand force (t0 - t)^k, k = 0, 1, 2, that ends at t0 with position and
 velocity continuous (`hand_columns`): the hand lets go at once, its force before is smooth (a
 real hand's rises to a peak 30-100 ms before the let-go and declines, curved). All linear for
@@ -85,7 +85,7 @@ def _least_residual(m: Motion, model: FreeModel, centre: float, back: float, sig
     env = np.exp(-sigma * tau)
     pushes = [np.tanh(m.v[lo:hi, model.column] / model.v_smooth)]
     pushes += [m.y[lo:hi, i] - m.y[lo, i] for i in model.others]
-    # an unread mass's pull (`hand.hidden_mode`) is a force on this cart like the others'
+    # an unread mass's pull (`unread.hidden_mode`) is a force on this cart like the others'
     pushes += [] if model.hidden is None else [u - u[0] for u in model.hidden[lo:hi].T]
     free = [np.ones_like(t), tau, env * np.cos(omega * tau), env * np.sin(omega * tau)]
     free += [_forced(u, m.dt, sigma, omega) for u in pushes]

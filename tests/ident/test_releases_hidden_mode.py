@@ -17,8 +17,8 @@ import numpy as np
 import pytest
 
 from ident.releases import find_releases
-from ident.releases.hand import _oscillator_foh, hidden_mode
 from ident.releases.motion import motion
+from ident.releases.unread import _oscillator_foh, hidden_mode
 from testkit.redteam import redteam_module
 
 
