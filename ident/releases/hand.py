@@ -168,19 +168,22 @@ def fit_free_model(m: Motion, column: int, others: tuple[int, ...] = (),
         model = _fit(m, column, kept, ())
     if any(i not in model.slow for i in model.others):
         return model
+    noise = accel_noise(m, column)
+
+    def excess(scale: float) -> float:
+        return float(np.sqrt(max(scale ** 2 - noise ** 2, 0.0)))
+
+    # (strictly: a residual within the noise either way gains nothing, so a free model within
+    # it needs no search; and near the noise a small drop of the scale is a large one of its
+    # excess: the scale itself must drop too)
+    if excess(model.scale) == 0.0:
+        return model
     base = regressors(m, column, model.others, model.v_smooth, model.slow, model.speed)
     fits = [_fit(m, column, model.others, model.slow, h) for h in mass_candidates(m, column, base)]
     if not fits:
         return model
     other = min(fits, key=lambda f: f.scale)
     assert other.extra is not None   # the state term's coefficient, then the hidden mode's
-    noise = accel_noise(m, column)
-
-    def excess(scale: float) -> float:
-        return float(np.sqrt(max(scale ** 2 - noise ** 2, 0.0)))
-
-    # (strictly: a residual within the noise either way gains nothing; and near the noise a
-    # small drop of the scale is a large one of its excess: the scale itself must drop too)
     if coupling_holds(float(other.extra[-2]), float(other.stiffness[0])) \
             and excess(model.scale) > HIDDEN_GAIN * excess(other.scale) \
             and other.scale <= HIDDEN_SCALE_DROP * model.scale:
