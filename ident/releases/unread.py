@@ -7,6 +7,7 @@ damping are searched. No I/O.
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -103,31 +104,31 @@ def mass_candidates(m: Motion, column: int, base: FloatArray) -> list[FloatArray
     `column` (`hand.regressors`), its stiffness first. One or two candidates; none on a short
     record."""
     from scipy.optimize import minimize_scalar  # deferred: keeps `import ident` fast
-    j = column
-    moving = moving_samples(m.v[:, j])
+    moving = moving_samples(m.v[:, column])
     if np.count_nonzero(moving) < HIDDEN_MIN_MOVING:
         return []
     rows = np.flatnonzero(moving)
     rows = rows[::math.ceil(rows.size / HIDDEN_SEARCH_SAMPLES)]
     free = base[rows]
-    target = m.a[rows, j]
+    target = m.a[rows, column]
     wn = 2.0 * np.pi / m.period_s
     ratios = [r for r in HIDDEN_RATIOS if r * wn <= 0.5 * np.pi / m.dt]
     if not ratios:
         return []
 
+    @functools.cache
     def spreads(ratio: float, zeta: float) -> tuple[float, float]:
         """(plain, trimmed): median |residual| of each fit (1e300 where the coupling fails:
-        finite, as the bounded search needs)."""
-        basis = np.column_stack([free, hidden_mode(m, j, ratio * wn, zeta, moving)[rows]])
+        finite, as the bounded search needs); each (ratio, damping) fitted once."""
+        basis = np.column_stack([free, hidden_mode(m, column, ratio * wn, zeta, moving)[rows]])
         keep = np.ones(target.size, dtype=bool)
         out = []
         for _ in range(3):
             coef = np.linalg.lstsq(basis[keep], target[keep], rcond=None)[0]
             residual = np.abs(target - basis @ coef)
-            holds = coupling_holds(float(coef[free.shape[1]]), float(coef[0]))
-            out.append(float(np.median(residual)) if holds else 1e300)
-            keep = residual < HIDDEN_TRIM_SIGMAS * max(float(np.median(residual)) / 0.6745, 1e-12)
+            median = float(np.median(residual))
+            out.append(median if coupling_holds(float(coef[free.shape[1]]), float(coef[0])) else 1e300)
+            keep = residual < HIDDEN_TRIM_SIGMAS * max(median / 0.6745, 1e-12)
             if np.count_nonzero(keep) < 2 * basis.shape[1]:
                 break
         return out[0], out[-1]
@@ -157,4 +158,4 @@ def mass_candidates(m: Motion, column: int, base: FloatArray) -> list[FloatArray
         return float(best.x), zeta
 
     found = dict.fromkeys(refined(k) for k in range(2))
-    return [hidden_mode(m, j, ratio * wn, zeta, moving) for ratio, zeta in found]
+    return [hidden_mode(m, column, ratio * wn, zeta, moving) for ratio, zeta in found]
