@@ -69,6 +69,13 @@ STILL_HOLD_BANDS = 3.0
 #: A force that stays within this fraction of its level while the cart swings is steady
 #: (a motor's input, `steady_force`), not a hand.
 STEADY_SPREAD = 0.2
+#: ... and "swings" means reversing by more than this share of the displacement the steady
+#: force holds the cart at (|level| / k): a motor's step rings about its new rest by 0.6-1.0
+#: of it (the ten 2025 ECP-210 motor pulses); a hand holding a pulled cart still moves it by
+#: its tremor, 0.1-0.6 % (the 2023 hand holds, the simulated students' holds 0.3-0.6 %), and
+#: a loose hand by a few mm on a hold of centimetres (~10 %), which the reading noise alone
+#: let count as a swing at 1 kHz.
+STEADY_SWING_SHARE = 0.25
 #: A sustained push: the residual's moving average over a quarter period beyond this many scales.
 SUSTAINED_SIGMAS = 2.5
 #: ... and beyond this many times its median over the samples where the cart moves.
@@ -338,7 +345,8 @@ def nudged_while_ringing(m: Motion, j: int, first: int, last: int, amplitude: fl
 def steady_force(m: Motion, model: FreeModel, first: int, last: int) -> bool:
     """Whether the episode [first, last] is a steady force, not a hand: over its interior (a
     quarter period in from each end, at least a period long) the cart swings on its own
-    (two turning points beyond the noise and the dry-friction band) while the unexplained
+    (two turning points beyond the noise, the dry-friction band and `STEADY_SWING_SHARE` of
+    the displacement the force holds it at) while the unexplained
     force stays level (robust spread below `STEADY_SPREAD` of its level): a motor's voltage
     pulse, or a held cart moved and left. A hand that holds a cart stops it swinging; the
     cart's ringing when such a force ends is a step response, not a release."""
@@ -349,9 +357,9 @@ def steady_force(m: Motion, model: FreeModel, first: int, last: int) -> bool:
     r = model.residual[lo:hi]
     level = float(np.median(r))
     spread = 1.4826 * float(np.median(np.abs(r - level)))
-    band = abs(model.dry) / max(float(model.stiffness[0]), 1e-12)
-    turns = turning_points(m.x[lo:hi, model.column], max(10.0 * float(m.noise_m[model.column]), 2.0 * band))
-    return turns >= 2 and spread <= STEADY_SPREAD * abs(level)
+    k = max(float(model.stiffness[0]), 1e-12)
+    swing = max(10.0 * float(m.noise_m[model.column]), 2.0 * abs(model.dry) / k, STEADY_SWING_SHARE * abs(level) / k)
+    return turning_points(m.x[lo:hi, model.column], swing) >= 2 and spread <= STEADY_SPREAD * abs(level)
 
 
 def turning_points(x: FloatArray, hysteresis: float) -> int:
