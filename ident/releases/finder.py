@@ -40,8 +40,12 @@ from ident.releases.motion import FloatArray, Motion, motion, moving_samples, tu
 from ident.releases.record import HELD_FRACTION, EndedBy, Release
 from ident.releases.restart import moved_after_rest
 
-#: During a touch the held cart moves at least this fraction of what the pulled cart moves.
+#: During a touch the held cart moves at least this fraction of what the pulled cart moves
 TOUCH_FRACTION = 0.2
+#: ... and more than this many times its usual wander over as long (`_usual_wander`): a hand
+#: holding a cart loosely lets it wander by a few mm (the 2025 records: 100-400 counts, up
+#: to 7 mm), a fifth of a 3 cm pull, more over a hold of seconds.
+TOUCH_WANDERS = 2.0
 #: A release rings: at least this many turning points in its free response (the cart swings
 #: out and back; a cart whose slow mode has a long period may be taken again within a cycle).
 MIN_TURNS = 1
@@ -313,7 +317,20 @@ def is_release(m: Motion, model: FreeModel, first: int, last: int, nxt: int, fre
     # cart still (a record that starts on the hold), at least the swing it let go
     own = max(float(np.ptp(x[lead:last + 1])), amplitude)
     held = [i for i in range(m.y.shape[1]) if i not in free]
-    return all(float(np.ptp(m.x[lead:last + 1, i])) < TOUCH_FRACTION * own for i in held)
+    moved = {i: float(np.ptp(m.x[lead:last + 1, i])) for i in held}
+    return all(moved[i] < TOUCH_FRACTION * own or moved[i] <= TOUCH_WANDERS * _usual_wander(m, i, last + 1 - lead)
+               for i in held)
+
+
+def _usual_wander(m: Motion, column: int, width: int) -> float:
+    """The median range (m) of column `column` over the record's stretches of `width` samples,
+    or of a third of the record if that is shorter: how far a held cart moves over that long
+    when nobody touches it (its hand's wander and what it follows through the spring; touches
+    are a few of the stretches)."""
+    x = m.x[:, column]
+    width = max(1, min(width, x.size // 3))
+    n = x.size // width
+    return float(np.median(np.ptp(x[:n * width].reshape(n, width), axis=1)))
 
 
 def nudged_while_ringing(m: Motion, j: int, first: int, last: int, amplitude: float,

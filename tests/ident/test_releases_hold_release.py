@@ -22,7 +22,8 @@ from ident.releases import find_releases
 RATE_HZ = 1000.0
 
 
-def _hold_release(seed: int) -> tuple[np.ndarray, np.ndarray, float]:
+def _hold_release(seed: int, pull_m: tuple[float, float] = (0.04, 0.09),
+                  hold_s: tuple[float, float] = (0.3, 1.0)) -> tuple[np.ndarray, np.ndarray, float]:
     rng = np.random.default_rng(seed)
     m = rng.uniform(0.5, 1.5, 2)
     k = rng.uniform(20.0, 120.0, 3)
@@ -31,8 +32,8 @@ def _hold_release(seed: int) -> tuple[np.ndarray, np.ndarray, float]:
     k_hand = k[1] / rng.uniform(0.02, 0.05)
     c_hand = k_hand * rng.uniform(0.02, 0.03)              # N·s/m: a hand damps (ζ ≈ 0.3-0.7)
     wander, wander_hz = rng.uniform(2e-3, 7e-3), rng.uniform(0.1, 0.4)
-    held_at = rng.choice([-1.0, 1.0]) * rng.uniform(0.04, 0.09)
-    start, pull, hold = 0.8, rng.uniform(0.4, 0.8), rng.uniform(0.3, 1.0)
+    held_at = rng.choice([-1.0, 1.0]) * rng.uniform(*pull_m)
+    start, pull, hold = 0.8, rng.uniform(0.4, 0.8), rng.uniform(*hold_s)
     release = start + pull + hold + rng.uniform(0.0, 1.0 / RATE_HZ)    # between samples
 
     def pulled(t: float) -> tuple[float, float, float]:
@@ -81,3 +82,16 @@ def test_a_hold_released_beside_a_loosely_held_cart_is_dated_within_one_sample(s
     assert len(found) == 1
     assert found[0].pulled_cart == 1 and found[0].moving_carts == (1,)
     assert abs(found[0].release_time_s - release) <= 1.0 / RATE_HZ
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_a_short_pull_held_for_seconds_beside_a_wandering_cart_is_one_release(seed: int) -> None:
+    """A 2.5-4 cm pull held 1.5-3 s: over that long the held cart's few mm of wander reach a
+    fifth of the pull, which is no touch of it (it moves no more than it does all record).
+    Found once, as the benchmarks match a release (within 0.25 s): a weak hold on a soft
+    spring (seed 0: 1.5 m/s² at ω 6.3 rad/s) is dated 135 ms late, a weakness of the instant
+    and not of what this test is about."""
+    t, y, release = _hold_release(seed, pull_m=(0.025, 0.04), hold_s=(1.5, 3.0))
+    found = find_releases(t, y)
+    assert [round(r.release_time_s, 4) for r in found] == pytest.approx([release], abs=0.25)
+    assert found[0].pulled_cart == 1
