@@ -40,7 +40,7 @@ from ident.releases.motion import FloatArray, Motion, motion, moving_samples, tu
 from ident.releases.record import HELD_FRACTION, EndedBy, Release
 from ident.releases.restart import moved_after_rest
 
-#: During a touch the held cart moves at least this fraction of what the pulled cart moves
+#: During a touch the held cart moves at least this fraction of what the pulled cart moves,
 TOUCH_FRACTION = 0.2
 #: ... and more than this many times its usual wander over as long (`_usual_wander`): a hand
 #: holding a cart loosely lets it wander by a few mm (the 2025 records: 100-400 counts, up
@@ -363,9 +363,9 @@ def steady_force(m: Motion, model: FreeModel, first: int, last: int) -> bool:
     """Whether the episode [first, last] is a steady force, not a hand: over its interior (a
     quarter period in from each end, at least a period long) the cart swings on its own
     (two turning points beyond the noise, the dry-friction band and `STEADY_SWING_SHARE` of
-    the displacement the force holds it at) while the unexplained
-    force stays level (robust spread below `STEADY_SPREAD` of its level): a motor's voltage
-    pulse, or a held cart moved and left. A hand that holds a cart stops it swinging; the
+    the displacement the force holds it at) while the unexplained force stays level (robust
+    spread below `STEADY_SPREAD` of its level): a motor's voltage pulse, or a held cart moved
+    and left. A hand that holds a cart stops it swinging; the
     cart's ringing when such a force ends is a step response, not a release."""
     quarter = m.samples(m.period_s / 4)
     lo, hi = first + quarter, last - quarter
