@@ -127,13 +127,15 @@ def find_releases(t: NDArray[np.float64], y: NDArray[np.float64],
         alone = fit_free_model(m, j, tuple(i for i in free if i != j)) if held else None
         stops += [(j, max(0, a - m.samples(m.period_s / 4)))
                   for a, _ in (sustained_pushes(m, alone) if alone is not None else pushes)]
+        steady = [level for e in episodes if (level := steady_level(m, model, *e)) is not None]
         for k, (a, b) in enumerate(episodes):
             # the free stretch lasts until the next hand episode or sustained push
             nxt = min([episodes[k + 1][0]] if k + 1 < len(episodes) else [m.n_samples])
             # (one that only trails the episode by the moving average's width is the episode)
             nxt = min([nxt] + [max(p, b + m.samples(m.period_s / 4)) for p, q in pushes
                                if q > b + m.samples(m.period_s / 2) and _pushes_after(m, model, b, p, q)])
-            if is_release(m, model, a, b, nxt, free, min_amplitude_m):
+            if is_release(m, model, a, b, nxt, free, min_amplitude_m) and not held_at_a_steady_level(m, model, a, b,
+                                                                                                    steady):
                 first = release_instant(m, model, a, b)
                 joined = joined_instant(m, model, first, float(m.t[a]))
                 found.append((first if joined is None else joined, j, model))
@@ -360,7 +362,13 @@ def nudged_while_ringing(m: Motion, j: int, first: int, last: int, amplitude: fl
 
 
 def steady_force(m: Motion, model: FreeModel, first: int, last: int) -> bool:
-    """Whether the episode [first, last] is a steady force, not a hand: over its interior (a
+    """Whether the episode [first, last] is a steady force (`steady_level`)."""
+    return steady_level(m, model, first, last) is not None
+
+
+def steady_level(m: Motion, model: FreeModel, first: int, last: int) -> float | None:
+    """The level (m/s²) of the episode [first, last] if it is a steady force, not a hand, else
+    None. A steady force: over its interior (a
     quarter period in from each end, at least a period long) the cart swings on its own
     (two turning points beyond the noise, the dry-friction band and `STEADY_SWING_SHARE` of
     the displacement the force holds it at) while the unexplained force stays level (robust
@@ -370,13 +378,31 @@ def steady_force(m: Motion, model: FreeModel, first: int, last: int) -> bool:
     quarter = m.samples(m.period_s / 4)
     lo, hi = first + quarter, last - quarter
     if hi - lo < m.samples(m.period_s):
-        return False
+        return None
     r = model.residual[lo:hi]
     level = float(np.median(r))
     spread = 1.4826 * float(np.median(np.abs(r - level)))
     k = max(float(model.stiffness[0]), 1e-12)
     swing = max(10.0 * float(m.noise_m[model.column]), 2.0 * abs(model.dry) / k, STEADY_SWING_SHARE * abs(level) / k)
-    return turning_points(m.x[lo:hi, model.column], swing) >= 2 and spread <= STEADY_SPREAD * abs(level)
+    steady = turning_points(m.x[lo:hi, model.column], swing) >= 2 and spread <= STEADY_SPREAD * abs(level)
+    return level if steady else None
+
+
+def held_at_a_steady_level(m: Motion, model: FreeModel, first: int, last: int, levels: list[float]) -> bool:
+    """Whether the episode [first, last] holds the cart still (it moves by less than
+    `STEADY_SWING_SHARE` of the displacement its force holds it at: not pulled there) against
+    the level of a steady force found elsewhere in the record (`levels`, within
+    `STEADY_SPREAD`). Fitted without its input, a cart that rings about a motor's step for
+    about as long as it rings after it may have its rest read at the driven position; the
+    stillness before the motor's onset then reads as a hand holding the cart still from the
+    record's start and letting go at the onset, and the ringing after the pulse as a steady
+    force of the same level: both are the one displacement of the rest, not a hand."""
+    r = model.residual[first:last + 1]
+    level = float(np.median(r))
+    k = max(float(model.stiffness[0]), 1e-12)
+    if float(np.ptp(m.x[first:last + 1, model.column])) >= STEADY_SWING_SHARE * abs(level) / k:
+        return False
+    return any(abs(level - other) <= STEADY_SPREAD * abs(other) for other in levels)
 
 
 def turning_points(x: FloatArray, hysteresis: float) -> int:

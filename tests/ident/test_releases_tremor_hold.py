@@ -10,14 +10,13 @@ finder had taken such holds for a motor's steady force (the cart "swinging on it
 the force stays level) and dropped the release.
 
 The counter-case is that force: a motor step of the same size (the cart driven 2-5 cm off its
-rest for 3-6 s, then released by the motor, the record running on for one and a half times
-the pulse and 1-3 s more) rings about the displaced rest by up to twice the displacement and
-is no release (these fail if a swing must exceed three displacements). Not covered: a
-lightly damped cart whose pulse rings for as many samples as the record holds after it.
-Which of the two positions is the rest is then a tie (the free model, fitted without the
-input, may take the driven one, and the start at rest becomes a hold let go at the motor's
-onset): 2 of 30 such seeds at 200 Hz and 1 kHz, the same before this finder's change;
-`ident diagnose --input COLUMN` is the way to give it the motor.
+rest for 3-6 s after 0.5-5 s at rest, then released by the motor, the record running on for
+3-10 s) rings about the displaced rest by up to twice the displacement and is no release
+(these fail if a swing must exceed three displacements). Fitted without the input, a lightly
+damped cart that rings about the driven position for about as long as after it may have its
+rest read there; the stillness before the onset then reads as a hold let go at the motor's
+onset (before `held_at_a_steady_level`: 3 of the first 40 of these steps, this test's seed 10
+among them; 3 of 12 with 0.5-1.5 s at rest and a 5 s tail).
 """
 
 from __future__ import annotations
@@ -75,8 +74,8 @@ def _motor_step(seed: int, rate_hz: float) -> tuple[np.ndarray, np.ndarray]:
     rng = np.random.default_rng(seed)
     w, zeta = 2 * np.pi * rng.uniform(1.5, 3.5), rng.uniform(0.005, 0.04)
     shift = rng.choice([-1.0, 1.0]) * rng.uniform(0.02, 0.05)      # m: the force's displacement
-    on, length = rng.uniform(2.0, 5.0), rng.uniform(3.0, 6.0)
-    t = np.arange(0.0, on + length + 1.5 * length + rng.uniform(1.0, 3.0), 1.0 / rate_hz)
+    on, length = rng.uniform(0.5, 5.0), rng.uniform(3.0, 6.0)
+    t = np.arange(0.0, on + length + rng.uniform(3.0, 10.0), 1.0 / rate_hz)
     x = np.zeros_like(t)
     driven = (t >= on) & (t < on + length)
     x[driven] = shift + _free(-shift, 0.0, t[driven] - on, w, zeta)
@@ -99,7 +98,7 @@ def test_a_release_from_a_trembling_hold_is_found_once_within_a_sample(seed: int
 
 
 @pytest.mark.parametrize("rate_hz", [200.0, 1000.0])
-@pytest.mark.parametrize("seed", range(2))
+@pytest.mark.parametrize("seed", range(12))
 def test_a_motor_step_of_the_same_size_is_no_release(seed: int, rate_hz: float) -> None:
     t, y = _motor_step(100 + seed, rate_hz)
     assert find_releases(t, y) == []
