@@ -134,8 +134,8 @@ def find_releases(t: NDArray[np.float64], y: NDArray[np.float64],
             # (one that only trails the episode by the moving average's width is the episode)
             nxt = min([nxt] + [max(p, b + m.samples(m.period_s / 4)) for p, q in pushes
                                if q > b + m.samples(m.period_s / 2) and _pushes_after(m, model, b, p, q)])
-            if is_release(m, model, a, b, nxt, free, min_amplitude_m) and not held_at_a_steady_level(m, model, a, b,
-                                                                                                    steady):
+            if (is_release(m, model, a, b, nxt, free, min_amplitude_m)
+                    and not held_at_a_steady_level(m, model, a, b, steady)):
                 first = release_instant(m, model, a, b)
                 joined = joined_instant(m, model, first, float(m.t[a]))
                 found.append((first if joined is None else joined, j, model))
