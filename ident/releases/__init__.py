@@ -3,9 +3,10 @@ cart was pulled and which carts move freely (issue 10). Pure numerics: arrays in
 frozen `Release` records out; no files, clocks or printing.
 
 Modules: `record` (the `Release` record), `motion` (grid, period, smoothed derivatives),
-`hand` (the force no free cart explains: where a hand acts), `instant` (the release instant
-between samples), `finder` (`find_releases`), `select` (release K of a loaded record, the
-record cut to its free response, and a whole record with its step at the release found).
+`hand` (the force no free cart explains: where a hand acts), `judge` (whether a hand episode
+lets a cart go), `instant` (the release instant between samples), `finder`
+(`find_releases`), `select` (release K of a loaded record, the record cut to its free
+response, and a whole record with its step at the release found).
 This is ident's one release estimator: the loaders place the step of a record whose release
 time is not known where it finds the first complete release.
 """

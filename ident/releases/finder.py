@@ -8,13 +8,9 @@ Steps (arrays in, `Release` records out):
 3. `hand`: per free column, the force its free equation of motion does not explain, and the
    hand episodes where it is large; weaker but sustained pushes (a held cart moved, which
    moves this one through the spring) also end a free response;
-4. a candidate release is the end of a hand episode followed by a free response: at least
-   one period without a hand, ringing (a turning point at least) with an amplitude of at least
-   a centimetre (`MIN_RELEASE_AMPLITUDE_M`) and well above the noise and the dry-friction
-   band, after a hand force comparable with the spring's at that amplitude (a touch while
-   the cart rings is not). The pulled cart is the column whose hand episode it is; when a
-   held cart moved a fifth as much as this one during the episode, a hand moved the held
-   cart (a touch), not a release;
+4. `judge`: a candidate release is the end of a hand episode followed by a free response
+   that rings by at least a centimetre after a hand force comparable with the spring's;
+   not a nudge, the end of a steady force (a motor's pulse) or a touch of a held cart;
 5. `instant`: the release instant, between samples, where the free response begins;
 6. the free response ends where the next hand episode on the pulled cart begins (the next
    release or a touch), where the free carts move again after they had come to rest (a touch
@@ -35,51 +31,15 @@ from ident.errors import IdentDimensionError
 from ident.releases.hand import HAND_SIGMAS, STICK_ALLOWANCE, FreeModel, drift, fit_free_model
 from ident.releases.instant import release_instant
 from ident.releases.joined import joined_instant
+from ident.releases.judge import MIN_RELEASE_AMPLITUDE_M, held_at_a_steady_level, is_release, steady_level
 from ident.releases.misfit import free_misfit, rest
-from ident.releases.motion import FloatArray, Motion, motion, moving_samples, turning_indices
+from ident.releases.motion import Motion, motion, moving_samples
 from ident.releases.record import HELD_FRACTION, EndedBy, Release
 from ident.releases.restart import moved_after_rest
 
-#: During a touch the held cart moves at least this fraction of what the pulled cart moves,
-TOUCH_FRACTION = 0.2
-#: ... and more than this many times its usual wander over as long (`_usual_wander`): a hand
-#: holding a cart loosely lets it wander by a few mm (the 2025 records: 100-400 counts, up
-#: to 7 mm), a fifth of a 3 cm pull, more over a hold of seconds.
-TOUCH_WANDERS = 2.0
-#: A release rings: at least this many turning points in its free response (the cart swings
-#: out and back; a cart whose slow mode has a long period may be taken again within a cycle).
-MIN_TURNS = 1
-#: Its first swing exceeds this many metres: students release carts by centimetres (flicks to
-#: 3–5 cm, pulls to 15 cm), while handling (nudges, a held cart's wander and touches) moves
-#: them by millimetres. `find_releases(min_amplitude_m=...)` changes it.
-MIN_RELEASE_AMPLITUDE_M = 0.01
-#: ... and this many noise stds and this many dry-friction bands.
-MIN_AMPLITUDE_SIGMAS = 30.0
-MIN_AMPLITUDE_BANDS = 4.0
-#: A hand that lets a ringing cart go where it took it leaves a swing below this many
-#: `min_amplitude_m` when it only nudged it (`nudged_while_ringing`).
-NUDGE_AMPLITUDE_FACTOR = 2.0
-#: ... and whatever its swing when the hand let it go within this many metres of where it took
-#: it (a nudge moves the cart 2-8 mm and back) with no more swing than before (this factor
-#: allows for the amplitudes' estimates).
-NUDGE_RETURN_M = 0.003
-NUDGE_SWING_MARGIN = 1.1
-#: The hand's largest force on a released cart is at least this fraction of the spring's
-#: force at the amplitude of the free response (per unit mass: wn²·A).
-HAND_FORCE_FRACTION = 0.3
 #: A hand episode that does not move the cart (a still hold) pushes beyond this many kinetic
 #: dry-friction forces (static friction holds a stuck cart with at most ~1.3 of them).
 STILL_HOLD_BANDS = 3.0
-#: A force that stays within this fraction of its level while the cart swings is steady
-#: (a motor's input, `steady_force`), not a hand.
-STEADY_SPREAD = 0.2
-#: ... and "swings" means reversing by more than this share of the displacement the steady
-#: force holds the cart at (|level| / k): a motor's step rings about its new rest by 0.6-1.0
-#: of it (the ten 2025 ECP-210 motor pulses); a hand holding a pulled cart still moves it by
-#: its tremor, 0.1-0.6 % (the 2023 hand holds, the simulated students' holds 0.3-0.6 %), and
-#: a loose hand by a few mm on a hold of centimetres (~10 %), which the reading noise alone
-#: let count as a swing at 1 kHz.
-STEADY_SWING_SHARE = 0.25
 #: A sustained push: the residual's moving average over a quarter period beyond this many scales.
 SUSTAINED_SIGMAS = 2.5
 #: ... and beyond this many times its median over the samples where the cart moves.
@@ -287,127 +247,6 @@ def _runs(mask: NDArray[np.bool_], join: int) -> list[tuple[int, int]]:
     starts = np.concatenate([[idx[0]], idx[breaks + 1]])
     ends = np.concatenate([idx[breaks], [idx[-1]]])
     return [(int(a), int(b)) for a, b in zip(starts, ends, strict=True)]
-
-
-def is_release(m: Motion, model: FreeModel, first: int, last: int, nxt: int, free: list[int],
-               min_amplitude_m: float = MIN_RELEASE_AMPLITUDE_M) -> bool:
-    """Whether the hand episode [first, last] of `model.column` lets a cart go (step 4)."""
-    j = model.column
-    at_end = nxt >= m.n_samples
-    if nxt - last < m.samples(m.period_s * (0.5 if at_end else 1.0)):
-        return False   # the hand took hold again within a period: handling
-    x = m.x[:, j]
-    stop = min(nxt, last + m.samples(3.0 * m.period_s))
-    band = abs(model.dry) / max(float(model.stiffness[0]), 1e-12)
-    # (the swing is read off the smoothed position: the noise left there counts)
-    level = max(MIN_AMPLITUDE_SIGMAS * float(m.x_noise_m[j]), MIN_AMPLITUDE_BANDS * band)
-    if turning_points(x[last:stop], max(level / 3.0, 2.0 * band)) < MIN_TURNS:
-        return False
-    span = x[last:min(stop, last + m.samples(m.period_s))]
-    amplitude = 0.5 * float(np.ptp(span))
-    if amplitude < max(level, min_amplitude_m):
-        return False
-    if nudged_while_ringing(m, j, first, last, amplitude, min_amplitude_m) or steady_force(m, model, first, last):
-        return False
-    # a hand that lets a cart go held it against the spring: its force was comparable with
-    # the spring's at the amplitude that follows (a touch while the cart rings is not)
-    push = float(np.max(np.abs(model.residual[first:last + 1])))
-    if push < HAND_FORCE_FRACTION * float(model.stiffness[0]) * amplitude:
-        return False
-    lead = max(0, first - m.samples(m.period_s / 8))
-    # what the hand moved this cart by: over the episode, or from its rest when it held the
-    # cart still (a record that starts on the hold), at least the swing it let go
-    own = max(float(np.ptp(x[lead:last + 1])), amplitude)
-    held = [i for i in range(m.y.shape[1]) if i not in free]
-    moved = {i: float(np.ptp(m.x[lead:last + 1, i])) for i in held}
-    return all(moved[i] < TOUCH_FRACTION * own or moved[i] <= TOUCH_WANDERS * _usual_wander(m, i, last + 1 - lead)
-               for i in held)
-
-
-def _usual_wander(m: Motion, column: int, width: int) -> float:
-    """The median range (m) of column `column` over the record's stretches of `width` samples,
-    or of a third of the record if that is shorter: how far a held cart moves over that long
-    when nobody touches it (its hand's wander and what it follows through the spring; touches
-    are a few of the stretches)."""
-    x = m.x[:, column]
-    width = max(1, min(width, x.size // 3))
-    n = x.size // width
-    return float(np.median(np.ptp(x[:n * width].reshape(n, width), axis=1)))
-
-
-def nudged_while_ringing(m: Motion, j: int, first: int, last: int, amplitude: float,
-                         min_amplitude_m: float) -> bool:
-    """Whether the hand episode [first, last] of column `j` is a nudge of a ringing cart: the
-    hand took the cart and let it go within `min_amplitude_m` of where it took it, and the
-    cart swings after it (`amplitude`, m) no more than in the period before, and by less
-    than `NUDGE_AMPLITUDE_FACTOR`·`min_amplitude_m`: the hand interrupted a free response
-    but gave the cart no swing of its own, as a release does. (A flick or a hold that ends
-    where the hand took a ringing cart looks the same; it is a release when it leaves a
-    swing a student means, of a few centimetres.)"""
-    x = m.x[:, j]
-    before = 0.5 * float(np.ptp(x[max(0, first - m.samples(m.period_s)):first + 1]))
-    # the smoothing sees the hand half a window early and late
-    took = float(x[min(first + m.window // 2, last)])
-    let_go = float(x[max(last - m.window // 2, first)])
-    returned = abs(let_go - took)
-    # a hand that put the ringing cart back where it took it, to within a few millimetres,
-    # added no swing whatever the swing left: only the swing the cart had (a release let go
-    # there by chance leaves its own, larger swing); told only when the two places are read
-    # apart, half a smoothing window inside each end of the episode
-    if (last - first > 2 * m.window and returned < NUDGE_RETURN_M
-            and amplitude <= NUDGE_SWING_MARGIN * before):
-        return True
-    return (amplitude <= before and amplitude < NUDGE_AMPLITUDE_FACTOR * min_amplitude_m
-            and returned < min_amplitude_m)
-
-
-def steady_force(m: Motion, model: FreeModel, first: int, last: int) -> bool:
-    """Whether the episode [first, last] is a steady force (`steady_level`)."""
-    return steady_level(m, model, first, last) is not None
-
-
-def steady_level(m: Motion, model: FreeModel, first: int, last: int) -> float | None:
-    """The level (m/s²) of the episode [first, last] if it is a steady force, not a hand, else
-    None. A steady force: over its interior (a
-    quarter period in from each end, at least a period long) the cart swings on its own
-    (two turning points beyond the noise, the dry-friction band and `STEADY_SWING_SHARE` of
-    the displacement the force holds it at) while the unexplained force stays level (robust
-    spread below `STEADY_SPREAD` of its level): a motor's voltage pulse, or a held cart moved
-    and left. A hand that holds a cart stops it swinging; the
-    cart's ringing when such a force ends is a step response, not a release."""
-    quarter = m.samples(m.period_s / 4)
-    lo, hi = first + quarter, last - quarter
-    if hi - lo < m.samples(m.period_s):
-        return None
-    r = model.residual[lo:hi]
-    level = float(np.median(r))
-    spread = 1.4826 * float(np.median(np.abs(r - level)))
-    k = max(float(model.stiffness[0]), 1e-12)
-    swing = max(10.0 * float(m.noise_m[model.column]), 2.0 * abs(model.dry) / k, STEADY_SWING_SHARE * abs(level) / k)
-    steady = turning_points(m.x[lo:hi, model.column], swing) >= 2 and spread <= STEADY_SPREAD * abs(level)
-    return level if steady else None
-
-
-def held_at_a_steady_level(m: Motion, model: FreeModel, first: int, last: int, levels: list[float]) -> bool:
-    """Whether the episode [first, last] holds the cart still (it moves by less than
-    `STEADY_SWING_SHARE` of the displacement its force holds it at: not pulled there) against
-    the level of a steady force found elsewhere in the record (`levels`, within
-    `STEADY_SPREAD`). Fitted without its input, a cart that rings about a motor's step for
-    about as long as it rings after it may have its rest read at the driven position; the
-    stillness before the motor's onset then reads as a hand holding the cart still from the
-    record's start and letting go at the onset, and the ringing after the pulse as a steady
-    force of the same level: both are the one displacement of the rest, not a hand."""
-    r = model.residual[first:last + 1]
-    level = float(np.median(r))
-    k = max(float(model.stiffness[0]), 1e-12)
-    if float(np.ptp(m.x[first:last + 1, model.column])) >= STEADY_SWING_SHARE * abs(level) / k:
-        return False
-    return any(abs(level - other) <= STEADY_SPREAD * abs(other) for other in levels)
-
-
-def turning_points(x: FloatArray, hysteresis: float) -> int:
-    """Number of turning points of `x` that reverse by more than `hysteresis`."""
-    return int(turning_indices(x, hysteresis).size)
 
 
 def _index(m: Motion, when: float) -> int:

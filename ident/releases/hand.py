@@ -41,7 +41,7 @@ MODEL_FRACTION = 0.02
 STIFFNESS_RANGE = (0.25, 4.0)
 #: A free response's own misfit (`state_misfit`): this many times the record's median share
 #: of the swing's acceleration, at most this share (a hand that lets a cart go held it with
-#: at least `finder.HAND_FORCE_FRACTION` of the spring's force).
+#: at least `judge.HAND_FORCE_FRACTION` of the spring's force).
 STATE_MISFIT_FACTOR = 2.0
 STATE_MISFIT_CAP = 0.25
 #: ... counting only what |r| exceeds this many residual scales by (the noise is not a force).

@@ -9,7 +9,7 @@ after a release, like a hand taking the cart again within a period (the release 
 rejected as handling, and its free response cut there).
 
 A hand that takes a cart swinging by A must stop it: at least the spring's force near the
-extreme, `finder.HAND_FORCE_FRACTION`·ω²·A per unit mass (the rule a releasing hand
+extreme, `judge.HAND_FORCE_FRACTION`·ω²·A per unit mass (the rule a releasing hand
 already meets). An episode that stays below that, lasts under half a period (the cart keeps
 swinging through it: a hold stops it) and leaves no more swing than the cart had (a hand
 that gave it energy is a push) is the free response's misfit, not a hand. A longer one (a

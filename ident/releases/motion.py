@@ -22,7 +22,7 @@ MIN_FREQUENCY_HZ = 0.2
 SMOOTHING_FRACTION = 0.1
 #: ... longer, up to this fraction, where the encoder's noise would hide a releasing hand: the
 #: smoothed acceleration's noise must stay within this fraction of the swing's ω²A, so that a
-#: hand of `finder.HAND_FORCE_FRACTION` (0.3) of the spring's force clears `hand.HAND_SIGMAS` (6)
+#: hand of `judge.HAND_FORCE_FRACTION` (0.3) of the spring's force clears `hand.HAND_SIGMAS` (6)
 #: noise stds (a 2 mm lattice with noise before it, read at 260 Hz: 0.61 of it over a tenth of
 #: a period, and no release was found in a clean flick).
 MAX_SMOOTHING_FRACTION = 0.25
