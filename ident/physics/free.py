@@ -21,13 +21,10 @@ amplitude it acts as an extra spring σ, at large amplitude it saturates to ±F)
 Scheme (one sub-step h, `ident.physics.kernel`): the linear part exactly (zero-order hold,
 `Φ = e^{Ah}`, `Γ = ∫₀ʰ e^{Aτ} dτ B`); the smooth forces held at their value at the
 predicted mid-step state (second order); Dahl's state exactly for the mid-step velocity;
-dry friction per step (stick by Moreau's rule; a breakaway located inside the step where
-the pull, linear over it, reaches the static level; a velocity reversal inside a step located
+dry friction per step (stick by Moreau's rule, a velocity reversal inside a step located
 and either stuck or slipped with the friction flipped for the rest of the step, error
-O(F h²) per reversal). Two carts with dry friction stay within 7 µm of an event-located
-integration at the default sub-steps (`tests/ident/test_physics_chain_friction.py`). A zero
-nonlinear coefficient reproduces the linear model to rounding. Shapes: parameter sets P,
-samples N, carts c. No fitting and no I/O here.
+O(F h²) per reversal). A zero nonlinear coefficient reproduces the linear model to
+rounding. Shapes: parameter sets P, samples N, carts c. No fitting and no I/O here.
 """
 
 from __future__ import annotations
@@ -51,12 +48,6 @@ MAX_H_WN = 0.3
 #: softens by 30 % over the swing, stepped at h·wn 0.23 (a 36 rad/s cart at 79 Hz), leaves a
 #: 30 µm ring the diagnosis named a coupled mode (red team cubic_softening seed 3001); at 0.15 none
 MAX_H_WN_CUBIC = 0.15
-#: h·wn with dry friction on a chain of two carts: each cart sticks, breaks away and reverses
-#: while the other moves, each event placed to O((h·wn)²) of a step; at h·wn 0.3 a stiff
-#: two-cart flick with 1.4 m/s² of friction is 18-28 µm off an event-located integration at 36
-#: and 100 Hz, at 0.15 6 µm (`tests/ident/test_physics_chain_friction.py`); the diagnosis had
-#: read a 0.15 mm "coupled mode" into such a difference (red team two_cart_coulomb_y1 seed 7)
-MAX_H_WN_CHAIN_FRICTION = 0.15
 MAX_H_SQRT_SIGMA = 0.8
 
 
@@ -179,8 +170,7 @@ def step_maps(lin: FloatArray, dt: float, carts: int, terms: NonlinearTerms, n_i
            else _owned(terms.input_gain, (p, carts, n_inputs)))
     wn_max = float(np.max(np.abs(np.linalg.eigvals(a))))
     cubic = any(c is not None and np.any(np.asarray(c) != 0.0) for c in (terms.cubic_per_m2, terms.cubic_per_m2_s2))
-    chain_friction = carts == 2 and bool(np.any(fk > 0.0))
-    m = substeps(dt, wn_max, MAX_H_WN_CUBIC if cubic else MAX_H_WN_CHAIN_FRICTION if chain_friction else MAX_H_WN)
+    m = substeps(dt, wn_max, MAX_H_WN_CUBIC if cubic else MAX_H_WN)
     if sigma.size and np.max(sigma) > 0:
         m = max(m, int(np.ceil(dt * np.sqrt(np.max(sigma)) / MAX_H_SQRT_SIGMA - 1e-9)))
     phi, gam, phih, gamh = _zoh(a, dt / m, carts)

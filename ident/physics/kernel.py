@@ -90,37 +90,6 @@ def _matvec_add(m: FloatArray, x: FloatArray, out: FloatArray, add: bool) -> Non
 
 
 @numba.njit(error_model="numpy", cache=True, inline="always")
-def _pull(z: FloatArray, kt: FloatArray, c: int, i: int, inp: float) -> float:
-    """Cart i's spring pull and input (m/s²) at the positions of state z."""
-    pull = inp
-    for j in range(c):
-        pull -= kt[i, j] * z[j]
-    return pull
-
-
-@numba.njit(error_model="numpy", cache=True, inline="always")
-def _breakaway(p0: float, p1: float, v_free: float, g: float, fk: float, fs: float) -> tuple[float, float]:
-    """(The friction held over the step, the direction) of a cart that starts the step stuck
-    and breaks away inside it: held until its pull reaches the static level, then sliding.
-
-    The pull, p0 at the step's start and p1 at its end (taken linear over the step), reaches
-    ±Fs at θ (0 when |p0| > Fs already); the cart leaves the step at s r g ((P_θ + P1)/2 - F)
-    (P = s p, r = 1 - θ, g the velocity's input gain) and the friction returned gives it that
-    velocity, `v_free` being the frictionless end velocity. Held while the step's mean pull is
-    under Fs and sliding from the step's start instead, a cart breaks away up to a step late or
-    early with the acceleration Fs - F (and the pull's rate) it has there: an O(h) error per
-    breakaway (a cart of a chain that sticks and breaks away again while the other moves)."""
-    if abs(p0) > fs:
-        s, theta = np.sign(p0), 0.0
-    else:
-        s = np.sign(p1)
-        theta = (s * fs - p0) / (p1 - p0)   # |p1| > fs ≥ |p0|
-    big0, big1 = s * p0, s * p1
-    v_end = s * (1.0 - theta) * g * (0.5 * (big0 + theta * (big1 - big0) + big1) - fk)
-    return (v_end - v_free) / g, s
-
-
-@numba.njit(error_model="numpy", cache=True, inline="always")
 def _coulomb(z: FloatArray, wz: FloatArray, gam: FloatArray, kt: FloatArray, c: int, fk: FloatArray,
              fs: FloatArray, sigma: FloatArray, inp: FloatArray, h: float, af: FloatArray,
              sgn: FloatArray, held: FloatArray, x_rev: FloatArray, theta: FloatArray,
@@ -128,8 +97,7 @@ def _coulomb(z: FloatArray, wz: FloatArray, gam: FloatArray, kt: FloatArray, c: 
     """Dry friction on the end state `wz` (n,) of a step from `z`, in place.
 
     Friction opposes the velocity at the step's start (from rest: the motion about to
-    begin); a cart at rest stays stuck when the static level fs can hold it (Moreau), and one
-    that breaks away inside the step slides from where its pull reaches fs (`_breakaway`). When
+    begin); a cart at rest stays stuck when the static level fs can hold it (Moreau). When
     the velocity reverses inside the step (at θh, θ = v/(v - v⁺)) the cart sticks there if
     |spring + input| ≤ fs, else friction flips: +2 f sgn over the rest r = (1-θ)h adds
     (f sgn r², 2 f sgn r) to (e, v), so the error per reversal is O(f h²).
@@ -143,19 +111,14 @@ def _coulomb(z: FloatArray, wz: FloatArray, gam: FloatArray, kt: FloatArray, c: 
             continue
         any_f = True
         v_old = z[c + i]
+        s = np.sign(v_old) if v_old != 0.0 else np.sign(wz[c + i])
+        sgn[i] = s
         g = gam[c + i, i]
-        if v_old != 0.0:
-            sgn[i] = np.sign(v_old)
-            af[i] = -fk[i] * sgn[i]
-            continue
-        # at rest: held while the pull, linear over the step, stays within the static level
-        p0 = _pull(z, kt, c, i, inp[i])
-        p1 = 2.0 * wz[c + i] / g - p0 if g > 0.0 else p0
-        if g <= 0.0 or (abs(p0) <= fs[i] and abs(p1) <= fs[i]):
+        if v_old == 0.0 and abs(wz[c + i]) <= g * fs[i]:
             held[i] = 1.0
             af[i] = -wz[c + i] / g if g > 0.0 else 0.0
         else:
-            af[i], sgn[i] = _breakaway(p0, p1, wz[c + i], g, fk[i], fs[i])
+            af[i] = -fk[i] * s
     if not any_f:
         return
     _matvec_add(gam, af, wz, True)
@@ -178,7 +141,9 @@ def _coulomb(z: FloatArray, wz: FloatArray, gam: FloatArray, kt: FloatArray, c: 
     for i in range(c):
         if rev[i] == 0.0:
             continue
-        pull = _pull(x_rev, kt, c, i, inp[i])
+        pull = inp[i]
+        for j in range(c):
+            pull -= kt[i, j] * x_rev[j]
         rem = (1.0 - theta[i]) * h
         if abs(pull) <= fs[i]:
             wz[i] = x_rev[i]
@@ -301,7 +266,10 @@ def _all_held(z: FloatArray, kt: FloatArray, fs: FloatArray, c: int) -> bool:
     for i in range(c):
         if z[c + i] != 0.0:
             return False
-        if abs(_pull(z, kt, c, i, 0.0)) > fs[i]:
+        pull = 0.0
+        for j in range(c):
+            pull -= kt[i, j] * z[j]
+        if abs(pull) > fs[i]:
             return False
     return True
 
