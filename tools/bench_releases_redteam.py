@@ -8,7 +8,10 @@ package): one cart released from a hold or flicked, every issue-11 effect at its
 50-1000 Hz, lattices 1e-5-2e-3 m. Printed per family: cases with no release within 0.3 s of
 the simulator's let-go (missed), with exactly that one release, with more than one listed,
 and with exactly one within one sample period (the red team's `run11.py` `ident releases`
-column, without its `ident diagnose` runs); the missed and extra seeds.
+column, without its `ident diagnose` runs), and with that one ended early: listed as ended by a
+touch while the simulator's carts still move (two carts with dry friction: the one that stops
+first creeps as the other pulls it); the missed, extra and early-ended seeds. `--family` also
+takes the widened families of `cases11b.py` (e.g. `two_cart_coulomb_y12`).
 """
 
 from __future__ import annotations
@@ -33,26 +36,42 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     sys.path.insert(0, str(REDTEAM))
     from cases11 import FAMILIES, make_case  # the red team's generator, not the package's
-    totals = np.zeros(4, dtype=np.int64)
+    from cases11b import FAMILIES_B, make_case_b
+    totals = np.zeros(5, dtype=np.int64)
     for family in args.family or FAMILIES:
-        counts = np.zeros(4, dtype=np.int64)   # missed, exactly one, extra, on time
-        bad = []
+        counts = np.zeros(5, dtype=np.int64)   # missed, exactly one, extra, on time, ended early
+        bad, early = [], []
         for seed in range(args.first_seed, args.first_seed + args.seeds):
-            case = make_case(family, seed)
+            case = make_case_b(family, seed) if family in FAMILIES_B and family != "coupled_span" else \
+                make_case(family, seed)
             releases = find_releases(np.asarray(case.t, dtype=np.float64), np.asarray(case.y, dtype=np.float64))
             truth = float(case.truth["release_time_s"])
             dt = float(np.median(np.diff(case.t)))
             near = [r for r in releases if abs(r.release_time_s - truth) < NEAR_S]
             one = len(releases) == 1 and len(near) == 1
-            counts += [not near, one, len(releases) > 1, one and abs(releases[0].release_time_s - truth) <= dt]
+            cut = one and releases[0].ended_by == "touch" and releases[0].end_time_s < _stops(case, truth) - dt
+            counts += [not near, one, len(releases) > 1, one and abs(releases[0].release_time_s - truth) <= dt, cut]
             if not one:
                 bad.append(seed)
+            if cut:
+                early.append(seed)
         totals += counts
         print(f"{family:22s} {args.seeds} cases: missed {counts[0]}, exactly one {counts[1]}, "
-              f"extra {counts[2]}, one within a sample {counts[3]}; not exactly one: {bad}", flush=True)
+              f"extra {counts[2]}, one within a sample {counts[3]}, ended early {counts[4]}; "
+              f"not exactly one: {bad}; ended early: {early}", flush=True)
     print(f"{'all':22s} missed {totals[0]}, exactly one {totals[1]}, extra {totals[2]}, "
-          f"one within a sample {totals[3]}")
+          f"one within a sample {totals[3]}, ended early {totals[4]}")
     return 0
+
+
+def _stops(case: object, truth: float) -> float:
+    """When the simulator's carts last move after the let-go (s): the last sample whose clean
+    position changes by more than 0.1 µm."""
+    t = np.asarray(case.t, dtype=np.float64)   # type: ignore[attr-defined]
+    x = np.asarray(case.x, dtype=np.float64).reshape(t.size, -1)   # type: ignore[attr-defined]
+    steps = np.max(np.abs(np.diff(x, axis=0)), axis=1)
+    moving = np.flatnonzero((steps > 1e-7) & (t[1:] > truth))
+    return float(t[moving[-1] + 1]) if moving.size else truth
 
 
 if __name__ == "__main__":
