@@ -1,89 +1,22 @@
 """The simulator's dry friction on a chain of two carts against an event-located integration.
 
-The reference is written here from the physics, not from `ident.physics`: the chain's ODE
-integrated by `scipy.integrate.solve_ivp` (DOP853, tight tolerances) from one friction event
-to the next, each cart sliding (kinetic friction against its velocity) or stuck (held while
-|spring pull| ≤ its static level), a stop located where a cart's velocity passes zero and a
-breakaway where a stuck cart's pull reaches its static level. Two carts stick, break away and
-reverse while the other moves, so the stepped scheme's event placement shows here (a cart alone
-only stops once). The bound is what the scheme gives at its default sub-steps (h·wn ≤ 0.3): a
-stuck cart breaks away at the first step whose mean pull exceeds the static level, up to a step
-late, and a stiff flick is up to 39 µm off at 100 Hz (a breakaway located inside the step, with
-sub-steps of h·wn ≤ 0.15 for two carts, gave 6 µm; not kept: see docs/diagnosis.md).
+The reference is `testkit.chain_friction` (written from the physics, not from `ident.physics`:
+the chain's ODE integrated by `scipy.integrate.solve_ivp` from one friction event to the next).
+Two carts stick, break away and reverse while the other moves, so the stepped scheme's event
+placement shows here (a cart alone only stops once). The bound is what the scheme gives at its
+default sub-steps (h·wn ≤ 0.3): a stuck cart breaks away at the first step whose mean pull
+exceeds the static level, up to a step late, and a stiff flick is up to 39 µm off at 100 Hz (a
+breakaway located inside the step, with sub-steps of h·wn ≤ 0.15 for two carts, gave 6 µm; not
+kept: see docs/diagnosis.md).
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
-
 import numpy as np
 import pytest
-from numpy.typing import NDArray
-from scipy.integrate import solve_ivp
 
 from ident.physics.free import NonlinearTerms, simulate_free
-
-FloatArray = NDArray[np.float64]
-
-
-def chain_with_dry_friction(lin: FloatArray, z0: FloatArray, fk: FloatArray, fs: FloatArray,
-                            tau: FloatArray) -> FloatArray:
-    """Positions (N, 2) at `tau` of the chain x'' = -Kt x - Ct x' - friction, from `z0` = (x1,
-    x2, v1, v2); `lin` = (k1/m1, k2/m1, k2/m2, k3/m2, c1/m1, c2/m2), friction per mass."""
-    a1, b1, b2, a2, g1, g2 = lin
-    kt = np.array([[a1 + b1, -b1], [-b2, b2 + a2]])
-    damp = np.array([g1, g2])
-
-    def pull(x: FloatArray) -> FloatArray:
-        return -(kt @ x)
-
-    def direction(i: int, z: FloatArray) -> float:
-        """+1/-1 sliding, 0 stuck, for a cart whose velocity is zero at state z."""
-        p = pull(z[:2])[i]
-        return 0.0 if abs(p) <= fs[i] else float(np.sign(p))
-
-    z = np.asarray(z0, dtype=float).copy()
-    mode = np.array([np.sign(z[2 + i]) if z[2 + i] != 0.0 else direction(i, z) for i in range(2)])
-    out = np.empty((tau.size, 2))
-    t, k = float(tau[0]), 0
-    for _ in range(10_000):   # events; a two-cart flick has tens
-        def rhs(_t: float, s: FloatArray, mode: FloatArray = mode) -> FloatArray:
-            acc = pull(s[:2]) - damp * s[2:] - fk * mode
-            acc[mode == 0] = 0.0
-            vel = s[2:].copy()
-            vel[mode == 0] = 0.0
-            return np.concatenate([vel, acc])
-
-        events: list[Callable[..., float]] = []
-        for i in range(2):
-            if mode[i] != 0:
-                def stops(_t: float, s: FloatArray, i: int = i, m: float = mode[i]) -> float:
-                    return float(m * s[2 + i])
-                stops.terminal, stops.direction = True, -1   # type: ignore[attr-defined]
-                events.append(stops)
-            else:
-                def breaks(_t: float, s: FloatArray, i: int = i) -> float:
-                    return float(abs(pull(s[:2])[i]) - fs[i])
-                breaks.terminal, breaks.direction = True, 1   # type: ignore[attr-defined]
-                events.append(breaks)
-        sol = solve_ivp(rhs, (t, float(tau[-1])), z, method="DOP853", rtol=1e-11, atol=1e-13,
-                        events=events, dense_output=True)
-        end = float(sol.t[-1])
-        upto = int(np.searchsorted(tau, end, side="right")) if sol.status == 1 else tau.size
-        if upto > k:
-            out[k:upto] = sol.sol(tau[k:upto])[:2].T
-        k, t, z = upto, end, sol.y[:, -1].copy()
-        if sol.status != 1:
-            return out
-        for i in range(2):
-            hit = sol.t_events[i].size > 0
-            if hit and mode[i] != 0:   # a stop: stuck, or on the other way
-                z[2 + i] = 0.0
-                mode[i] = direction(i, z)
-            elif hit:                  # a breakaway
-                mode[i] = np.sign(pull(z[:2])[i])
-    raise AssertionError("more than 10000 friction events")
-
+from testkit.chain_friction import chain_with_dry_friction
 
 # (lin, z0, kinetic, static per mass): a flick of a stiff chain, heavy friction on the read
 # cart and light on the other (the red team's two-cart family); a soft chain pulled and held
