@@ -10,7 +10,8 @@ the simulator's let-go (missed), with exactly that one release, with more than o
 and with exactly one within one sample period (the red team's `run11.py` `ident releases`
 column, without its `ident diagnose` runs), and with that one ended early: listed as ended by a
 touch while the simulator's carts still move (two carts with dry friction: the one that stops
-first creeps as the other pulls it); the missed, extra and early-ended seeds. `--family` also
+first creeps as the other pulls it; a measure for carts that come to rest: a viscous cart's
+decay and a held cart's wander count as moving); the missed, extra and early-ended seeds. `--family` also
 takes the widened families of `cases11b.py` (e.g. `two_cart_coulomb_y12`).
 """
 
