@@ -32,6 +32,14 @@ def chain_with_dry_friction(lin: FloatArray, z0: FloatArray, fk: FloatArray, fs:
     return simulate(rig, [Phase(float(tau[0]), float(tau[-1]))], tau, z)[0]
 
 
+def last_motion(t: FloatArray, x: FloatArray, after_s: float) -> float:
+    """When noise-free positions `x` (N,) or (N, k) on `t` (N,) last move after `after_s` (s):
+    the sample that ends the last step of more than 0.1 µm; `after_s` when none does."""
+    steps = np.max(np.abs(np.diff(np.reshape(x, (t.size, -1)), axis=0)), axis=1)
+    moving = np.flatnonzero((steps > 1e-7) & (t[1:] > after_s))
+    return float(t[moving[-1] + 1]) if moving.size else after_s
+
+
 @dataclass(frozen=True)
 class TwoCartRun:
     """A record `y` (N, 2) m on `t` (N,) s, the let-go `release_s`, and when the carts last
@@ -71,5 +79,4 @@ def two_free_carts(seed: int) -> TwoCartRun:
     q = float(np.exp(rng.uniform(np.log(1e-5), np.log(1e-3))))
     noisy = x + rng.normal(0.0, rng.uniform(0.05, 0.5) * q, x.shape)
     y = q * np.round(noisy / q)
-    moved = np.flatnonzero(np.max(np.abs(np.diff(x, axis=0)), axis=1) > 1e-7)
-    return TwoCartRun(t, y - y[0], release, float(t[moved[-1] + 1]) if moved.size else release)
+    return TwoCartRun(t, y - y[0], release, last_motion(t, x, release))

@@ -11,8 +11,8 @@ and with exactly one within one sample period (the red team's `run11.py` `ident 
 column, without its `ident diagnose` runs), and with that one ended early: listed as ended by a
 touch while the simulator's carts still move (two carts with dry friction: the one that stops
 first creeps as the other pulls it; a measure for carts that come to rest: a viscous cart's
-decay and a held cart's wander count as moving); the missed, extra and early-ended seeds. `--family` also
-takes the widened families of `cases11b.py` (e.g. `two_cart_coulomb_y12`).
+decay and a held cart's wander count as moving); the missed, extra and early-ended seeds.
+`--family` also takes the widened families of `cases11b.py` (e.g. `two_cart_coulomb_y12`).
 """
 
 from __future__ import annotations
@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from ident.releases import find_releases
+from testkit.chain_friction import last_motion
 
 REDTEAM = Path(__file__).resolve().parent / "redteam"
 NEAR_S = 0.3
@@ -36,21 +37,21 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--seeds", type=int, default=8)
     args = ap.parse_args(argv)
     sys.path.insert(0, str(REDTEAM))
-    from cases11 import FAMILIES, make_case  # the red team's generator, not the package's
-    from cases11b import FAMILIES_B, make_case_b
+    from cases11 import FAMILIES  # the red team's generator, not the package's
+    from run11 import case_of
     totals = np.zeros(5, dtype=np.int64)
     for family in args.family or FAMILIES:
         counts = np.zeros(5, dtype=np.int64)   # missed, exactly one, extra, on time, ended early
         bad, early = [], []
         for seed in range(args.first_seed, args.first_seed + args.seeds):
-            case = make_case_b(family, seed) if family in FAMILIES_B and family != "coupled_span" else \
-                make_case(family, seed)
+            case = case_of(family, seed)
             releases = find_releases(np.asarray(case.t, dtype=np.float64), np.asarray(case.y, dtype=np.float64))
             truth = float(case.truth["release_time_s"])
             dt = float(np.median(np.diff(case.t)))
             near = [r for r in releases if abs(r.release_time_s - truth) < NEAR_S]
             one = len(releases) == 1 and len(near) == 1
-            cut = one and releases[0].ended_by == "touch" and releases[0].end_time_s < _stops(case, truth) - dt
+            stops = last_motion(np.asarray(case.t, dtype=np.float64), np.asarray(case.x, dtype=np.float64), truth)
+            cut = one and releases[0].ended_by == "touch" and releases[0].end_time_s < stops - dt
             counts += [not near, one, len(releases) > 1, one and abs(releases[0].release_time_s - truth) <= dt, cut]
             if not one:
                 bad.append(seed)
@@ -63,16 +64,6 @@ def main(argv: list[str] | None = None) -> int:
     print(f"{'all':22s} missed {totals[0]}, exactly one {totals[1]}, extra {totals[2]}, "
           f"one within a sample {totals[3]}, ended early {totals[4]}")
     return 0
-
-
-def _stops(case: object, truth: float) -> float:
-    """When the simulator's carts last move after the let-go (s): the last sample whose clean
-    position changes by more than 0.1 µm."""
-    t = np.asarray(case.t, dtype=np.float64)   # type: ignore[attr-defined]
-    x = np.asarray(case.x, dtype=np.float64).reshape(t.size, -1)   # type: ignore[attr-defined]
-    steps = np.max(np.abs(np.diff(x, axis=0)), axis=1)
-    moving = np.flatnonzero((steps > 1e-7) & (t[1:] > truth))
-    return float(t[moving[-1] + 1]) if moving.size else truth
 
 
 if __name__ == "__main__":
