@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
+from ident.diagnose.fitting import BLOCKS, CV_ITERATIONS
 from ident.physics.chain import modes
 from schemas.diagnosis import DiagnosisReport
 
@@ -94,13 +95,16 @@ def linear_summary(lin: FloatArray, carts: int) -> dict[str, float]:
     return out
 
 
-def validation_text(decimation: int, n_work: int) -> str:
+def validation_text(decimation: int, n_work: int, forced: bool = False) -> str:
+    """`forced`: the model takes a measured force input, and the window is the whole record."""
     which = "every sample" if decimation == 1 else f"one sample in {decimation}"
-    return (f"Window from the end of the hand's influence to the end of the run, {which} "
+    window = ("The whole record, the measured force input driving the model" if forced
+              else "Window from the end of the hand's influence to the end of the free response")
+    return (f"{window}, {which} "
             f"({n_work} work samples). Every model is fitted (simulated output error) on the whole "
             "window and fit % (MATLAB compare, simulated output) is measured there. Effects are added "
-            "one at a time by forward selection: each is judged by blocked cross-validation (5 "
-            "contiguous blocks; the model refitted without a block, one Gauss-Newton step, and "
+            f"one at a time by forward selection: each is judged by blocked cross-validation ({BLOCKS} "
+            f"contiguous blocks; the model refitted without a block, {CV_ITERATIONS} damped Gauss-Newton steps, and "
             "simulated through the whole window, the cost taken inside the block); it is kept only "
             "when n ln(CV_before/CV_after) and the whole-window ratio exceed the chi-square noise "
             "bound (alpha 1e-3, plus a look-elsewhere term for a searched frequency) and the BIC drops.")

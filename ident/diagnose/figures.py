@@ -8,7 +8,7 @@ no title, measured and estimated in different line styles). Returns `Figure` obj
 from __future__ import annotations
 
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from ident import plotting
 from ident.diagnose.run import Diagnosis
@@ -38,8 +38,15 @@ def response_figure(d: Diagnosis, cart_numbers: tuple[int, ...] | None = None) -
             ax.plot(d.t, d.extended[:, j], label=f"{extended_label(rep)}, fit {rep.extended.fit_percent:.2f} %",
                     **plotting.ESTIMATE_STYLES[1])
         plotting.label_axes(ax, "time (s)", f"cart {_cart(j, cart_numbers)} position (m)")
-        ax.legend(loc="best")
+    _legend_above(fig, axes[0])
     return fig
+
+
+def _legend_above(fig: Figure, ax: Any) -> None:
+    """One legend for the stacked axes (their curves are the same), above them: inside an axis
+    it covered the first swing of a two-cart motor step, where every curve is."""
+    handles, labels = ax.get_legend_handles_labels()
+    fig.legend(handles, labels, loc="outside upper center", ncols=2, frameon=False)
 
 
 def extended_label(rep: DiagnosisReport) -> str:
@@ -59,7 +66,7 @@ def residual_figure(d: Diagnosis, cart_numbers: tuple[int, ...] | None = None) -
             ax.plot(d.t, 1e3 * (d.y[:, j] - d.extended[:, j]), label="extended model",
                     **plotting.ESTIMATE_STYLES[1])
         plotting.label_axes(ax, "time (s)", f"cart {_cart(j, cart_numbers)} residual (mm)")
-        ax.legend(loc="best")
+    _legend_above(fig, axes[0])
     return fig
 
 

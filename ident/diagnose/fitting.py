@@ -9,8 +9,8 @@ Blocked cross-validation (`BLOCKS` contiguous blocks after a first stretch of th
 anchors the release state, spread over the motion: a stuck tail goes into the last block; a
 cart that rings freely to the end is anchored on `anchor` samples, one period of its main mode,
 when that is shorter): for block b the model
-is refitted with the cost taken outside b — one Gauss-Newton step from the whole-window fit,
-`Δ_b = argmin |J_{-b} Δ + r_{-b}|²` with the Jacobian at the solution — and simulated through
+is refitted with the cost taken outside b — `CV_ITERATIONS` damped Gauss-Newton steps from the
+whole-window fit, `(J_{-b}ᵀJ_{-b} + λ D) Δ_b = -J_{-b}ᵀ r_{-b}`, λ chosen by the cost outside b — and simulated through
 the WHOLE window from the window start (the state stays continuous); the cost is the squared
 residual inside b. CV = Σ_b. Interleaved samples would test interpolation; a block tests
 what the model predicts where it was not fitted. No I/O here.
@@ -243,7 +243,10 @@ def _blocked_cv(spec: ModelSpec, res: FitResult, full: Callable[[FloatArray], Fl
                 h = h + prior / scale[:, None] / scale[None, :]
             for i, lam in enumerate(CV_DAMPING):
                 step = np.linalg.lstsq(h + lam * np.diag(np.diag(h)) + 1e-12 * np.eye(p), -g, rcond=1e-12)[0] / scale
-                trials[b * k + i + 1] = np.clip(x[b] + step, lower, upper)
+                # a Jacobian column of a trial that diverged is not finite: no step (a motor
+                # record's refit, DOF1_en1_input1_test4 of the 2023 set, raised LinAlgError)
+                if np.all(np.isfinite(step)):
+                    trials[b * k + i + 1] = np.clip(x[b] + step, lower, upper)
         with np.errstate(all="ignore"):
             tp = spec.predict(full(trials), dt, n)
         err = np.nan_to_num(((tp - y[None]) ** 2).sum(axis=2), nan=np.inf, posinf=np.inf)

@@ -86,7 +86,7 @@ def find_releases(t: NDArray[np.float64], y: NDArray[np.float64],
         # model without the held carts; with none, those are the pushes above (the free
         # response's own misfit is no touch either: it had ended cubic-spring windows within
         # a period, too short to diagnose)
-        alone = fit_free_model(m, j, tuple(i for i in free if i != j)) if held else None
+        alone = fit_free_model(m, j, tuple(i for i in free if i != j), unread=False) if held else None
         stops += [(j, max(0, a - m.samples(m.period_s / 4)))
                   for a, _ in (sustained_pushes(m, alone, partner) if alone is not None else pushes)]
         steady = [level for e in episodes if (level := steady_level(m, model, *e)) is not None]

@@ -152,7 +152,7 @@ def period_average(m: Motion, x: FloatArray) -> FloatArray:
 
 
 def fit_free_model(m: Motion, column: int, others: tuple[int, ...] = (),
-                   slow: tuple[int, ...] = ()) -> FreeModel:
+                   slow: tuple[int, ...] = (), unread: bool = True) -> FreeModel:
     """Robust fit of the free equation of motion of `column` (see the module docstring);
     the `slow` columns among `others` enter by their period average (`regressors`). A spring
     to another cart is part of this cart's own stiffness (|k_ji| <= k_jj): a fit that breaks
@@ -166,7 +166,7 @@ def fit_free_model(m: Motion, column: int, others: tuple[int, ...] = (),
     if slow and any(abs(float(k[1 + others.index(i)])) > abs(float(k[0])) for i in slow if i in others):
         kept = tuple(i for i in others if i not in slow)
         model = _fit(m, column, kept, ())
-    if any(i not in model.slow for i in model.others):
+    if not unread or any(i not in model.slow for i in model.others):
         return model
     noise = accel_noise(m, column)
 

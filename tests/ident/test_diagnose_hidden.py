@@ -124,7 +124,10 @@ def test_the_response_figure_names_every_accepted_effect() -> None:
     result = diagnose(case.observed.t, case.observed.y)
     effects = [e.effect for e in result.report.effects]
     assert {"coulomb_friction", "quantization"} <= set(effects)
-    entry = response_figure(result).axes[0].get_legend().get_texts()[-1].get_text().replace("\n", " ")
+    figure = response_figure(result)
+    (legend,) = figure.legends   # one legend above the axes, none inside them (they covered the data)
+    assert all(ax.get_legend() is None for ax in figure.axes)
+    entry = legend.get_texts()[-1].get_text().replace("\n", " ")
     assert all(name.replace("_", " ") in entry for name in effects)
     assert entry.endswith(f"fit {result.report.extended.fit_percent:.2f} %")
 
