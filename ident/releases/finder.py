@@ -27,7 +27,7 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import NDArray
 
-from ident.errors import IdentDimensionError
+from ident.errors import IdentDimensionError, IdentValueError
 from ident.releases.hand import HAND_SIGMAS, STICK_ALLOWANCE, FreeModel, drift, fit_free_model
 from ident.releases.instant import release_instant
 from ident.releases.joined import joined_instant
@@ -61,6 +61,10 @@ def find_releases(t: NDArray[np.float64], y: NDArray[np.float64],
     (a non-uniform `t` is interpolated onto a uniform grid from `t[0]`); a free response
     whose first swing is below `min_amplitude_m` (m) is handling, not a release.
     """
+    finite = np.isfinite(np.reshape(np.asarray(y, dtype=np.float64), (len(t), -1))).all(axis=1) & np.isfinite(t)
+    if not finite.all():   # (a NaN spreads through the smoothing and the fits: nothing found, silently)
+        raise IdentValueError("record", "finite times and positions (cut the record before a gap, or fill it)",
+                              f"a non-finite value at sample {int(np.argmin(finite))} of {finite.size}")
     m = motion(t, y)
     n_cols = m.y.shape[1]
     names = tuple(carts) if carts is not None else tuple(range(1, n_cols + 1))

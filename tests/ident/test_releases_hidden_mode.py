@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 import pytest
 
+from ident.errors import IdentValueError
 from ident.releases import find_releases
 from ident.releases.motion import motion
 from ident.releases.unread import _oscillator_foh, hidden_mode
@@ -129,3 +130,13 @@ def test_a_held_carts_wander_is_no_unread_mass_of_the_model_that_tells_its_touch
     found = find_releases(case.t, case.y)
     assert len(found) == 1, [r.release_time_s for r in found]
     assert found[0].ended_by == "record_end", (found[0].ended_by, found[0].end_time_s)
+
+
+def test_a_record_with_a_gap_is_refused_naming_the_sample() -> None:
+    """A NaN spreads through the smoothing and the fits: the finder found nothing and said
+    nothing (three red-team records whose simulation diverged after the release)."""
+    case = _case("two_cart_coulomb_y1", 5)
+    y = np.array(case.y, dtype=np.float64)
+    y[300] = np.nan
+    with pytest.raises(IdentValueError, match="sample 300 of"):
+        find_releases(case.t, y)
