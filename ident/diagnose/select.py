@@ -278,9 +278,9 @@ def _move_current(steps: list[Step], baseline: FitResult, result: FitResult,
     An encoder lattice has no parameters of the carts: when the last step is one (`last` its
     trial), the better optimum of the carts' parameters (`result` read without the lattice,
     `without(last, result, 0)`) moves the model before it too, and is credited to the effects
-    that carry them. (On a 2023
-    motor step, DOF2_en12_input1_test3, a refit after the lattice found a better optimum of the
-    friction, 5.5e-6 -> 2.0e-6 m²; credited to a 17.9 µm lattice it made it the cause.)"""
+    that carry them. (On a 2023 motor step, DOF2_en12_input1_test3, a refit after the lattice
+    found a better optimum of the friction, 5.5e-6 -> 2.0e-6 m²; credited to a 17.9 µm lattice
+    it made it the cause.)"""
     if not steps:
         return result
     final = steps[-1]

@@ -153,9 +153,9 @@ def _window(t: FloatArray, y: FloatArray, carts: int, u: FloatArray | None, rele
     if u is None:
         return find_window(t, y, carts, released_at_start)
     hold, noise, _ = hold_level(y)
-    # the input's onset: its first change, or the first sample when it already acts there
-    # (2023 DOF1_en1_input1_test4 starts on its step: its first change is the reversal at 3 s)
-    moved = np.flatnonzero(np.any(u != (0.0 if np.any(u[0] != 0) else u[0]), axis=1))
+    # the input's onset: the first sample where it acts (2023 DOF1_en1_input1_test4 starts on
+    # its step: its first change, the reversal at 3 s, had been reported)
+    moved = np.flatnonzero(np.any(u != 0.0, axis=1))
     release = float(t[moved[0]]) if moved.size else float(t[0])
     decimation = max(1, int(np.ceil(t.size / MAX_WORK_SAMPLES)))
     return Window(0, decimation, hold, noise, release, float("nan"))

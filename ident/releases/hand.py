@@ -157,8 +157,8 @@ def fit_free_model(m: Motion, column: int, others: tuple[int, ...] = (),
     the `slow` columns among `others` enter by their period average (`regressors`). A spring
     to another cart is part of this cart's own stiffness (|k_ji| <= k_jj): a fit that breaks
     that (a short record where a held cart's average says nothing) is redone without them.
-    A cart alone (no free cart read beside it) is fitted with an unread mass too (the better
-    of `unread.mass_candidates`), kept when it divides the residual's scale beyond the noise
+    A cart alone (no free cart read beside it) is fitted with an unread mass too, when
+    `unread` (the better of `unread.mass_candidates`), kept when it divides the residual's scale beyond the noise
     by `HIDDEN_GAIN` and the scale itself by 1 / `HIDDEN_SCALE_DROP`: a second cart or mass
     coupled to it and not read (a one-encoder record of two carts) rings in its free response."""
     model = _fit(m, column, others, slow)
