@@ -27,6 +27,15 @@ def _case(family: str, seed: int) -> Any:
     return redteam_module("run11").case_of(family, seed)
 
 
+def _one_release_within_a_sample(family: str, seed: int) -> None:
+    case = _case(family, seed)
+    found = find_releases(case.t, case.y)
+    assert len(found) == 1, [r.release_time_s for r in found]
+    dt = float(np.median(np.diff(case.t)))
+    error = (found[0].release_time_s - case.truth["release_time_s"]) / dt
+    assert abs(error) <= 1.0, f"{error:+.2f} samples"
+
+
 def test_the_hidden_mass_follows_the_cart_as_a_driven_oscillator() -> None:
     """In steady state the unread mass's position is the cart's, scaled and delayed by
     G(jw) = wn² / (wn² - w² + 2j·zeta·wn·w)."""
@@ -59,12 +68,7 @@ def test_the_oscillator_is_discretized_as_scipy_does_with_a_first_order_hold(zet
                                               ("two_cart_coulomb_y1", 800), ("two_cart_coulomb_y1", 801),
                                               ("two_cart_coulomb_y1", 702)])
 def test_a_release_of_a_cart_pulling_an_unread_mass_is_found(family: str, seed: int) -> None:
-    case = _case(family, seed)
-    found = find_releases(case.t, case.y)
-    assert len(found) == 1, [r.release_time_s for r in found]
-    dt = float(np.median(np.diff(case.t)))
-    error = (found[0].release_time_s - case.truth["release_time_s"]) / dt
-    assert abs(error) <= 1.0, f"{error:+.2f} samples"
+    _one_release_within_a_sample(family, seed)
 
 
 @pytest.mark.parametrize(("family", "seed"), [("quantization", 700), ("coulomb+quantization", 703)])
@@ -86,12 +90,7 @@ def test_a_two_cart_chain_that_friction_stops_within_seconds_is_found_through_on
     towards another frequency (red-team seeds 200-239, drawn after the change was made on
     seeds 0-7: no release 8 -> 2, exactly one within a sample 20 -> 27 of 40; these four gave
     no release or one 2-20 samples off before)."""
-    case = _case("two_cart_coulomb_y1", seed)
-    found = find_releases(case.t, case.y)
-    assert len(found) == 1, [r.release_time_s for r in found]
-    dt = float(np.median(np.diff(case.t)))
-    error = (found[0].release_time_s - case.truth["release_time_s"]) / dt
-    assert abs(error) <= 1.0, f"{error:+.2f} samples"
+    _one_release_within_a_sample("two_cart_coulomb_y1", seed)
 
 
 @pytest.mark.parametrize("seed", [5, 6, 10])
@@ -101,12 +100,7 @@ def test_a_flick_whose_push_drags_the_unread_mass_search_is_found_through_one_en
     and one trimmed to three robust scales of it, followed it; at the unread cart's frequency
     the median |residual| was 2.2 m/s² where the free ringing alone fits to 0.2, no mass was
     taken, and no release was found. Least trimmed squares on the best 60 % finds the mass."""
-    case = _case("two_cart_coulomb_y1", seed)
-    found = find_releases(case.t, case.y)
-    assert len(found) == 1, [r.release_time_s for r in found]
-    dt = float(np.median(np.diff(case.t)))
-    error = (found[0].release_time_s - case.truth["release_time_s"]) / dt
-    assert abs(error) <= 1.0, f"{error:+.2f} samples"
+    _one_release_within_a_sample("two_cart_coulomb_y1", seed)
 
 
 def test_a_residual_at_the_noise_takes_no_unread_mass_for_a_small_drop() -> None:
