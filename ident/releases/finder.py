@@ -59,7 +59,8 @@ def find_releases(t: NDArray[np.float64], y: NDArray[np.float64],
 
     `carts` names the columns (cart numbers, default 1..n); times are on `t`'s time base
     (a non-uniform `t` is interpolated onto a uniform grid from `t[0]`); a free response
-    whose first swing is below `min_amplitude_m` (m) is handling, not a release.
+    whose first swing is below `min_amplitude_m` (m) is handling, not a release. A record
+    with a NaN or an infinite value is refused (`IdentValueError`, naming the sample).
     """
     finite = np.isfinite(np.reshape(np.asarray(y, dtype=np.float64), (len(t), -1))).all(axis=1) & np.isfinite(t)
     if not finite.all():   # (a NaN spreads through the smoothing and the fits: nothing found, silently)
