@@ -6,7 +6,8 @@ For a run of lab case (`analyse_fits`, then `with_diagnosis`)
 - `both` (two free carts): PEM of order 4 on both outputs, the diagnosis of both carts.
 
 The case comes from the data: a cart "moves" when its largest deviation from rest exceeds
-`MOVING_SIGMAS` noise standard deviations and `MOVING_MIN_M`; `FitSettings.carts` overrides
+`MOVING_SIGMAS` noise standard deviations and `MOVING_COUNTS` encoder counts, and is at least
+`HELD_FRACTION` of the largest cart's (a held cart wanders); `FitSettings.carts` overrides
 it (one cart: the pulled or most moving column; two: both). Each stage that fails is
 recorded in `errors` (stage -> "expected …, got …" message) and the others still run;
 `RunAnalysis.failed_reason` says whether anything usable is left. No I/O, no plotting.
@@ -28,15 +29,19 @@ from ident.diagnose import Diagnosis, diagnose
 from ident.errors import IdentError, IdentValueError
 from ident.fitrun.envelope import fit_envelope
 from ident.model import Model
+from ident.physics.measures import encoder_quantum
 from ident.prediction_error import pem
 from ident.release import motion_amplitude, noise_std
+from ident.releases.record import HELD_FRACTION
 from ident.simple import fit_simple
 from schemas.diagnosis import DiagnosisReport
 from schemas.fit import EnvelopeRec, LabCase, SimpleMethod
 
-#: A cart moves when its largest deviation exceeds this many noise std and this many metres.
+#: A cart moves when its largest deviation exceeds this many noise std and encoder counts (and
+#: `HELD_FRACTION` of the largest cart's). (It had to exceed 5 mm: the 2023 open-loop 0.5 V
+#: steps move their cart 4.5-4.7 mm, 255 counts, and `ident fit --input` refused them.)
 MOVING_SIGMAS = 30.0
-MOVING_MIN_M = 0.005
+MOVING_COUNTS = 3.0
 
 Method = Literal["rk4", "euler", "pem"]
 NoiseModel = Literal["oe", "innovation"]
@@ -132,9 +137,9 @@ class RunAnalysis:
 def detect_case(data: IdData) -> tuple[LabCase, tuple[int, ...]]:
     """The lab case and the carts (1-based) that move, from the data alone."""
     amplitude = motion_amplitude(data.y)
-    sigma = noise_std(data.y)
+    floor = np.maximum(MOVING_SIGMAS * noise_std(data.y), MOVING_COUNTS * encoder_quantum(data.y))
     moving = tuple(j + 1 for j in range(data.n_outputs)
-                   if amplitude[j] > max(MOVING_SIGMAS * sigma[j], MOVING_MIN_M))
+                   if amplitude[j] > floor[j] and amplitude[j] >= HELD_FRACTION * float(np.max(amplitude)))
     if not moving:
         raise IdentValueError("run", "a cart that moves after the release",
                               f"largest deviation {float(np.max(amplitude)):.3g} m (no motion)")
@@ -177,8 +182,9 @@ def choose_case(data: IdData, carts: int | None) -> tuple[LabCase, tuple[int, ..
         return "cart1", (1,)
     amplitude = motion_amplitude(data.y)
     pulled = data.pulled_cart
-    column = pulled - 1 if pulled in (1, 2) and amplitude[pulled - 1] > MOVING_MIN_M \
-        else int(np.argmax(amplitude))
+    column = int(np.argmax(amplitude))
+    if pulled is not None and pulled in (1, 2) and amplitude[pulled - 1] >= HELD_FRACTION * float(np.max(amplitude)):
+        column = pulled - 1
     return ("cart1" if column == 0 else "cart2"), (column + 1,)
 
 
@@ -291,6 +297,6 @@ def fit_simple_result(data: IdData, method: SimpleMethod, output: int, friction:
                         release_time_s=float(fit.release_time_s), converged=bool(fit.success))
 
 
-__all__ = ["MOVING_MIN_M", "MOVING_SIGMAS", "FitSettings", "Method", "NoiseModel", "RunAnalysis",
+__all__ = ["MOVING_COUNTS", "MOVING_SIGMAS", "FitSettings", "Method", "NoiseModel", "RunAnalysis",
            "SimpleResult", "analyse", "analyse_fits", "case_samples", "choose_case", "detect_case",
            "envelope_of", "fit_simple_result", "on_one_grid", "with_diagnosis"]

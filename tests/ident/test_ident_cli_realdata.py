@@ -83,6 +83,20 @@ def test_real_ecp_motor_input_runs_fit_with_the_recorded_input(realdata_dir: Pat
     assert min(model.fit_percent) > 85.0 and model.order == 4
 
 
+def test_real_one_cart_motor_steps_of_under_5_mm_are_fitted(realdata_dir: Path,
+                                                             capsys: pytest.CaptureFixture[str]) -> None:
+    """The 2023 0.5 V open-loop steps move cart 1 by 4.5-4.7 mm (255 counts): a cart had to move
+    5 mm to count as moving, and `ident fit --input` refused them as 'no motion'."""
+    path = realdata_dir / "ECP210_UCSD_2023_Parker-Knopf" / "Open_Loop" / "DOF1_en1_input1_test1.csv"
+    if not path.exists():
+        pytest.skip("ECP DOF1 motor-input run not present")
+    assert main(["fit", str(path), "--time", "Time", "--pos", "Encoder 1 Pos", "--scale", "1.7857e-5",
+                 "--input", "Control Effort", "--method", "pem", "--json"]) == 0
+    report = FitReport.model_validate_json(capsys.readouterr().out)
+    assert report.case == "cart1" and report.pem is not None and report.pem.order == 2
+    assert report.pem.fit_percent[0] > 90.0
+
+
 def test_fit_picks_the_moving_cart_when_the_other_is_pinned(tmp_path: Path,
                                                             capsys: pytest.CaptureFixture[str]) -> None:
     run = cart1_run(50.0, seed=43)
