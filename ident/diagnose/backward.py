@@ -54,6 +54,8 @@ def eliminate(steps: list[Step], last: Trial, without: Without, carts: int) -> E
     an effect has (red team coupled_light seed 200: the 6.9 Hz mode's whole-window ratio 262
     against a bound of 29, its held-out ratio -88 from the mismatch alone): see `_weakest`."""
     dropped: list[Judgement] = []
+    baseline = steps[0].before
+    first = len(steps)   # the first step whose forward models held a dropped effect
     for _ in range(len(steps)):
         weakest = _weakest(steps, last, without, carts)
         if weakest is None:
@@ -61,22 +63,39 @@ def eliminate(steps: list[Step], last: Trial, without: Without, carts: int) -> E
         at, judgement, reduced = weakest
         last = _bounds_without(last, steps[-1].judgement.result, judgement.effect)
         steps = _drop(steps, at, reduced)
+        first = min(first, at)
         dropped.append(judgement)
-    if dropped and steps[-1].judgement.effect != "quantization":
-        steps[-1] = _credited_from_refit(steps[-1], last, without)
+    if dropped:
+        steps = _rechained(steps, first, baseline, last, without)
     return Elimination(steps, dropped)
 
 
-def _credited_from_refit(step: Step, last: Trial, without: Without) -> Step:
-    """The last step credited from the final model refitted without its effect when that fits
-    better than the model it is credited from, as the forward selection credits an effect.
+def _rechained(steps: list[Step], first: int, baseline: FitResult, last: Trial, without: Without) -> list[Step]:
+    """`steps` from `first` on credited along one nested chain without the dropped effects.
 
-    Dropping the step right before it hands the last step that step's model before (`_drop`),
-    from which the final model's refits had moved on: red team `two_cart_coulomb_y12` 1010 read
-    from its CSV, a cubic of -26 /m²s² (its own gain over the refit without it 0.008 points) was
-    credited +3.16 points, the headline's runner-up, once pre-sliding and a mode were dropped."""
-    bare = without(dataclasses.replace(last, effect=step.judgement.effect), step.judgement.result, 1)
-    return Step(step.judgement, bare) if bare.sse_train < step.before.sse_train else step
+    The steps after a dropped one kept their forward models, which held the dropped effect:
+    each was credited within a model that is no longer the diagnosis's, and the credits no
+    longer added up to the final model's gain (the 2023 open-loop `test_3_13`: a 5-point mode
+    dropped, pre-sliding friction, the last step, credited -0.99 points against a model with
+    the mode; the four credits summed to 1.8 of the 6.9 points gained). Now the final model is
+    peeled from its last effect back to step `first`, each model refitted without the effect
+    (`without(..., 1)`), and every step is credited from the model below it. Step `first` is
+    credited from the unchanged model below it (`baseline`, the linear one, at step 0), or from
+    its own peel when that fits better: as the forward selection credits an effect whose
+    refit moved the model to a better optimum (red team `two_cart_coulomb_y12` 1010: a cubic of
+    -26 /m²s², 0.008 points over its model without it, was credited +3.16 points from the
+    dropped steps' model before)."""
+    out = list(steps)
+    model = steps[-1].judgement.result
+    for k in range(len(steps) - 1, first - 1, -1):
+        judgement = dataclasses.replace(steps[k].judgement, result=model)
+        below = steps[k - 1].judgement.result if k > 0 else baseline
+        bare = without(dataclasses.replace(last, effect=judgement.effect), model, 1)
+        before = below if k == first and below.sse_train <= bare.sse_train else bare
+        out[k] = Step(judgement, before)
+        last = _bounds_without(last, model, judgement.effect)
+        model = bare
+    return out
 
 
 def _weakest(steps: list[Step], last: Trial, without: Without, carts: int) -> tuple[int, Judgement, FitResult] | None:
@@ -140,20 +159,10 @@ def _bounds_without(last: Trial, final: FitResult, effect: str) -> Trial:
 
 
 def _drop(steps: list[Step], at: int, reduced: FitResult) -> list[Step]:
-    """`steps` without step `at`, the last one's model the refitted `reduced`.
-
-    The other steps keep their forward judgements and models, so each effect's gain stays what
-    it added when it was taken: taking the dropped effect out of the later steps' models
-    without refitting them (the others had moved to make up for it) left the last step's model
-    before it far worse than it was, and credited the last effect with that (the real
-    DOF1_en2_manual2_test1: a rest drift at +35 points once an early drag was dropped). The
-    last step's model before it is the dropped step's when that came right before: its model
-    before had the dropped effect, the refitted one has not, and the last effect was credited
-    with the dropped one's loss (red team coupled_pinned 700: an encoder lattice at -0.49
-    points once the mode it followed was dropped; +0.56 against the model before the mode)."""
+    """`steps` without step `at`, the last one's model the refitted `reduced` (the steps'
+    credits are made consistent once every drop is done: `_rechained`)."""
     kept = steps[:at] + steps[at + 1:]
-    before = steps[at].before if at == len(steps) - 2 else kept[-1].before
-    kept[-1] = Step(dataclasses.replace(kept[-1].judgement, result=reduced), before)
+    kept[-1] = Step(dataclasses.replace(kept[-1].judgement, result=reduced), kept[-1].before)
     return kept
 
 

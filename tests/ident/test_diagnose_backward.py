@@ -170,3 +170,23 @@ def test_an_effect_another_one_refines_is_not_judged_for_dropping() -> None:
                     _without({"coulomb_friction": 0.5, "static_friction": 0.7}, calls), 1)
     assert [s.judgement.effect for s in out.steps] == ["coulomb_friction", "static_friction", "cubic_stiffness"]
     assert ("coulomb_friction", 2) not in calls and ("static_friction", 2) in calls
+
+
+def test_after_a_drop_every_later_step_is_credited_along_one_chain_without_the_dropped_effect() -> None:
+    # drag (1.0 -> 0.7), friction (0.7 -> 0.5), cubic (0.5 -> 0.45); the final model needs no
+    # drag (0.452 without it). The friction's and the cubic's forward models held the drag: a
+    # credit within them (0.5 -> 0.452 for the cubic, the old one) is not what the effect adds
+    # to the diagnosis's model, and the credits would not add up to its gain (1.0 -> 0.452)
+    steps = _chain(["quadratic_drag", "coulomb_friction", "cubic_stiffness"], [1.0, 0.7, 0.5, 0.45])
+    costs = {("coulomb_friction", "cubic_stiffness"): 0.452, ("quadratic_drag", "cubic_stiffness"): 0.9,
+             ("cubic_stiffness",): 0.9, ("coulomb_friction",): 0.6, (): 1.0}
+    calls: list[tuple[tuple[str, ...], int]] = []
+    out = eliminate(steps, _trial(steps[-1].judgement.result.spec, "cubic_stiffness"),
+                    _without_models(costs, calls), 1)
+    assert [j.effect for j in out.dropped] == ["quadratic_drag"]
+    friction, cubic = out.steps
+    assert cubic.judgement.result.sse_train == pytest.approx(0.452)
+    assert cubic.before.spec.effects == ("coulomb_friction",) and cubic.before.sse_train == pytest.approx(0.6)
+    assert friction.judgement.result is cubic.before and friction.before is steps[0].before
+    for step in out.steps:
+        assert "quadratic_drag" not in step.before.spec.effects + step.judgement.result.spec.effects

@@ -176,13 +176,17 @@ def test_a_second_mode_read_through_a_coarse_lattice_is_kept() -> None:
     (+1.05 points), then the lattice; backward elimination judged the mode held out on refits
     through the lattice's staircase (ratio -41 against 29), dropped it, and named the lattice.
     Judged held out on the carts' model without the lattice and read through the lattice on the
-    whole window, it stays; the lattice comes after it with a positive gain."""
+    whole window, it stays, material; the lattice comes after it, credited with what it costs
+    a perfect reading of the record (1.94 points, more than the mode's 1.05: the headline)."""
     case = _case("coupled_pinned", 700)
     release = find_releases(case.t, case.y)[0]
     report = diagnose(case.t, case.y, 1, None, start_s=release.release_time_s, stop_s=release.end_time_s).report
-    assert report.cause == "coupled_mode"
-    mode = next(e for e in report.effects if e.effect == "coupled_mode")
+    effects = {e.effect: e for e in report.effects}
+    mode, lattice = effects["coupled_mode"], effects["quantization"]
+    assert mode.material and mode.step < lattice.step
     assert mode.parameters["mode_hz"] == pytest.approx(case.truth["mode_hz"], rel=0.05)
+    assert lattice.gain_points == pytest.approx(case.truth["lattice_worth_points"], rel=0.05)
+    assert report.cause == max(report.effects, key=lambda e: e.gain_points).effect
     assert all(e.gain_points > 0 for e in report.effects)
 
 
