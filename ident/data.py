@@ -222,8 +222,9 @@ class IdData:
 
     @property
     def step_amplitude(self) -> float:
-        """`u[-1] - u[0]`: the size of the step (m for the lab's position step)."""
-        return float(self.u[-1] - self.u[0])
+        """`u[-1]`: the size of the step from the input's rest at 0 (m for the lab's position
+        step; `input_jumps`)."""
+        return float(self.u[-1])
 
     def step_time(self) -> float | None:
         """Time of the first sample where `u` leaves its initial value (None if constant)."""
@@ -345,6 +346,18 @@ def make_uniform(data: IdData, method: Literal["auto", "grid", "linear"] = "auto
     note = f"resampled by linear interpolation onto a uniform grid, Ts = {ts:.6g} s"
     return IdData(grid, data.u[hold], y, data.release_time_s, data.pulled_cart, data.name,
                   (*data.notes, note), data.columns)
+
+
+def input_jumps(u: FloatArray) -> NDArray[np.intp]:
+    """Indices i where the input `u` (N,) changes between samples i and i + 1, with -1 first
+    when it is already on at the first sample: a force switched on as the record starts (the
+    2023 open-loop steps `DOF1_en1_input1_test4` and `test5` read 0.5 V from their first
+    sample, their cart at rest at 0 and moving from there; their one recorded change, the
+    drive's reversal at 3.0 s, had been fitted as a release from rest: 76 % instead of 95 %).
+    The lab's release step (`step_input`) starts at 0: every model here starts from rest at a
+    zero input (`ident.modal.input_basis`)."""
+    jumps = np.flatnonzero(np.diff(u) != 0.0)
+    return np.concatenate([[-1], jumps]) if u.size and u[0] != 0.0 else jumps
 
 
 def step_input(t: ArrayLike, release_time_s: float, amplitude: float) -> FloatArray:

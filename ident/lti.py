@@ -6,7 +6,8 @@ A hand-derived `control.tf`/`control.ss` (continuous or discrete) becomes someth
 
     continuous (A, B, C, D):  x[k+1] = Φ x[k] + Γ u[k],  [[Φ, Γ], [0, I]] = expm([[A, B], [0, 0]] Ts),
     discrete at Ts:           Φ, Γ = A, B  (the model's own sample time must match the data's),
-    y[k] = C x[k] + D u[k],   from rest at u[0]: x[0] = (I - Φ)⁻¹ Γ u[0] (0 for the lab's u[0] = 0).
+    y[k] = C x[k] + D u[k],   from rest at u = 0: x[0] = 0 (an input already on at the first
+                              sample was switched on there, `ident.data.input_jumps`).
 
 A list of SISO systems (e.g. `Model.tf`) is one model per output column. `control` is imported
 only by the functions that need it (it costs about a second). No files, no clocks.
@@ -106,16 +107,13 @@ def _discrete_matrices(system: Any, ts: float) -> tuple[FloatArray, FloatArray, 
 
 
 def _simulate_one(system: Any, u: FloatArray, ts: float) -> FloatArray:
-    """y (N, n_out) of one system from rest at u[0], input held over each sample."""
+    """y (N, n_out) of one system from rest at u = 0, input held over each sample (one
+    already on at the first sample was switched on there: `ident.data.input_jumps`)."""
     phi, gamma, C, D = _discrete_matrices(system, ts)
     n = phi.shape[0]
     if n == 0:
         return np.outer(u, D[:, 0]).astype(np.float64, copy=False)
-    eye = np.eye(n)
-    try:
-        x = np.linalg.solve(eye - phi, gamma[:, 0] * u[0])
-    except np.linalg.LinAlgError:   # an integrator: no rest for a non-zero u[0]; start at zero
-        x = np.zeros(n)
+    x = np.zeros(n)
     states = np.empty((u.size, n))
     g = gamma[:, 0]
     for k in range(u.size):   # N ≤ a few 10⁴ samples of a 2–8 state model: the loop is cheap

@@ -107,12 +107,12 @@ def section_states(sigma: float, omega: float, ts: float, frac: float, v: FloatA
 
 def input_basis(u: FloatArray, ts: float, sigma: FloatArray, omega: FloatArray) -> FloatArray:
     """Responses to an arbitrary input `u` (N,), held constant over each sample (zoh), from rest
-    at u[0]: column 0 is `u - u[0]` (direct term), then the two states of each section
-    (`section_states` with no delay). Shape (N, 1 + 2m)."""
-    du = u - u[0]
-    columns = [du]
+    at a zero input (one already on at the first sample was switched on there:
+    `ident.data.input_jumps`): column 0 is `u` (direct term), then the two states of each
+    section (`section_states` with no delay). Shape (N, 1 + 2m)."""
+    columns = [u]
     for s, w in zip(sigma, omega, strict=True):
-        columns.extend(section_states(float(s), float(w), ts, 0.0, du))
+        columns.extend(section_states(float(s), float(w), ts, 0.0, u))
     return np.column_stack(columns)
 
 

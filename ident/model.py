@@ -17,6 +17,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ident import modal, predictor, summary
+from ident.data import input_jumps
 from ident.errors import IdentDimensionError, IdentValueError
 from ident.physics import Mode, StateSpace, transfer_functions
 
@@ -42,7 +43,7 @@ class ModeEstimate:
 
 @dataclass(frozen=True)
 class Model:
-    """A fitted model `y = offset + G(s) (u(t - input_delay_s) - u[0]) + e`.
+    """A fitted model `y = offset + G(s) u(t - input_delay_s) + e`, from rest at u = 0.
 
     `sigma`, `omega` (m,): poles -σ ± jω; `theta` (n_out, 1 + 2m): (D, c0_i, c1_i) of
     `ident.modal`; `t` (N,) the time base; `relative_degree` per output as fitted; `K`
@@ -145,19 +146,20 @@ class Model:
 
     def simulate(self, u: ArrayLike, t: ArrayLike | None = None) -> FloatArray:
         """Free-run simulated output (N, n_out) for input `u` (N,) on time base `t` (default:
-        the fitted data's), starting at rest at `u[0]`."""
+        the fitted data's), starting at rest at u = 0 (an input already on at the first
+        sample is switched on there: `ident.data.input_jumps`)."""
         t_arr = self.t if t is None else np.asarray(t, dtype=np.float64)
         u_arr = np.asarray(u, dtype=np.float64).reshape(-1)
         if u_arr.shape != t_arr.shape:
             raise IdentDimensionError("u", f"shape {t_arr.shape} (one value per time stamp)",
                                       f"shape {np.asarray(u).shape}")
-        jumps = np.flatnonzero(np.diff(u_arr) != 0.0)
+        jumps = input_jumps(u_arr)
         if jumps.size == 0:
             return np.tile(self.offset, (len(t_arr), 1))
         if jumps.size == 1:
             release = float(t_arr[jumps[0] + 1]) + self.input_delay_s
             basis = modal.step_basis(t_arr, release, self.sigma, self.omega)
-            y = self.offset + (u_arr[-1] - u_arr[0]) * basis @ self.theta.T
+            y = self.offset + u_arr[-1] * basis @ self.theta.T
             if self.initial_velocity is not None:   # the flick's own motion from the release
                 y = y + basis[:, 2::2] @ self.initial_velocity.T
             return np.asarray(y)
@@ -204,7 +206,7 @@ class Model:
         delay_samples = self.input_delay_s / ts
         whole = int(np.floor(delay_samples))
         frac = delay_samples - whole
-        shifted = predictor.shift(u - u[0], whole)
+        shifted = predictor.shift(u, whole)
         columns = [predictor.shift(shifted, 1) if frac > 0 else shifted]
         for s, w in zip(self.sigma, self.omega, strict=True):
             columns.extend(modal.section_states(float(s), float(w), ts, frac, shifted))

@@ -44,7 +44,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ident import subspace, varpro
-from ident.data import FloatArray, IdData, make_uniform
+from ident.data import FloatArray, IdData, input_jumps, make_uniform
 from ident.errors import FitFailed, IdentValueError
 from ident.innovation import refine
 from ident.model import ModeEstimate, Model
@@ -96,7 +96,7 @@ def pem(data: IdData, order: int | None = None, *, relative_degree: int | Sequen
         raise IdentValueError("initial_state", "'auto', 'zero' or 'estimate'", initial_state)
     if noise_model not in ("oe", "innovation"):
         raise IdentValueError("noise_model", "'oe' or 'innovation'", noise_model)
-    step = np.flatnonzero(np.diff(data.u) != 0.0).size == 1
+    step = input_jumps(data.u).size == 1
     if initial_state == "estimate" and not (step and noise_model == "oe"):
         raise IdentValueError("initial_state", "'zero' for a general input or noise_model='innovation' "
                               "('estimate' starts the carts moving at a release step)", initial_state)
@@ -167,7 +167,7 @@ def _per_output(value: object, n_out: int, name: str) -> tuple[Any, ...]:
 
 def _problem(data: IdData, relative_degree: tuple[int, ...], dc_gain: tuple[float | None, ...],
              fit_release: bool, fit_offset: bool, estimate: bool = False) -> tuple[varpro.Problem, float]:
-    jumps = np.flatnonzero(np.diff(data.u) != 0.0)
+    jumps = input_jumps(data.u)
     if jumps.size == 0:
         raise IdentValueError("u", "a step at the release (or an input that changes)", "a constant input")
     step = jumps.size == 1
@@ -297,7 +297,7 @@ def mode_estimates(sigma: FloatArray, omega: FloatArray, covariance: FloatArray,
 
 
 def _to_model(data: IdData, problem: varpro.Problem, solution: varpro.Solution) -> Model:
-    jumps = np.flatnonzero(np.diff(data.u) != 0.0)
+    jumps = input_jumps(data.u)
     step_time = float(data.t[jumps[0] + 1])
     release = solution.release_time_s if problem.step else None
     order = np.argsort(solution.omega)

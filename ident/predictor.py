@@ -63,7 +63,7 @@ def predict(sigma: FloatArray, omega: FloatArray, theta: FloatArray, offset: Flo
     delay = delay_s / ts
     whole = int(np.floor(delay))
     frac = delay - whole
-    v = shift(u - u[0], whole)
+    v = shift(u, whole)
     phi, gamma1, gamma2 = discrete_inputs(a, b, ts, frac)
     f_mat = phi - gain @ c
     lam, vecs = np.linalg.eig(f_mat)

@@ -46,7 +46,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ident import summary
 from ident.comparison import fit_percent
-from ident.data import IdData
+from ident.data import IdData, input_jumps
 from ident.errors import FitFailed, IdentValueError
 from ident.physics.free import NonlinearTerms, simulate_free
 from ident.physics.steppers import Method, euler_coulomb, linear_step_response
@@ -224,7 +224,7 @@ def fit_simple(data: IdData, method: Method = "rk4", *, friction: bool = False, 
         raise IdentValueError(f"output {output}", f"a moving cart's column: fit_simple(data, ..., "
                               f"output={moving[0]}) or data.select_outputs({moving})", "no motion in it")
     check_motion(y)
-    jumps = np.flatnonzero(np.diff(data.u) != 0.0)
+    jumps = input_jumps(data.u)
     if jumps.size != 1:
         raise IdentValueError("u", "a single step (the release)", f"{jumps.size} changes")
     modes: tuple[Literal["rest", "estimate"], ...] = (
@@ -264,7 +264,7 @@ def _fit_from(data: IdData, y: FloatArray, method: Method, friction: bool, subst
     """One least-squares fit: the linear model, then (friction) the dry-friction model from it,
     and from `other`'s wn, ζ, f and rest level when given (another start's fit)."""
     amplitude = data.step_amplitude
-    jumps = np.flatnonzero(np.diff(data.u) != 0.0)
+    jumps = input_jumps(data.u)
     # unknown: start where u steps (whoever built `data` placed the step at the release)
     release0 = data.release_time_s if data.release_time_s is not None else float(data.t[int(jumps[0]) + 1])
     start = np.append(start_values(data.t, y, amplitude, release0), [0.0, 0.0])

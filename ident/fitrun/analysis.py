@@ -24,7 +24,7 @@ from typing import Any, Literal
 import numpy as np
 
 from ident import progress
-from ident.data import FloatArray, IdData, make_uniform
+from ident.data import FloatArray, IdData, input_jumps, make_uniform
 from ident.diagnose import Diagnosis, diagnose
 from ident.errors import IdentError, IdentValueError
 from ident.fitrun.envelope import fit_envelope
@@ -239,7 +239,7 @@ def on_one_grid(data: IdData) -> IdData:
     run, the envelope and the diagnosis would pair the fitted grid with the file's stamps.
     A step input on an irregular clock is kept as recorded: the step fitters take any stamps.
     """
-    if data.is_uniform() or np.count_nonzero(np.diff(data.u)) <= 1:
+    if data.is_uniform() or input_jumps(data.u).size <= 1:
         return data
     return make_uniform(data, "linear")
 
