@@ -77,14 +77,19 @@ def test_the_hand_steps_unread_held_cart_drift_is_named_and_the_steps_reach_97_5
 
 @pytest.mark.slow
 @pytest.mark.parametrize(("name", "columns"), [("DOF1_en1_input1_test4.csv", ["Encoder 1 Pos"]),
-                                               ("DOF2_en12_input1_test3.csv", ["Encoder 1 Pos", "Encoder 2 Pos"])])
+                                               ("DOF2_en12_input1_test3.csv", ["Encoder 1 Pos", "Encoder 2 Pos"]),
+                                               ("test_3_7.csv", ["Encoder 1 Pos", "Encoder 2 Pos"])])
 def test_motor_steps_with_their_recorded_input_name_dry_friction_and_not_the_lattice(
         realdata_dir: Path, name: str, columns: list[str], capsys: pytest.CaptureFixture[str]) -> None:
     """The 2023 open-loop motor steps (0.5 V, reversed at 3 s) with `--input "Control Effort"`.
     test4 starts on its step: a block's refit took a step whose Jacobian was not finite and
     raised LinAlgError, and the input's 'onset' was dated at the reversal (3.0 s). On test3 a
     refit after the encoder lattice found a better optimum of the friction (SSE 5.5e-6 ->
-    2.0e-6 m²), which was credited to the 17.9 µm lattice (+1.38 points) and made it the cause."""
+    2.0e-6 m²), which was credited to the 17.9 µm lattice (+1.38 points) and made it the cause.
+    test4 and test_3_7 read their drive from the first sample: the force was taken relative to
+    it, zero until the reversal, the step left to the carts' rest (test4's fitted 2.9 mm off
+    where the cart sat; test_3_7 +0.46 points in all, the friction +0.07). The carts rest at a
+    zero input where they sat before the drive (the records start at 0)."""
     path = realdata_dir / "ECP210_UCSD_2023_Parker-Knopf" / "Open_Loop" / name
     if not path.exists():
         pytest.skip(f"{name} not in the real-data folder")
@@ -99,4 +104,6 @@ def test_motor_steps_with_their_recorded_input_name_dry_friction_and_not_the_lat
     if "quantization" in effects:   # one encoder count: a few tenths of a point at most
         assert effects["quantization"].gain_points < 0.5
     assert report.release_time_s == pytest.approx(0.0, abs=0.01)   # the input acts from (nearly) the start
+    rests = [v for k, v in report.extended.parameters.items() if k.startswith("rest_")]
+    assert rests and all(abs(r) < 0.5e-3 for r in rests)
     assert report.validation.startswith("The whole record")
