@@ -95,11 +95,13 @@ def linear_summary(lin: FloatArray, carts: int) -> dict[str, float]:
     return out
 
 
-def validation_text(decimation: int, n_work: int, forced: bool = False) -> str:
-    """`forced`: the model takes a measured force input, and the window is the whole record."""
+def validation_text(decimation: int, n_work: int, forced: bool = False, tail_cut: bool = False) -> str:
+    """`forced`: the model takes a measured force input, and the window is the whole record;
+    `tail_cut`: the carts' still tail was cut (`stretch.still_tail_cut`)."""
     which = "every sample" if decimation == 1 else f"one sample in {decimation}"
     window = ("The whole record, the measured force input driving the model" if forced
-              else "Window from the end of the hand's influence to the end of the free response")
+              else "Window from the end of the hand's influence to the end of the free response"
+              + (" (cut in the carts' still tail, where the motion keeps half the work samples)" if tail_cut else ""))
     return (f"{window}, {which} "
             f"({n_work} work samples). Every model is fitted (simulated output error) on the whole "
             "window and fit % (MATLAB compare, simulated output) is measured there. Effects are added "

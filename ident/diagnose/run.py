@@ -339,6 +339,7 @@ def _report(prob: Problem, win: Window, t: FloatArray, base: FitResult, ext: Fit
         cause=cause,  # type: ignore[arg-type]
         extended=ext_fit, gain_points=ext_fit.fit_percent - base_fit.fit_percent,
         corrected_linear=corrected, evidence=evidence,
-        validation=explain.validation_text(win.decimation, prob.train.size, prob.inputs is not None),
+        validation=explain.validation_text(win.decimation, prob.train.size, prob.inputs is not None,
+                                           win.tail_cut),
         explanation="", elapsed_s=elapsed)
     return report.model_copy(update={"explanation": explain.explanation(report, base.theta[:n_lin])})

@@ -62,7 +62,8 @@ class Window:
 
     `start` index of t_w in the full run; `decimation` D (every D-th sample is used);
     `hold` (n_out,) held level before the motion; `hold_noise_m` its scatter;
-    `release_time_s` the estimated release; `period_s` the dominant period.
+    `release_time_s` the estimated release; `period_s` the dominant period; `tail_cut`: the
+    window's still tail was cut (`stretch.still_tail_cut`).
     """
 
     start: int
@@ -71,6 +72,7 @@ class Window:
     hold_noise_m: float
     release_time_s: float
     period_s: float
+    tail_cut: bool = False
 
 
 def hold_level(y: FloatArray) -> tuple[FloatArray, float, int]:
