@@ -101,7 +101,7 @@ def validation_text(decimation: int, n_work: int, forced: bool = False, tail_cut
     which = "every sample" if decimation == 1 else f"one sample in {decimation}"
     window = ("The whole record, the measured force input driving the model" if forced
               else "Window from the end of the hand's influence to the end of the free response"
-              + (" (cut in the carts' still tail, where the motion keeps half the work samples)" if tail_cut else ""))
+              + (" (cut in the carts' still tail, where the work samples run out)" if tail_cut else ""))
     return (f"{window}, {which} "
             f"({n_work} work samples). Every model is fitted (simulated output error) on the whole "
             "window and fit % (MATLAB compare, simulated output) is measured there. Effects are added "

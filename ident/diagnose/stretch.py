@@ -129,13 +129,12 @@ def still_tail_cut(y: FloatArray) -> tuple[int | None, int]:
     kept whole.
 
     A window is decimated to at most `MAX_WORK_SAMPLES` work samples. When every column has
-    stopped before half of it (`_motion_end`), the motion keeps at least half of the work
-    samples and the still tail is cut where the rest would exceed them: a cart that dry
+    stopped before half of it (`_motion_end`), it is decimated only as much as the motion and
+    a still tail as long need, and cut in the tail where the work samples run out: a cart that dry
     friction stops in 2 s of a 15 s record at 55 Hz had its motion fitted on every second
     sample, and the friction (+5.3 points on the whole window) did not hold out (red team
     `two_cart_coulomb_y1` seed 11: held-out ratio 4.8 against a bound of 13.8; 93 on 9 s
-    undecimated). The tail kept is at least as long as the motion: where each cart rests is
-    still seen."""
+    undecimated). Where each cart rests is still seen."""
     n = y.shape[0]
     if n <= MAX_WORK_SAMPLES:
         return None, 1
