@@ -58,11 +58,6 @@ def held_input(reading: FloatArray, decimation: int) -> FloatArray:
     band divided by ln 2 (|X_k|² of white noise is exponential: median = mean ln 2; a ring's
     few bins do not move a median), c = `HELD_OVERSUBTRACT`. The straight line between the
     reading's ends is taken out first (the DFT is periodic: no jump at the wrap) and put back.
-
-    On a decimated work grid each work sample is the reading's centred average over one work
-    step (the model takes the input linear between work samples): a reading taken at every
-    9th sample (517 Hz to 57 Hz), the held cart ringing at 13 Hz on the hand, left the coupling
-    23 % low (red team `coulomb+held_cart` seed 19; 2 % averaged, 1.8 % at every 3rd sample).
     """
     x = np.asarray(reading, dtype=np.float64)
     n = x.size
@@ -75,9 +70,6 @@ def held_input(reading: FloatArray, decimation: int) -> FloatArray:
         smooth = uniform_filter1d(power, HELD_SMOOTH_BINS, mode="nearest")
         gain = np.clip(1.0 - HELD_OVERSUBTRACT * noise_power / np.maximum(smooth, 1e-300), 0.0, 1.0)
         x = np.fft.irfft(spec * gain, n) + line
-    if decimation > 1:   # the work grid's own average about each of its samples
-        from scipy.ndimage import uniform_filter1d  # deferred: keeps `import ident` fast
-        x = uniform_filter1d(x, 2 * (decimation // 2) + 1, mode="nearest")
     work = x[::decimation]
     out: FloatArray = work - work[0]
     return out

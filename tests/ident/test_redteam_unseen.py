@@ -185,8 +185,7 @@ def test_a_second_mode_read_through_a_coarse_lattice_is_kept() -> None:
     mode, lattice = effects["coupled_mode"], effects["quantization"]
     assert mode.material and mode.step < lattice.step
     assert mode.parameters["mode_hz"] == pytest.approx(case.truth["mode_hz"], rel=0.05)
-    # (the truth's worth is over the record to its end; the window is cut in its still tail)
-    assert lattice.gain_points == pytest.approx(case.truth["lattice_worth_points"], rel=0.1)
+    assert lattice.gain_points == pytest.approx(case.truth["lattice_worth_points"], rel=0.05)
     assert report.cause == max(report.effects, key=lambda e: e.gain_points).effect
     assert all(e.gain_points > 0 for e in report.effects)
 
@@ -248,17 +247,3 @@ def test_a_light_cart_read_beside_a_heavy_one_is_started_in_its_own_chain() -> N
     assert report.extended.fit_percent >= floor - 0.3, (report.extended.fit_percent, floor)
     friction = next(e for e in report.effects if e.effect == "coulomb_friction").parameters
     assert friction["coulomb_accel_m_s2"] == pytest.approx(case.truth["coulomb_accel_m_s2"], rel=0.05)
-
-
-def test_a_held_cart_read_at_a_high_rate_enters_the_coarser_work_grid_averaged() -> None:
-    """Red team `coulomb+held_cart` 19: a flick at 517 Hz, the held cart on a hand spring
-    ringing at 13 Hz, the window decimated 9 times to 57 Hz. The held cart's reading taken at
-    every 9th sample left the coupling 23 % low (2 % at every 3rd); each work sample the
-    reading's average over its work step, the model taking it linear between them: 2 %."""
-    case = _case("coulomb+held_cart", 19)
-    release = find_releases(case.t, case.y)[0]
-    report = diagnose(case.t, case.y, None, None, start_s=release.release_time_s, stop_s=release.end_time_s).report
-    assert "one sample in" in report.validation   # decimated
-    gain = report.extended.parameters["held_cart_gain_per_s2"]
-    assert gain == pytest.approx(case.truth["held_cart_gain_per_s2"], rel=0.05)
-    assert report.cause == "coulomb_friction"
