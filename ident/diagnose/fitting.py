@@ -150,11 +150,16 @@ def motion_end(y: FloatArray) -> int:
     cart sticks after 2.6 s, a held cart wandering on): blocks of equal time would then all
     lie in the stuck tail, where an effect of the motion (the held cart's coupling: 99.7 % of
     the misfit removed, all of it before the stop) cannot show, and would be refused."""
+    return max(last_moving(y, MOVING_SHARE * np.ptp(y, axis=0)), y.shape[0] // 6)
+
+
+def last_moving(y: FloatArray, bound: FloatArray) -> int:
+    """Samples of `y` (N, c) up to the last one where some column is farther than `bound` (c,)
+    from its final level (the median of the last tenth); N when none is."""
     n = y.shape[0]
     final = np.median(y[-max(n // 10, 1):], axis=0)
-    away = np.any(np.abs(y - final) > MOVING_SHARE * np.ptp(y, axis=0), axis=1)
-    last = int(np.flatnonzero(away)[-1]) + 1 if away.any() else n
-    return max(last, n // 6)
+    away = np.flatnonzero(np.any(np.abs(y - final) > bound, axis=1))
+    return int(away[-1]) + 1 if away.size else n
 
 
 def block_edges(y: FloatArray, anchor: int = 0) -> NDArray[np.int_]:

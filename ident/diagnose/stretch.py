@@ -9,6 +9,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from ident.diagnose.fitting import MOVING_SHARE, last_moving
 from ident.diagnose.still import Outputs, moving_outputs
 from ident.diagnose.window import MAX_WORK_SAMPLES, MIN_RELEASE_SAMPLES, Window, find_window, hold_level
 from ident.errors import IdentDimensionError, IdentValueError
@@ -144,20 +145,17 @@ def still_tail_cut(y: FloatArray) -> tuple[int | None, int]:
     return (kept, decimation) if kept < n else (None, int(np.ceil(n / MAX_WORK_SAMPLES)))
 
 
-#: A column moves while it is farther from its final level (the median of the window's last
-#: tenth) than this share of its span, or than `STILL_SIGMAS` noise σ plus one encoder count.
-MOVING_SHARE = 0.02
+#: A column moves while it is farther from its final level than `fitting.MOVING_SHARE` of its
+#: span, or than this many noise σ plus one encoder count.
 STILL_SIGMAS = 4.0
 
 
 def _motion_end(y: FloatArray) -> int:
-    """Samples of `y` (N, k) up to the last one where some column moves (`MOVING_SHARE`,
-    `STILL_SIGMAS`): a resting cart read through a 1.6 mm lattice under 1 mm of noise
-    flips between levels 2 % of its span apart to the window's end."""
-    final = np.median(y[-max(y.shape[0] // 10, 1):], axis=0)
+    """Samples of `y` (N, k) up to the last one where some column moves (`STILL_SIGMAS`): a
+    resting cart read through a 1.6 mm lattice under 1 mm of noise flips between levels 2 % of
+    its span apart to the window's end."""
     bound = np.maximum(MOVING_SHARE * np.ptp(y, axis=0), STILL_SIGMAS * noise_std(y) + encoder_quantum(y))
-    away = np.flatnonzero(np.any(np.abs(y - final) > bound, axis=1))
-    return int(away[-1]) + 1 if away.size else y.shape[0]
+    return last_moving(y, bound)
 
 
 def _first_release(t: FloatArray, y: FloatArray) -> tuple[Release | None, float | None]:
