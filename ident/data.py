@@ -250,7 +250,11 @@ class IdData:
 
     def cart_numbers(self) -> tuple[int, ...]:
         """The cart each output column reads: the number in its name ('Encoder 2 Pos',
-        'pos2_m' -> 2), else its position (1, 2, ...). Figures and reports label by these."""
+        'pos2_m' -> 2), else its position (1, 2, ...). Figures and reports label by these. The
+        names a file without a header gets ('col3', `ident.text_table`) number columns, not
+        carts: x1 and x2 of the PoliMi record (col3, col5) had been labelled carts 3 and 5."""
+        if any(re.fullmatch(r"col\d+", name) for name in self.columns):
+            return tuple(range(1, self.n_outputs + 1))
         found = [re.findall(r"\d+", name) for name in self.columns]
         numbers = tuple(int(f[-1]) if f else i + 1 for i, f in enumerate(found))
         if len(numbers) != self.n_outputs or len(set(numbers)) != len(numbers) or 0 in numbers:

@@ -7,6 +7,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ident.diagnose.fitting import BLOCKS, CV_ITERATIONS
+from ident.diagnose.stretch import MIN_SAMPLES_PER_PERIOD
 from ident.physics.chain import modes
 from schemas.diagnosis import DiagnosisReport
 
@@ -97,11 +98,17 @@ def linear_summary(lin: FloatArray, carts: int) -> dict[str, float]:
 
 def validation_text(decimation: int, n_work: int, forced: bool = False, tail_cut: bool = False) -> str:
     """`forced`: the model takes a measured force input, and the window is the whole record;
-    `tail_cut`: the carts' still tail was cut (`stretch.still_tail_cut`)."""
+    `tail_cut`: the carts' still tail was cut (`stretch.still_tail_cut`), or a forced record
+    where its work grid no longer resolved its modes (`stretch.modes_resolved_cut`)."""
     which = "every sample" if decimation == 1 else f"one sample in {decimation}"
-    window = ("The whole record, the measured force input driving the model" if forced
-              else "Window from the end of the hand's influence to the end of the free response"
-              + (" (cut in the carts' still tail, where the work samples run out)" if tail_cut else ""))
+    if forced:
+        window = ("The whole record" if not tail_cut else
+                  f"The record's first {n_work * decimation} samples (cut where a work grid of "
+                  f"{MIN_SAMPLES_PER_PERIOD} samples a period of its fastest mode runs out)")
+        window += ", the measured force input driving the model"
+    else:
+        window = ("Window from the end of the hand's influence to the end of the free response"
+                  + (" (cut in the carts' still tail, where the work samples run out)" if tail_cut else ""))
     return (f"{window}, {which} "
             f"({n_work} work samples). Every model is fitted (simulated output error) on the whole "
             "window and fit % (MATLAB compare, simulated output) is measured there. Effects are added "

@@ -13,7 +13,7 @@ from ident.diagnose.fitting import MOVING_SHARE, last_moving
 from ident.diagnose.still import Outputs, moving_outputs
 from ident.diagnose.window import MAX_WORK_SAMPLES, MIN_RELEASE_SAMPLES, Window, find_window, hold_level
 from ident.errors import IdentDimensionError, IdentValueError
-from ident.physics.measures import encoder_quantum, noise_std
+from ident.physics.measures import encoder_quantum, noise_std, spectral_peaks
 from ident.releases.record import HELD_FRACTION, Release
 
 FloatArray = NDArray[np.float64]
@@ -118,11 +118,44 @@ def _cut(t: FloatArray, y: FloatArray, u: FloatArray | None, carts: int | None, 
         win = dataclasses.replace(win, release_time_s=max(start_s, float(t[0])))
     if u is None:
         stop, decimation = still_tail_cut(y_k[win.start:])
-        if stop is not None:
-            end = win.start + stop
-            t_k, y_k, fitted = t_k[:end], y_k[:end], fitted[:end]
-            win = dataclasses.replace(win, decimation=decimation, tail_cut=True)
+    else:
+        stop, decimation = modes_resolved_cut(fitted, float(t_k[1] - t_k[0]), n)
+    if stop is not None:
+        end = win.start + stop
+        t_k, y_k, fitted = t_k[:end], y_k[:end], fitted[:end]
+        u_k = None if u_k is None else u_k[:end]
+        win = dataclasses.replace(win, decimation=decimation, tail_cut=True)
     return Stretch(t_k, y_k, u_k, n, fitted, other, win)
+
+
+#: A force-driven record's work grid keeps at least this many samples per period of its
+#: fastest mode (`modes_resolved_cut`).
+MIN_SAMPLES_PER_PERIOD = 6
+
+
+def modes_resolved_cut(y: FloatArray, dt: float, carts: int) -> tuple[int | None, int]:
+    """(samples kept, decimation) of a record driven by a force input (`y` (N, k), the whole
+    record from its start): None when it is kept whole.
+
+    Decimated to `MAX_WORK_SAMPLES` work samples, a long record is sampled too coarsely for
+    its modes: the PoliMi three-cart rig's 49.6 s of five current pulses at 200 Hz became a
+    10 Hz work grid under a 5.9 Hz mode (1.7 samples a period). Its decimation is then what
+    keeps `MIN_SAMPLES_PER_PERIOD` samples a period of the fastest of the `carts` strongest
+    peaks of the positions' second differences (the modes' ringing; the input's own slow
+    content dominates the positions' spectrum), and the record is cut where the work samples
+    run out (the PoliMi record: its first pulse and the ring after it, 12.5 s)."""
+    n = y.shape[0]
+    decimation = max(1, int(np.ceil(n / MAX_WORK_SAMPLES)))
+    if decimation == 1 or n < 8:
+        return None, decimation
+    # (a mode must be resolved at the record's own rate: the reading noise's second
+    # differences rise as ω⁴ and peak at the top of the band)
+    peaks = spectral_peaks(np.diff(y, 2, axis=0), dt, carts, fill=False,
+                           max_rad_s=np.pi / (dt * MIN_SAMPLES_PER_PERIOD))
+    if not peaks.size:
+        return None, decimation
+    need = max(1, int(2.0 * np.pi / (dt * MIN_SAMPLES_PER_PERIOD * float(np.max(peaks)))))
+    return (MAX_WORK_SAMPLES * need, need) if need < decimation else (None, decimation)
 
 
 def still_tail_cut(y: FloatArray) -> tuple[int | None, int]:

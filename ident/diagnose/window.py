@@ -63,7 +63,8 @@ class Window:
     `start` index of t_w in the full run; `decimation` D (every D-th sample is used);
     `hold` (n_out,) held level before the motion; `hold_noise_m` its scatter;
     `release_time_s` the estimated release; `period_s` the dominant period; `tail_cut`: the
-    window's still tail was cut (`stretch.still_tail_cut`).
+    window's still tail was cut (`stretch.still_tail_cut`), or a forced record's end
+    (`stretch.modes_resolved_cut`).
     """
 
     start: int

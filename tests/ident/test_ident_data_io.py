@@ -268,3 +268,15 @@ def test_a_logger_pro_export_of_two_runs_of_unequal_length_loads_either_run(tmp_
     path.write_text("time_s,pos1_m\n0.0,0.1\n0.1,\n0.2,0.3\n")
     with pytest.raises(DataFileError, match=r"got one missing in line 3 and values again in line 4"):
         load(path, raw=True)
+
+
+def test_the_numbers_of_a_headerless_files_columns_are_no_cart_numbers(tmp_path: Path) -> None:
+    """A file without a header names its columns col0, col1, ... (the PoliMi logger's chunks):
+    x1 and x2 in col3 and col5 are carts 1 and 2, not 3 and 5; a named column keeps its cart."""
+    path = tmp_path / "chunk.txt"
+    ring = 0.5 * np.sin(np.arange(400) / 200.0 * 2 * np.pi * 1.5)
+    np.savetxt(path, np.column_stack([ring * k for k in range(1, 7)]), delimiter="\t")
+    data = load(path, rate_hz=200.0, pos_cols=["col3", "col5"], scale=0.01, raw=True)
+    assert data.cart_numbers() == (1, 2)
+    named = IdData(data.t, data.u, data.y[:, :1], columns=("Encoder 2 Pos",))
+    assert named.cart_numbers() == (2,)
