@@ -126,11 +126,12 @@ def fit(spec: ModelSpec, theta0: FloatArray, lower: FloatArray, upper: FloatArra
         result = evaluate(spec, theta, dt, y, train, std)
         start = evaluate(spec, base, dt, y, train)
     if not np.isfinite(result.sse_train) or result.sse_train > start.sse_train:
-        at = jacobian(base[free]) if np.isfinite(start.sse_train) else jacobian(result.theta[free])
-        if np.isfinite(start.sse_train):   # the start, with its own Gauss-Newton σ (it had 0)
-            std_start = np.zeros_like(theta)
-            std_start[free] = _std(at, float(np.sum(residual(base[free]) ** 2)))
-            result = dataclasses.replace(start, std=std_start)
+        with np.errstate(all="ignore"):   # a perturbed trial may diverge (`_finite`)
+            at = jacobian(base[free]) if np.isfinite(start.sse_train) else jacobian(result.theta[free])
+            if np.isfinite(start.sse_train):   # the start, with its own Gauss-Newton σ (it had 0)
+                std_start = np.zeros_like(theta)
+                std_start[free] = _std(at, float(np.sum(residual(base[free]) ** 2)))
+                result = dataclasses.replace(start, std=std_start)
         jac_at = at[:m_data].copy() if cross_validate else None
     else:
         jac_at = sol.jac[:m_data] if cross_validate else None
