@@ -31,6 +31,12 @@ def add_parser(subparsers: Any) -> None:
                         help="a measured force input column (e.g. 'Control Effort' for a motor pulse): "
                              "modelled with a gain per cart, so its response is never taken for a mode; "
                              "default: a hand release, no input")
+    parser.add_argument("--from-s", dest="from_s", type=float, default=None,
+                        help="with --input: diagnose the record from this time (s, on the file's time base); "
+                             "a long record is otherwise fitted from its start, as far as a work grid that "
+                             "resolves its modes reaches")
+    parser.add_argument("--to-s", dest="to_s", type=float, default=None,
+                        help="with --input: diagnose the record up to this time (s)")
     add_release_options(parser)
     parser.add_argument("--json", action="store_true", help="print one JSON object (an array with --all)")
     parser.add_argument("--figures", type=Path, default=None, help="write figures (PNG, SVG) here")
@@ -76,8 +82,11 @@ def diagnose_releases(args: argparse.Namespace) -> dict[int, tuple[Any, tuple[in
     raw = load(args.path, time_col=args.time_col, pos_cols=args.pos_cols, scale=args.scale,
                input_col=args.input_col, rate_hz=args.rate_hz, raw=True)
     data = make_uniform(raw)
-    if args.input_col is not None:   # a motor input: the record as one response
-        return {0: diagnose_window(args, data, None)}
+    if args.input_col is not None:   # a motor input: the record (or the stretch asked for) as one response
+        return {0: diagnose_window(args, data, None, args.from_s, args.to_s)}
+    if args.from_s is not None or args.to_s is not None:
+        raise IdentValueError("--from-s/--to-s", "a record with --input (a hand release is chosen with "
+                              "--release K; see `ident releases`)", "no --input")
     stage("finding the releases")
     # on the record as loaded, as `ident releases` and `ident fit` find them (the same instants)
     releases = releases_of(raw)
@@ -112,9 +121,11 @@ def _each(args: argparse.Namespace, data: Any, releases: list[Any]) -> dict[int,
     return results
 
 
-def diagnose_window(args: argparse.Namespace, data: Any, release: Any) -> tuple[Any, tuple[int, ...]]:
-    """Diagnose `data` on the release's window (None: the whole record) with the carts that
-    move freely (`--carts` overrides): a held or constant column is never fitted as free."""
+def diagnose_window(args: argparse.Namespace, data: Any, release: Any, start_s: float | None = None,
+                    stop_s: float | None = None) -> tuple[Any, tuple[int, ...]]:
+    """Diagnose `data` on the release's window (None: the whole record, or [`start_s`,
+    `stop_s`] of it) with the carts that move freely (`--carts` overrides): a held or constant
+    column is never fitted as free."""
     from ident.diagnose import diagnose
     from ident.errors import IdentValueError
     from ident.progress import stage
@@ -134,15 +145,15 @@ def diagnose_window(args: argparse.Namespace, data: Any, release: Any) -> tuple[
     stage("fitting the linear model and selecting effects")
     result = diagnose(data.t, y, carts=carts, step_m=args.step_m, source=Path(args.path).name,
                       u=None if args.input_col is None else data.u,
-                      start_s=None if release is None else release.release_time_s,
-                      stop_s=None if release is None else release.end_time_s)
+                      start_s=start_s if release is None else release.release_time_s,
+                      stop_s=stop_s if release is None else release.end_time_s)
     return result, tuple(numbers[j] for j in columns[:carts])
 
 
 def diagnose_file(args: argparse.Namespace) -> Any:
     """Load the file as the arguments say and diagnose its first complete release, or the
     whole record when none is found (a `Diagnosis`)."""
-    args = argparse.Namespace(**{"release_number": None, "all": False, **vars(args)})
+    args = argparse.Namespace(**{"release_number": None, "all": False, "from_s": None, "to_s": None, **vars(args)})
     return next(iter(diagnose_releases(args).values()))[0]
 
 

@@ -96,15 +96,19 @@ def linear_summary(lin: FloatArray, carts: int) -> dict[str, float]:
     return out
 
 
-def validation_text(decimation: int, n_work: int, forced: bool = False, tail_cut: bool = False) -> str:
-    """`forced`: the model takes a measured force input, and the window is the whole record;
-    `tail_cut`: the carts' still tail was cut (`stretch.still_tail_cut`), or a forced record
-    where its work grid no longer resolved its modes (`stretch.modes_resolved_cut`)."""
+def validation_text(decimation: int, n_work: int, forced: bool = False, tail_cut: bool = False,
+                    span: tuple[float, float] | None = None) -> str:
+    """`forced`: the model takes a measured force input, and the window is the whole record (or
+    the `span` (s) asked for); `tail_cut`: the carts' still tail was cut (`stretch.still_tail_cut`),
+    or a forced record where its work grid no longer resolved its modes (`stretch.modes_resolved_cut`)."""
     which = "every sample" if decimation == 1 else f"one sample in {decimation}"
     if forced:
-        window = ("The whole record" if not tail_cut else
-                  f"The record's first {n_work * decimation} samples (cut where a work grid of "
-                  f"{MIN_SAMPLES_PER_PERIOD} samples a period of its fastest mode runs out)")
+        cut = (f"first {n_work * decimation} samples (cut where a work grid of {MIN_SAMPLES_PER_PERIOD} "
+               "samples a period of its fastest mode runs out)")
+        if span is None:
+            window = "The whole record" if not tail_cut else f"The record's {cut}"
+        else:
+            window = f"The record from {span[0]:.3f} s to {span[1]:.3f} s" + (f", its {cut}" if tail_cut else "")
         window += ", the measured force input driving the model"
     else:
         window = ("Window from the end of the hand's influence to the end of the free response"

@@ -156,7 +156,7 @@ def diagnose(t: FloatArray, y: FloatArray, carts: int | None = None, step_m: flo
     effects = _ranked(prob, steps, y_arr, hold_level(y_arr)[2])
     cause = next((e.effect for e in effects if e.material), "none")
     report = _report(prob, win, t_arr, base, ext, first_round, effects, cause, ev, coherence, step_m,
-                     source, time.perf_counter() - started)
+                     source, time.perf_counter() - started, start_s is not None or stop_s is not None)
     if outputs.dropped:
         report = report.model_copy(update={"validation": f"{report.validation}; {outputs.note()}"})
     extrema = ev.extrema.copy()
@@ -305,7 +305,8 @@ def _model_fit(prob: Problem, res: FitResult, name: str) -> ModelFit:
 
 def _report(prob: Problem, win: Window, t: FloatArray, base: FitResult, ext: FitResult,
             first_round: list[Judgement], effects: list[EffectFit], cause: str, ev: EvidenceResult,
-            coherence: float, step_m: float | None, source: str, elapsed: float) -> DiagnosisReport:
+            coherence: float, step_m: float | None, source: str, elapsed: float,
+            stretch: bool = False) -> DiagnosisReport:
     carts = prob.carts
     n_lin = len(LINEAR_NAMES[carts])
     rest = ext.theta[n_lin + 2 * carts:n_lin + 3 * carts]
@@ -340,6 +341,6 @@ def _report(prob: Problem, win: Window, t: FloatArray, base: FitResult, ext: Fit
         extended=ext_fit, gain_points=ext_fit.fit_percent - base_fit.fit_percent,
         corrected_linear=corrected, evidence=evidence,
         validation=explain.validation_text(win.decimation, prob.train.size, prob.inputs is not None,
-                                           win.tail_cut),
+                                           win.tail_cut, (float(t[0]), float(t[-1])) if stretch else None),
         explanation="", elapsed_s=elapsed)
     return report.model_copy(update={"explanation": explain.explanation(report, base.theta[:n_lin])})

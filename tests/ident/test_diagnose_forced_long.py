@@ -61,3 +61,22 @@ def test_a_long_forced_record_is_diagnosed_on_a_grid_that_resolves_its_modes() -
     assert report.cause == "none"
     wn = sorted(v for k, v in report.corrected_linear.items() if k.startswith("wn_mode"))
     assert wn == pytest.approx(_modes_rad_s(), rel=0.02)   # the second mode was aliased: 22 % low
+
+
+def test_a_stretch_of_a_forced_record_is_chosen_on_the_command_line(tmp_path, capsys) -> None:  # type: ignore[no-untyped-def]
+    """`--from-s` / `--to-s` pick the stretch of a forced record to diagnose (the third pulse
+    here); without `--input` they are refused, naming `--release` for a hand release."""
+    import json
+
+    from ident.cli import main
+
+    t, y, u = _chain()
+    path = tmp_path / "pulses.csv"
+    np.savetxt(path, np.column_stack([t, y, u]), delimiter=",", header="time_s,pos1_m,pos2_m,effort", comments="")
+    assert main(["diagnose", str(path), "--input", "effort", "--from-s", "20", "--to-s", "32", "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert report["validation"].startswith("The record from 20.000 s to 32.000 s, the measured")
+    assert report["window_start_s"] == pytest.approx(20.0) and report["window_end_s"] == pytest.approx(32.0)
+    assert report["baseline"]["fit_percent"] > 99.0
+    assert main(["diagnose", str(path), "--from-s", "20"]) == 2
+    assert "--release K" in capsys.readouterr().err
