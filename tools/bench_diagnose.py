@@ -228,7 +228,7 @@ def run_realdata() -> list[dict[str, Any]]:
             started = time.perf_counter()
             # from the release as `ident releases` dates it, as `ident diagnose` fits a raw record
             report = diagnose(part.t, part.y, carts=1, source=path.name, start_s=rel.release_time_s,
-                              stop_s=rel.end_time_s).report
+                              stop_s=rel.end_time_s, readings=data.y[keep]).report
             elapsed = time.perf_counter() - started
             out.append(print_real(path.name, rel, report, elapsed))
     if out:

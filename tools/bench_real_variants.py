@@ -114,7 +114,8 @@ def diagnosed(v: Variant) -> list[tuple[int, float, str]]:
             continue
         keep = (v.t >= r.release_time_s - 0.25) & (v.t <= r.end_time_s)
         part = make_uniform(IdData(v.t[keep], np.zeros(int(keep.sum())), v.y[keep]), "linear")
-        report = diagnose(part.t, part.y, None, start_s=r.release_time_s, stop_s=r.end_time_s).report
+        report = diagnose(part.t, part.y, None, start_s=r.release_time_s, stop_s=r.end_time_s,
+                          readings=v.y[keep]).report
         out.append((near[0], report.extended.fit_percent, "+".join(e.effect for e in report.effects)))
     return out
 

@@ -83,7 +83,7 @@ def diagnose_releases(args: argparse.Namespace) -> dict[int, tuple[Any, tuple[in
                input_col=args.input_col, rate_hz=args.rate_hz, raw=True)
     data = make_uniform(raw)
     if args.input_col is not None:   # a motor input: the record (or the stretch asked for) as one response
-        return {0: diagnose_window(args, data, None, args.from_s, args.to_s)}
+        return {0: diagnose_window(args, data, None, raw.y, args.from_s, args.to_s)}
     if args.from_s is not None or args.to_s is not None:
         raise IdentValueError("--from-s/--to-s", "a record with --input (a hand release is chosen with "
                               "--release K; see `ident releases`)", "no --input")
@@ -93,14 +93,15 @@ def diagnose_releases(args: argparse.Namespace) -> dict[int, tuple[Any, tuple[in
     if args.all:
         if not releases:
             raise IdentValueError("--all", "a record with releases (see `ident releases`)", "none found")
-        return _each(args, data, releases)
+        return _each(args, data, raw.y, releases)
     if not releases and args.release_number is None:
-        return {0: diagnose_window(args, data, None)}
+        return {0: diagnose_window(args, data, None, raw.y)}
     release = choose(releases, args.release_number or FIRST_COMPLETE)
-    return {release.number: diagnose_window(args, data, release)}
+    return {release.number: diagnose_window(args, data, release, raw.y)}
 
 
-def _each(args: argparse.Namespace, data: Any, releases: list[Any]) -> dict[int, tuple[Any, tuple[int, ...]]]:
+def _each(args: argparse.Namespace, data: Any, readings: Any,
+          releases: list[Any]) -> dict[int, tuple[Any, tuple[int, ...]]]:
     """Every release diagnosed on its own: one that cannot be (a window too short to fit) is
     named on stderr and the others go on (one 47-sample window had refused the whole record);
     the first error is raised when none can be."""
@@ -110,7 +111,7 @@ def _each(args: argparse.Namespace, data: Any, releases: list[Any]) -> dict[int,
     first: IdentError | None = None
     for release in releases:
         try:
-            results[release.number] = diagnose_window(args, data, release)
+            results[release.number] = diagnose_window(args, data, release, readings)
         except IdentError as exc:
             first = first or exc
             print(f"ident diagnose: release {release.number} at {release.release_time_s:.3f} s not diagnosed: {exc}",
@@ -121,11 +122,12 @@ def _each(args: argparse.Namespace, data: Any, releases: list[Any]) -> dict[int,
     return results
 
 
-def diagnose_window(args: argparse.Namespace, data: Any, release: Any, start_s: float | None = None,
+def diagnose_window(args: argparse.Namespace, data: Any, release: Any, readings: Any, start_s: float | None = None,
                     stop_s: float | None = None) -> tuple[Any, tuple[int, ...]]:
     """Diagnose `data` on the release's window (None: the whole record, or [`start_s`,
     `stop_s`] of it) with the carts that move freely (`--carts` overrides): a held or constant
-    column is never fitted as free."""
+    column is never fitted as free. `readings` (M, n_out) the positions as loaded, before
+    `data` was made uniform (their encoder lattice)."""
     from ident.diagnose import diagnose
     from ident.errors import IdentValueError
     from ident.progress import stage
@@ -146,7 +148,7 @@ def diagnose_window(args: argparse.Namespace, data: Any, release: Any, start_s: 
     result = diagnose(data.t, y, carts=carts, step_m=args.step_m, source=Path(args.path).name,
                       u=None if args.input_col is None else data.u,
                       start_s=start_s if release is None else release.release_time_s,
-                      stop_s=stop_s if release is None else release.end_time_s)
+                      stop_s=stop_s if release is None else release.end_time_s, readings=readings[:, columns])
     return result, tuple(numbers[j] for j in columns[:carts])
 
 

@@ -38,10 +38,12 @@ Without = Callable[[Trial, FitResult, int], FitResult]
 class Elimination:
     """The steps that remain (the last one's model the refitted final model) and, in the order
     they were dropped, the judgements of the dropped effects (the final model against the final
-    model without the effect: `passes` is False)."""
+    model without the effect: `passes` is False), and the last trial with the bounds of the
+    final model's parameters (those of the dropped effects taken out)."""
 
     steps: list[Step]
     dropped: list[Judgement]
+    last: Trial
 
 
 def eliminate(steps: list[Step], last: Trial, without: Without, carts: int) -> Elimination:
@@ -67,7 +69,7 @@ def eliminate(steps: list[Step], last: Trial, without: Without, carts: int) -> E
         dropped.append(judgement)
     if dropped:
         steps = _rechained(steps, first, baseline, last, without)
-    return Elimination(steps, dropped)
+    return Elimination(steps, dropped, last)
 
 
 def _rechained(steps: list[Step], first: int, baseline: FitResult, last: Trial, without: Without) -> list[Step]:

@@ -38,14 +38,15 @@ def drift_spacing(wn_rad_s: float) -> float:
     return DRIFT_PERIODS * 2.0 * np.pi / wn_rad_s
 
 
-def drift_basis(tau: FloatArray, spacing_s: float) -> FloatArray | None:
-    """(N, K) cubic B-splines on uniform knots `spacing_s` apart from τ = 0 to past the end,
-    without the one function that is not 0 at τ = 0; None when the window is shorter than
-    `MIN_SPANS` spacings."""
+def drift_basis(tau: FloatArray, spacing_s: float, end_s: float | None = None) -> FloatArray | None:
+    """(N, K) cubic B-splines on uniform knots `spacing_s` apart from τ = 0 to past the end
+    (`end_s`, by default the last τ), without the one function that is not 0 at τ = 0; None
+    when the window is shorter than `MIN_SPANS` spacings."""
     import scipy.interpolate  # deferred: keeps `import ident` fast
-    if float(tau[-1]) < MIN_SPANS * spacing_s:
+    end = float(tau[-1]) if end_s is None else end_s
+    if end < MIN_SPANS * spacing_s:
         return None
-    spans = int(np.ceil(float(tau[-1]) / spacing_s - 1e-9))
+    spans = int(np.ceil(end / spacing_s - 1e-9))
     edge = spans * spacing_s
     knots = np.concatenate([np.zeros(3), np.linspace(0.0, edge, spans + 1), np.full(3, edge)])
     design = scipy.interpolate.BSpline.design_matrix(np.clip(tau, 0.0, edge), knots, 3).toarray()

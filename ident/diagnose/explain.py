@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
+from ident.diagnose.fine import FINE_NFEV
 from ident.diagnose.fitting import BLOCKS, CV_ITERATIONS
 from ident.diagnose.stretch import MIN_SAMPLES_PER_PERIOD
 from ident.physics.chain import modes
@@ -97,10 +98,11 @@ def linear_summary(lin: FloatArray, carts: int) -> dict[str, float]:
 
 
 def validation_text(decimation: int, n_work: int, forced: bool = False, tail_cut: bool = False,
-                    span: tuple[float, float] | None = None) -> str:
+                    span: tuple[float, float] | None = None, n_fine: int | None = None) -> str:
     """`forced`: the model takes a measured force input, and the window is the whole record (or
     the `span` (s) asked for); `tail_cut`: the carts' still tail was cut (`stretch.still_tail_cut`),
-    or a forced record where its work grid no longer resolved its modes (`stretch.modes_resolved_cut`)."""
+    or a forced record where its work grid no longer resolved its modes (`stretch.modes_resolved_cut`);
+    `n_fine`: the samples the final model was refitted on for its parameters (`fine.refit_fine`)."""
     which = "every sample" if decimation == 1 else f"one sample in {decimation}"
     if forced:
         cut = (f"first {n_work * decimation} samples (cut where a work grid of {MIN_SAMPLES_PER_PERIOD} "
@@ -120,7 +122,10 @@ def validation_text(decimation: int, n_work: int, forced: bool = False, tail_cut
             f"contiguous blocks; the model refitted without a block, {CV_ITERATIONS} damped Gauss-Newton steps, and "
             "simulated through the whole window, the cost taken inside the block); it is kept only "
             "when n ln(CV_before/CV_after) and the whole-window ratio exceed the chi-square noise "
-            "bound (alpha 1e-3, plus a look-elsewhere term for a searched frequency) and the BIC drops.")
+            "bound (alpha 1e-3, plus a look-elsewhere term for a searched frequency) and the BIC drops."
+            + ("" if n_fine is None else f" The final model's parameters and their uncertainties are from its "
+               f"refit on {n_fine} samples of the window (the work grid's model fitted on, {FINE_NFEV} "
+               "evaluations at most)."))
 
 
 def explanation(report: DiagnosisReport, base_lin: FloatArray) -> str:

@@ -37,6 +37,7 @@ from ident.diagnose.backward import eliminate
 from ident.diagnose.candidates import Problem, fit_baseline
 from ident.diagnose.drift import drift_basis, drift_spacing, slow_residual
 from ident.diagnose.evidence import EvidenceResult, collect
+from ident.diagnose.fine import Bounds, refit_fine
 from ident.diagnose.fitting import FitResult
 from ident.diagnose.held_fit import held_input
 from ident.diagnose.identifiable import identifiable_friction, identifiable_model, one_encoder, typical_scale
@@ -95,7 +96,7 @@ class Diagnosis:
 
 def diagnose(t: FloatArray, y: FloatArray, carts: int | None = None, step_m: float | None = None,
              source: str = "", u: FloatArray | None = None, start_s: float | None = None,
-             stop_s: float | None = None) -> Diagnosis:
+             stop_s: float | None = None, readings: FloatArray | None = None) -> Diagnosis:
     """Diagnose a release run: `t` (N,) s uniform, `y` (N,) or (N, n_out) m, `u` (N,) or
     (N, m) a measured force input (any unit), `start_s`/`stop_s` the stretch to use (a
     release window on the run's time base, `start_s` its release as `ident.releases` dates
@@ -103,7 +104,12 @@ def diagnose(t: FloatArray, y: FloatArray, carts: int | None = None, step_m: flo
     `ident.releases` finds, up to the next release, dated by the window's scan
     (`window.find_window`), for one cart from the later of the two; `stretch.release_stretch`). `carts`
     (1 or 2) by default counts the columns that swing at least `HELD_FRACTION` of the largest:
-    a cart that moves less is held (by a hand that wanders) and enters as measured input."""
+    a cart that moves less is held (by a hand that wanders) and enters as measured input.
+    `readings` (M, n_out): the same record's positions as read, when `y` was resampled from
+    them (`ident.make_uniform` interpolates an uneven clock's samples): its encoder lattice is
+    looked for there, as a position interpolated between two readings lies between the
+    lattice's levels (on the ECP-210 records, whose samples were interpolated a third of a
+    step off, a lattice of a third of the encoder's count had been found)."""
     started = time.perf_counter()
     outputs = moving(y, carts)   # before anything is fitted: a still column has no fit %
     t_arr, y_arr = check(t, outputs.y)
@@ -127,6 +133,8 @@ def diagnose(t: FloatArray, y: FloatArray, carts: int | None = None, step_m: flo
     progress.stage("diagnosis: the linear baseline")
     base = fit_baseline(prob, fixed)
     lattice, coherence = find_lattice(y_arr[win.start:])
+    if lattice is None and readings is not None:   # resampled: the lattice of the readings
+        lattice, coherence = find_lattice(_columns(readings)[:, list(outputs.kept)])
     if lattice is None:   # noise after the encoder: a lattice proposed, kept only if it fits
         lattice = find_noisy_lattice(y_arr[win.start:])
         coherence = lattice.coherence if lattice is not None else coherence
@@ -147,21 +155,33 @@ def diagnose(t: FloatArray, y: FloatArray, carts: int | None = None, step_m: flo
         lambda cur, e: _staged(f"diagnosis: screening {e}", lambda: cands.screen(prob, cur, e, ev, wn_modes)),
         lambda trial: _staged(f"diagnosis: fitting {trial.effect}", lambda: cands.refine(prob, trial)), carts,
         lambda trial, result, refit: cands.without(prob, trial, result, refit))
-    steps, first_round, base = selection.steps, selection.first_round, selection.baseline
-    if selection.last is not None and len(steps) > 1:
+    steps, first_round, base, last = selection.steps, selection.first_round, selection.baseline, selection.last
+    if last is not None and len(steps) > 1:
         progress.stage("diagnosis: backward elimination")
-        steps = eliminate(steps, selection.last, lambda trial, result, refit: cands.without(prob, trial, result, refit),
-                          carts).steps
+        elimination = eliminate(steps, last, lambda trial, result, refit: cands.without(prob, trial, result, refit),
+                                carts)
+        steps, last = elimination.steps, elimination.last
     ext = steps[-1].judgement.result if steps else base
-    effects = _ranked(prob, steps, y_arr, hold_level(y_arr)[2])
+    final = (prob, ext)
+    if last is not None and steps:
+        progress.stage("diagnosis: the final model on every sample")
+        final = refit_fine(prob, ext, Bounds(last.lower, last.upper, last.typical), win, t_arr, y_arr,
+                           None if other is None else y_all[:, other], u_arr)
+    effects = _ranked(prob, steps, y_arr, hold_level(y_arr)[2], final)
     cause = next((e.effect for e in effects if e.material), "none")
     report = _report(prob, win, t_arr, base, ext, first_round, effects, cause, ev, coherence, step_m,
-                     source, time.perf_counter() - started, start_s is not None or stop_s is not None)
+                     source, time.perf_counter() - started, start_s is not None or stop_s is not None, final)
     if outputs.dropped:
         report = report.model_copy(update={"validation": f"{report.validation}; {outputs.note()}"})
     extrema = ev.extrema.copy()
     extrema[:, 0] += t_arr[win.start]
     return Diagnosis(report, t_arr[idx], prob.y, base.prediction, ext.prediction, prob.train, extrema)
+
+
+def _columns(a: FloatArray) -> FloatArray:
+    """`a` (N,) or (N, k) as (N, k) floats."""
+    arr = np.asarray(a, dtype=np.float64)
+    return arr[:, None] if arr.ndim == 1 else arr
 
 
 def _with_drift(prob: Problem, base: FitResult, wn: float) -> tuple[Problem, FitResult]:
@@ -269,19 +289,21 @@ def _no_lattice(prob: Problem, base: FitResult) -> Candidate:
                      significant=False, note="the measured positions lie on no lattice (no encoder steps)")
 
 
-def _ranked(prob: Problem, steps: list[Step], record: FloatArray, first_motion: int) -> list[EffectFit]:
-    """Accepted effects with their own gain, largest first (parameters from the final fit);
-    `record` (N, c) the readings of the whole record and `first_motion` where its motion
-    begins (an encoder lattice's worth)."""
+def _ranked(prob: Problem, steps: list[Step], record: FloatArray, first_motion: int,
+            refit: tuple[Problem, FitResult]) -> list[EffectFit]:
+    """Accepted effects with their own gain, largest first (parameters from `refit`, the final
+    model on its finer grid, `fine.refit_fine`); `record` (N, c) the readings of the whole
+    record and `first_motion` where its motion begins (an encoder lattice's worth)."""
     final = steps[-1].judgement.result if steps else None
+    fine_prob, fine = refit
     rows = []
     for k, step in enumerate(steps, start=1):
         j = step.judgement
         gain = _fit_points(prob, j.result) - _fit_points(prob, step.before)
         assert final is not None
-        params, std = cands.effect_parameters(final, j.effect)
+        params, std = cands.effect_parameters(fine, j.effect)
         if j.effect == "coulomb_friction" and one_encoder(prob):   # cart 2's friction as identifiable
-            params, std = identifiable_friction(prob, final, typical_scale(prob, final), params, std)
+            params, std = identifiable_friction(fine_prob, fine, typical_scale(fine_prob, fine), params, std)
         # an encoder lattice is credited with what it costs a perfect reading of the record
         # (the sensor reads all of it), not with what the staircase happened to gain on a
         # model that is itself off by some quanta (judged by its readings' likelihood, the
@@ -306,13 +328,17 @@ def _model_fit(prob: Problem, res: FitResult, name: str) -> ModelFit:
 def _report(prob: Problem, win: Window, t: FloatArray, base: FitResult, ext: FitResult,
             first_round: list[Judgement], effects: list[EffectFit], cause: str, ev: EvidenceResult,
             coherence: float, step_m: float | None, source: str, elapsed: float,
-            stretch: bool = False) -> DiagnosisReport:
+            stretch: bool, refit: tuple[Problem, FitResult]) -> DiagnosisReport:
+    """The report: fit % on the work grid (`ext`), the final model's parameters from `refit`
+    (the problem on its finer grid and the model fitted there, `fine.refit_fine`)."""
     carts = prob.carts
     n_lin = len(LINEAR_NAMES[carts])
-    rest = ext.theta[n_lin + 2 * carts:n_lin + 3 * carts]
+    fine_prob, fine = refit
+    rest = fine.theta[n_lin + 2 * carts:n_lin + 3 * carts]
     base_fit = _model_fit(prob, base, MODEL_NAMES[carts])
     names = " + ".join(e.effect for e in sorted(effects, key=lambda e: e.step))
-    ext_fit = base_fit if not effects else _model_fit(prob, ext, f"{MODEL_NAMES[carts]} + {names}")
+    ext_fit = base_fit if not effects else _model_fit(prob, ext, f"{MODEL_NAMES[carts]} + {names}").model_copy(
+        update={"parameters": fine.parameters(), "parameter_std": fine.parameter_std()})
     if one_encoder(prob):   # cart 2's friction as the friction effect reports it (identifiable)
         friction = next(((e.parameters, e.parameter_std) for e in effects if e.effect == "coulomb_friction"), None)
         params, std = identifiable_model(ext_fit.parameters, ext_fit.parameter_std, friction)
@@ -320,7 +346,7 @@ def _report(prob: Problem, win: Window, t: FloatArray, base: FitResult, ext: Fit
     candidates = [_candidate(prob, base, j) for j in first_round]
     if not any(c.effect == "quantization" for c in candidates):
         candidates.append(_no_lattice(prob, base))
-    corrected = explain.linear_summary(ext.theta[:n_lin], carts)
+    corrected = explain.linear_summary(fine.theta[:n_lin], carts)
     evidence = Evidence(
         residual_rms_m=ev.residual_rms_m, noise_std_m=ev.noise_std_m,
         whiteness_fraction_outside=ev.whiteness_fraction_outside,
@@ -341,6 +367,7 @@ def _report(prob: Problem, win: Window, t: FloatArray, base: FitResult, ext: Fit
         extended=ext_fit, gain_points=ext_fit.fit_percent - base_fit.fit_percent,
         corrected_linear=corrected, evidence=evidence,
         validation=explain.validation_text(win.decimation, prob.train.size, prob.inputs is not None,
-                                           win.tail_cut, (float(t[0]), float(t[-1])) if stretch else None),
+                                           win.tail_cut, (float(t[0]), float(t[-1])) if stretch else None,
+                                           fine_prob.tau.size if fine is not ext else None),
         explanation="", elapsed_s=elapsed)
     return report.model_copy(update={"explanation": explain.explanation(report, base.theta[:n_lin])})

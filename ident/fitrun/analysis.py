@@ -112,6 +112,9 @@ class RunAnalysis:
     envelope: EnvelopeRec | None = None
     timings_s: dict[str, float] = field(default_factory=dict)
     errors: dict[str, str] = field(default_factory=dict)
+    #: (M, outputs) the positions of `data.y`'s columns as read, before any resampling (their
+    #: encoder lattice, for the diagnosis: `ident.diagnose.diagnose`)
+    readings: FloatArray | None = None
 
     @property
     def release_time_s(self) -> float | None:
@@ -202,6 +205,7 @@ def case_samples(data: IdData, carts: tuple[int, ...]) -> IdData:
 
 def analyse_fits(data: IdData, settings: FitSettings = FitSettings()) -> RunAnalysis:
     """The case, the simple identifications and PEM (fast: well under a second)."""
+    readings = data.y
     data = on_one_grid(data)
     case, moving = choose_case(data, settings.carts)
     columns = [c - 1 for c in moving]
@@ -226,7 +230,7 @@ def analyse_fits(data: IdData, settings: FitSettings = FitSettings()) -> RunAnal
                        lambda: pem(cart_data, order, noise_model=settings.noise_model))
         y_hat = None if model is None else model.simulate(cart_data.u)
     analysis = RunAnalysis(case, cart_data, moving, tuple(simple), model, y_hat,
-                           timings_s=timings, errors=errors)
+                           timings_s=timings, errors=errors, readings=readings[:, columns])
     return dataclasses.replace(analysis, envelope=envelope_of(analysis))
 
 
@@ -274,13 +278,13 @@ def with_diagnosis(analysis: RunAnalysis) -> RunAnalysis:
     """The analysis plus `ident.diagnose` (what the linear model misses; seconds)."""
     timings, errors = dict(analysis.timings_s), dict(analysis.errors)
     carts = 2 if analysis.case == "both" else 1
-    traces = _timed("diagnose", timings, errors, lambda: _diagnose(analysis.data, carts))
+    traces = _timed("diagnose", timings, errors, lambda: _diagnose(analysis.data, carts, analysis.readings))
     return dataclasses.replace(analysis, diagnosis=None if traces is None else traces.report,
                                diagnosis_traces=traces, timings_s=timings, errors=errors)
 
 
-def _diagnose(data: IdData, carts: int) -> Diagnosis:
-    return diagnose(data.t, data.y, carts=carts, source=data.name)
+def _diagnose(data: IdData, carts: int, readings: FloatArray | None) -> Diagnosis:
+    return diagnose(data.t, data.y, carts=carts, source=data.name, readings=readings)
 
 
 def fit_simple_result(data: IdData, method: SimpleMethod, output: int, friction: bool = False) -> SimpleResult:

@@ -51,6 +51,9 @@ def test_each_complete_2025_release_shows_dry_friction(realdata_dir: Path, name:
         assert report["window_end_s"] <= release["end_time_s"] + 1e-9
         if release["complete"]:
             _check(report)
+            # the encoder's count, read off the readings: the positions were interpolated onto a
+            # uniform grid, between the readings' levels (a third of the count had been found)
+            assert report["evidence"]["lattice_quantum_m"] == pytest.approx(M_PER_COUNT_2025, rel=1e-6)
     svg = (tmp_path / "release1" / "diagnosis_response.svg").read_text()
     assert "cart 2 position" in svg and "cart 1 position" not in svg
 
