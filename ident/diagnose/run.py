@@ -41,7 +41,7 @@ from ident.diagnose.fine import Bounds, refit_fine
 from ident.diagnose.fitting import FitResult
 from ident.diagnose.held_fit import held_input
 from ident.diagnose.identifiable import identifiable_friction, identifiable_model, one_encoder, typical_scale
-from ident.diagnose.lattice import find_lattice, find_noisy_lattice, lattice_candidates, lattice_worth_points
+from ident.diagnose.lattice import Lattice, find_lattice, find_noisy_lattice, lattice_candidates, lattice_worth_points
 from ident.diagnose.models import EFFECTS, effect_names
 from ident.diagnose.select import Judgement, Step, forward, is_material, threshold
 from ident.diagnose.stretch import check, check_input, moving, release_stretch
@@ -133,9 +133,10 @@ def diagnose(t: FloatArray, y: FloatArray, carts: int | None = None, step_m: flo
     progress.stage("diagnosis: the linear baseline")
     base = fit_baseline(prob, fixed)
     lattice, coherence = find_lattice(y_arr[win.start:])
-    if lattice is None and readings is not None:   # resampled: the lattice of the readings
-        lattice, coherence = find_lattice(_columns(readings)[:, list(outputs.kept)])
-    if lattice is None:   # noise after the encoder: a lattice proposed, kept only if it fits
+    read = None    # the readings' lattice, when the positions were resampled between its levels
+    if lattice is None and readings is not None:
+        read, coherence = find_lattice(_columns(readings)[:, list(outputs.kept)])
+    if lattice is None and read is None:   # noise after the encoder: a lattice proposed, kept only if it fits
         lattice = find_noisy_lattice(y_arr[win.start:])
         coherence = lattice.coherence if lattice is not None else coherence
     n_lin = len(LINEAR_NAMES[carts])
@@ -147,7 +148,7 @@ def diagnose(t: FloatArray, y: FloatArray, carts: int | None = None, step_m: flo
         base = dataclasses.replace(base, spec=dataclasses.replace(base.spec, held=smooth))
     rest = base.theta[n_lin + 2 * carts:n_lin + 3 * carts]
     ev = collect(prob.tau, prob.y, base.prediction, rest, wn_modes, lattice)
-    if lattice is None or lattice.levels == 0:   # no exact encoder steps: fainter lattices too
+    if read is None and (lattice is None or lattice.levels == 0):   # no exact encoder steps: fainter lattices too
         ev = dataclasses.replace(ev, lattice_proposals=tuple(lattice_candidates(y_arr[win.start:])))
     selection = forward(
         base, lambda cur: [e for e in EFFECTS if cands.available(e, cur.spec, prob, ev)
@@ -170,7 +171,7 @@ def diagnose(t: FloatArray, y: FloatArray, carts: int | None = None, step_m: flo
     effects = _ranked(prob, steps, y_arr, hold_level(y_arr)[2], final)
     cause = next((e.effect for e in effects if e.material), "none")
     report = _report(prob, win, t_arr, base, ext, first_round, effects, cause, ev, coherence, step_m,
-                     source, time.perf_counter() - started, start_s is not None or stop_s is not None, final)
+                     source, time.perf_counter() - started, start_s is not None or stop_s is not None, final, read)
     if outputs.dropped:
         report = report.model_copy(update={"validation": f"{report.validation}; {outputs.note()}"})
     extrema = ev.extrema.copy()
@@ -280,13 +281,17 @@ def _candidate(prob: Problem, base: FitResult, j: Judgement) -> Candidate:
                      significant=j.passes)
 
 
-def _no_lattice(prob: Problem, base: FitResult) -> Candidate:
-    """The quantization candidate when the samples lie on no lattice: nothing to model."""
+def _no_lattice(prob: Problem, base: FitResult, read: Lattice | None = None) -> Candidate:
+    """The quantization candidate when the samples lie on no lattice: nothing to model (`read`:
+    the lattice of the readings the positions were resampled from, between its levels)."""
     th = threshold(len(effect_names("quantization", prob.carts)), False, base.n_train)
     return Candidate(effect="quantization", parameters={}, fit_percent=_fit_points(prob, base), gain_points=0.0,
                      extra_parameters=len(effect_names("quantization", prob.carts)), lr_train=0.0,
                      lr_validation=0.0, threshold_train=th, threshold_validation=th,
-                     significant=False, note="the measured positions lie on no lattice (no encoder steps)")
+                     significant=False,
+                     note="the measured positions lie on no lattice (no encoder steps)" if read is None else
+                     f"the readings lie on a {1e6 * read.quantum_m:.4g} um lattice, but the positions were "
+                     "resampled between them onto a uniform grid (ident.make_uniform): no staircase to model")
 
 
 def _ranked(prob: Problem, steps: list[Step], record: FloatArray, first_motion: int,
@@ -328,7 +333,7 @@ def _model_fit(prob: Problem, res: FitResult, name: str) -> ModelFit:
 def _report(prob: Problem, win: Window, t: FloatArray, base: FitResult, ext: FitResult,
             first_round: list[Judgement], effects: list[EffectFit], cause: str, ev: EvidenceResult,
             coherence: float, step_m: float | None, source: str, elapsed: float,
-            stretch: bool, refit: tuple[Problem, FitResult]) -> DiagnosisReport:
+            stretch: bool, refit: tuple[Problem, FitResult], read: Lattice | None) -> DiagnosisReport:
     """The report: fit % on the work grid (`ext`), the final model's parameters from `refit`
     (the problem on its finer grid and the model fitted there, `fine.refit_fine`)."""
     carts = prob.carts
@@ -345,7 +350,7 @@ def _report(prob: Problem, win: Window, t: FloatArray, base: FitResult, ext: Fit
         ext_fit = ext_fit.model_copy(update={"parameters": params, "parameter_std": std})
     candidates = [_candidate(prob, base, j) for j in first_round]
     if not any(c.effect == "quantization" for c in candidates):
-        candidates.append(_no_lattice(prob, base))
+        candidates.append(_no_lattice(prob, base, read))
     corrected = explain.linear_summary(fine.theta[:n_lin], carts)
     evidence = Evidence(
         residual_rms_m=ev.residual_rms_m, noise_std_m=ev.noise_std_m,
@@ -356,7 +361,8 @@ def _report(prob: Problem, win: Window, t: FloatArray, base: FitResult, ext: Fit
         envelope_peaks=ev.envelope_peaks, envelope_step_m=ev.envelope_step_m,
         envelope_ratio=ev.envelope_ratio, frequency_drift_per_m2=ev.frequency_drift_per_m2,
         rest_offset_m=ev.rest_offset_m, stuck_for_s=ev.stuck_for_s,
-        lattice_quantum_m=ev.lattice.quantum_m if ev.lattice is not None else None,
+        lattice_quantum_m=(ev.lattice.quantum_m if ev.lattice is not None
+                           else read.quantum_m if read is not None else None),
         lattice_coherence=coherence, second_frequency_hz=ev.second_frequency_hz)
     report = DiagnosisReport(
         source=source, carts=carts, sample_rate_hz=1.0 / float(t[1] - t[0]),

@@ -40,5 +40,17 @@ def test_the_encoder_lattice_is_read_off_the_readings_of_a_resampled_record() ->
     assert "linear interpolation" in data.notes[-1]        # the positions were resampled
     report = diagnose(data.t, data.y, carts=1, readings=readings).report
     assert report.evidence.lattice_quantum_m == pytest.approx(COUNT_M, rel=1e-9)
-    # the interpolated positions sit between the levels: no staircase of them is claimed
+    # the interpolated positions sit between the levels: no staircase of them is claimed, and
+    # the quantization candidate says why
     assert all(e.effect != "quantization" for e in report.effects)
+    candidate = next(c for c in report.candidates if c.effect == "quantization")
+    assert not candidate.significant and "17.86 um lattice" in candidate.note and "resampled" in candidate.note
+
+
+def test_without_its_readings_a_resampled_record_shows_no_encoder_count() -> None:
+    raw, _ = _record()
+    data = make_uniform(raw)
+    report = diagnose(data.t, data.y, carts=1).report
+    # interpolated a fraction of a step off the readings, the positions lie on no 17.86 um lattice
+    q = report.evidence.lattice_quantum_m
+    assert q is None or abs(q - COUNT_M) > 0.05 * COUNT_M
