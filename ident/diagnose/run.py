@@ -46,7 +46,7 @@ from ident.diagnose.models import EFFECTS, effect_names
 from ident.diagnose.select import Judgement, Step, forward, is_material, threshold
 from ident.diagnose.stretch import check, check_input, moving, release_stretch
 from ident.diagnose.window import Window, hold_level
-from ident.errors import IdentValueError
+from ident.errors import IdentDimensionError, IdentValueError
 from ident.physics.chain import LINEAR_NAMES, modes
 from ident.physics.free import switched_input
 from ident.physics.measures import fit_percent, noise_std
@@ -111,6 +111,7 @@ def diagnose(t: FloatArray, y: FloatArray, carts: int | None = None, step_m: flo
     lattice's levels (on the ECP-210 records, whose samples were interpolated a third of a
     step off, a lattice of a third of the encoder's count had been found)."""
     started = time.perf_counter()
+    as_read = None if readings is None else _readings_of(readings, y)
     outputs = moving(y, carts)   # before anything is fitted: a still column has no fit %
     t_arr, y_arr = check(t, outputs.y)
     cut = release_stretch(t_arr, y_arr, check_input(u, t_arr.size), carts, start_s, stop_s)
@@ -134,8 +135,8 @@ def diagnose(t: FloatArray, y: FloatArray, carts: int | None = None, step_m: flo
     base = fit_baseline(prob, fixed)
     lattice, coherence = find_lattice(y_arr[win.start:])
     read = None    # the readings' lattice, when the positions were resampled between its levels
-    if lattice is None and readings is not None:
-        read, coherence = find_lattice(_columns(readings)[:, list(outputs.kept)])
+    if lattice is None and as_read is not None:
+        read, coherence = find_lattice(as_read[:, list(outputs.kept)])
     if lattice is None and read is None:   # noise after the encoder: a lattice proposed, kept only if it fits
         lattice = find_noisy_lattice(y_arr[win.start:])
         coherence = lattice.coherence if lattice is not None else coherence
@@ -179,10 +180,14 @@ def diagnose(t: FloatArray, y: FloatArray, carts: int | None = None, step_m: flo
     return Diagnosis(report, t_arr[idx], prob.y, base.prediction, ext.prediction, prob.train, extrema)
 
 
-def _columns(a: FloatArray) -> FloatArray:
-    """`a` (N,) or (N, k) as (N, k) floats."""
-    arr = np.asarray(a, dtype=np.float64)
-    return arr[:, None] if arr.ndim == 1 else arr
+def _readings_of(readings: FloatArray, y: FloatArray) -> FloatArray:
+    """`readings` (M,) or (M, k) as (M, k) floats, k the columns of `y`."""
+    arr = np.asarray(readings, dtype=np.float64)
+    arr = arr[:, None] if arr.ndim == 1 else arr
+    k = 1 if np.ndim(y) == 1 else int(np.shape(y)[1])
+    if arr.ndim != 2 or arr.shape[1] != k:
+        raise IdentDimensionError("readings", f"(M, {k}): the columns of y as read", f"shape {arr.shape}")
+    return arr
 
 
 def _with_drift(prob: Problem, base: FitResult, wn: float) -> tuple[Problem, FitResult]:

@@ -13,6 +13,7 @@ import pytest
 
 from ident.data import IdData, make_uniform
 from ident.diagnose import diagnose
+from ident.errors import IdentDimensionError
 
 COUNT_M = 1.0 / 56000.0
 
@@ -54,3 +55,10 @@ def test_without_its_readings_a_resampled_record_shows_no_encoder_count() -> Non
     # interpolated a fraction of a step off the readings, the positions lie on no 17.86 um lattice
     q = report.evidence.lattice_quantum_m
     assert q is None or abs(q - COUNT_M) > 0.05 * COUNT_M
+
+
+def test_readings_of_other_columns_than_the_positions_are_refused_naming_the_shape() -> None:
+    raw, readings = _record()
+    data = make_uniform(raw)
+    with pytest.raises(IdentDimensionError, match=r"readings.*\(M, 1\).*shape \(7000, 2\)"):
+        diagnose(data.t, data.y, carts=1, readings=np.hstack([readings, readings]))
