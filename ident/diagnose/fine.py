@@ -26,6 +26,7 @@ import math
 
 import numpy as np
 
+from ident.diagnose.candidates import Trial
 from ident.diagnose.drift import drift_basis
 from ident.diagnose.fitting import FitResult, fit
 from ident.diagnose.held_fit import held_input
@@ -41,27 +42,20 @@ FINE_NFEV = 25
 KEPT = ("quantization", "static_friction")
 
 
-@dataclasses.dataclass(frozen=True)
-class Bounds:
-    """The bounds and typical magnitudes (p,) the final model's parameters were fitted within."""
-
-    lower: FloatArray
-    upper: FloatArray
-    typical: FloatArray
-
-
 def fine_decimation(decimation: int, n_samples: int) -> int:
     """One sample in how many the finer grid keeps of a window of `n_samples` samples
     (`FINE_SAMPLES` at most); the work grid's `decimation` when it is no finer."""
     return min(decimation, max(1, math.ceil(n_samples / FINE_SAMPLES)))
 
 
-def refit_fine(prob: Problem, final: FitResult, bounds: Bounds, win: Window, t: FloatArray, y: FloatArray,
+def refit_fine(prob: Problem, final: FitResult, bounds: Trial, win: Window, t: FloatArray, y: FloatArray,
                held_reading: FloatArray | None, u: FloatArray | None) -> tuple[Problem, FitResult]:
     """(the problem on the finer grid, the final model fitted on it) or (`prob`, `final`) when
-    the work grid keeps every sample already. `t` (N,) s and `y` (N, observed) m the record the
-    work grid samples from `win.start` on every `win.decimation`-th sample, `held_reading` (N,)
-    the held cart's reading or None, `u` (N, m) the force input or None."""
+    the work grid keeps every sample already. `bounds`: the trial whose bounds and typical
+    magnitudes cover the final model's parameters (its last effect's, `backward.Elimination`).
+    `t` (N,) s and `y` (N, observed) m the record the work grid samples from `win.start` on
+    every `win.decimation`-th sample, `held_reading` (N,) the held cart's reading or None, `u`
+    (N, m) the force input or None."""
     last = win.start + (prob.tau.size - 1) * win.decimation     # the work grid's last sample
     d = fine_decimation(win.decimation, last - win.start + 1)
     if d >= win.decimation:
@@ -98,4 +92,4 @@ def refit_fine(prob: Problem, final: FitResult, bounds: Bounds, win: Window, t: 
     return fine, dataclasses.replace(result, spec=dataclasses.replace(result.spec, fixed=final.spec.fixed), std=std)
 
 
-__all__ = ["FINE_NFEV", "FINE_SAMPLES", "KEPT", "Bounds", "fine_decimation", "refit_fine"]
+__all__ = ["FINE_NFEV", "FINE_SAMPLES", "KEPT", "fine_decimation", "refit_fine"]

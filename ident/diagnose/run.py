@@ -37,7 +37,7 @@ from ident.diagnose.backward import eliminate
 from ident.diagnose.candidates import Problem, fit_baseline
 from ident.diagnose.drift import drift_basis, drift_spacing, slow_residual
 from ident.diagnose.evidence import EvidenceResult, collect
-from ident.diagnose.fine import Bounds, refit_fine
+from ident.diagnose.fine import refit_fine
 from ident.diagnose.fitting import FitResult
 from ident.diagnose.held_fit import held_input
 from ident.diagnose.identifiable import identifiable_friction, identifiable_model, one_encoder, typical_scale
@@ -167,8 +167,7 @@ def diagnose(t: FloatArray, y: FloatArray, carts: int | None = None, step_m: flo
     final = (prob, ext)
     if last is not None and steps:
         progress.stage("diagnosis: the final model on every sample")
-        final = refit_fine(prob, ext, Bounds(last.lower, last.upper, last.typical), win, t_arr, y_arr,
-                           None if other is None else y_all[:, other], u_arr)
+        final = refit_fine(prob, ext, last, win, t_arr, y_arr, None if other is None else y_all[:, other], u_arr)
     effects = _ranked(prob, steps, y_arr, hold_level(y_arr)[2], final)
     cause = next((e.effect for e in effects if e.material), "none")
     report = _report(prob, win, t_arr, base, ext, first_round, effects, cause, ev, coherence, step_m,
