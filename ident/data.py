@@ -283,14 +283,18 @@ class IdData:
         return rows
 
     def _input_summary(self) -> str:
-        """'step of A at T s' for a step, else the range and the first change of a recorded input."""
+        """'step of A at T s' for a step, else the range and the first change of a recorded input
+        (and whether it is on at the first sample: the models start from rest at a zero input,
+        `input_jumps`, so such an input acts from there)."""
         start = self.step_time()
+        on = f", on at the first sample ({self.u[0]:.4g}: acting from there)" if self.u[0] != 0.0 else ""
         if start is None:
-            return f"constant {self.u[0]:.4g}"
-        if self.step_amplitude != 0.0 and np.unique(self.u).size == 2 \
+            return f"constant {self.u[0]:.4g}{on}"
+        if not on and self.step_amplitude != 0.0 and np.unique(self.u).size == 2 \
                 and np.all(np.diff(self.u) * self.step_amplitude >= 0):
             return f"step of {self.step_amplitude:.4g} at {start:.4g} s"
-        return f"recorded, {float(np.min(self.u)):.4g} … {float(np.max(self.u)):.4g}, first change at {start:.4g} s"
+        return (f"recorded, {float(np.min(self.u)):.4g} … {float(np.max(self.u)):.4g}{on}, "
+                f"first change at {start:.4g} s")
 
     def _title(self) -> str:
         name = f" {self.name!r}" if self.name else ""

@@ -280,3 +280,14 @@ def test_the_numbers_of_a_headerless_files_columns_are_no_cart_numbers(tmp_path:
     assert data.cart_numbers() == (1, 2)
     named = IdData(data.t, data.u, data.y[:, :1], columns=("Encoder 2 Pos",))
     assert named.cart_numbers() == (2,)
+
+
+def test_an_input_on_at_the_first_sample_is_shown_acting_from_there() -> None:
+    # a drive already on as the record starts (the 2023 open-loop test4): the models take it from
+    # the first sample (`input_jumps`), and the summary said only "first change at 3 s"
+    t = 0.01 * np.arange(600)
+    u = np.where(t < 3.0, 0.5, -0.5)
+    summary = repr(IdData(t, u, np.sin(t)))
+    assert "on at the first sample (0.5: acting from there), first change at 3 s" in summary
+    off = repr(IdData(t, np.where(t < 3.0, 0.0, 0.5), np.sin(t)))
+    assert "on at the first sample" not in off and "step of 0.5 at 3 s" in off
