@@ -112,8 +112,11 @@ class RunAnalysis:
     envelope: EnvelopeRec | None = None
     timings_s: dict[str, float] = field(default_factory=dict)
     errors: dict[str, str] = field(default_factory=dict)
-    #: (M, outputs) the positions of `data.y`'s columns as read, before any resampling (their
-    #: encoder lattice, for the diagnosis: `ident.diagnose.diagnose`)
+    #: what the diagnosis fits (`ident.diagnose.diagnose`): its positions (N, k) on `data.t`, a
+    #: one-cart case's free cart first and then the other carts (a held cart's motion enters as
+    #: an input), and the same columns as read before any resampling (their encoder lattice);
+    #: None: `data.y` (and no readings)
+    diagnosis_y: FloatArray | None = None
     readings: FloatArray | None = None
 
     @property
@@ -210,6 +213,7 @@ def analyse_fits(data: IdData, settings: FitSettings = FitSettings()) -> RunAnal
     case, moving = choose_case(data, settings.carts)
     columns = [c - 1 for c in moving]
     cart_data = case_samples(data, moving)
+    diagnosed = _diagnosis_columns(data, cart_data, columns)
     case, moving = _named(data, case, columns)
     timings: dict[str, float] = {}
     errors: dict[str, str] = {}
@@ -229,9 +233,22 @@ def analyse_fits(data: IdData, settings: FitSettings = FitSettings()) -> RunAnal
         model = _timed("pem", timings, errors,
                        lambda: pem(cart_data, order, noise_model=settings.noise_model))
         y_hat = None if model is None else model.simulate(cart_data.u)
-    analysis = RunAnalysis(case, cart_data, moving, tuple(simple), model, y_hat,
-                           timings_s=timings, errors=errors, readings=readings[:, columns])
+    analysis = RunAnalysis(case, cart_data, moving, tuple(simple), model, y_hat, timings_s=timings,
+                           errors=errors, diagnosis_y=diagnosed[0], readings=readings[:, diagnosed[1]])
     return dataclasses.replace(analysis, envelope=envelope_of(analysis))
+
+
+def _diagnosis_columns(data: IdData, cart_data: IdData, columns: list[int]) -> tuple[FloatArray, list[int]]:
+    """(the diagnosis' positions on `cart_data.t`, their columns in `data`): a one-cart case's
+    free cart and then the other carts (held by a hand, their motion moves the free cart
+    through the spring: the diagnosis takes it as an input, as `ident diagnose` does), or the
+    case's own columns when there are no others or they do not share the case's grid."""
+    others = [j for j in range(data.n_outputs) if j not in columns]
+    if len(columns) == 1 and others:
+        every = case_samples(data, tuple(j + 1 for j in columns + others))
+        if every.t.shape == cart_data.t.shape and np.array_equal(every.t, cart_data.t):
+            return every.y, columns + others
+    return cart_data.y, columns
 
 
 def on_one_grid(data: IdData) -> IdData:
@@ -278,13 +295,15 @@ def with_diagnosis(analysis: RunAnalysis) -> RunAnalysis:
     """The analysis plus `ident.diagnose` (what the linear model misses; seconds)."""
     timings, errors = dict(analysis.timings_s), dict(analysis.errors)
     carts = 2 if analysis.case == "both" else 1
-    traces = _timed("diagnose", timings, errors, lambda: _diagnose(analysis.data, carts, analysis.readings))
+    traces = _timed("diagnose", timings, errors, lambda: _diagnose(analysis, carts))
     return dataclasses.replace(analysis, diagnosis=None if traces is None else traces.report,
                                diagnosis_traces=traces, timings_s=timings, errors=errors)
 
 
-def _diagnose(data: IdData, carts: int, readings: FloatArray | None) -> Diagnosis:
-    return diagnose(data.t, data.y, carts=carts, source=data.name, readings=readings)
+def _diagnose(analysis: RunAnalysis, carts: int) -> Diagnosis:
+    data = analysis.data
+    y = data.y if analysis.diagnosis_y is None else analysis.diagnosis_y
+    return diagnose(data.t, y, carts=carts, source=data.name, readings=analysis.readings)
 
 
 def fit_simple_result(data: IdData, method: SimpleMethod, output: int, friction: bool = False) -> SimpleResult:
