@@ -26,6 +26,7 @@ import numpy as np
 from ident import progress
 from ident.data import FloatArray, IdData, input_jumps, make_uniform
 from ident.diagnose import Diagnosis, diagnose
+from ident.diagnose.still import why_still
 from ident.errors import IdentError, IdentValueError
 from ident.fitrun.envelope import fit_envelope
 from ident.model import Model
@@ -241,9 +242,10 @@ def analyse_fits(data: IdData, settings: FitSettings = FitSettings()) -> RunAnal
 def _diagnosis_columns(data: IdData, cart_data: IdData, columns: list[int]) -> tuple[FloatArray, list[int]]:
     """(the diagnosis' positions on `cart_data.t`, their columns in `data`): a one-cart case's
     free cart and then the other carts (held by a hand, their motion moves the free cart
-    through the spring: the diagnosis takes it as an input, as `ident diagnose` does), or the
-    case's own columns when there are no others or they do not share the case's grid."""
-    others = [j for j in range(data.n_outputs) if j not in columns]
+    through the spring: the diagnosis takes it as an input, as `ident diagnose` does; a pinned
+    cart that never moves is left out), or the case's own columns when there are no others or
+    they do not share the case's grid."""
+    others = [j for j in range(data.n_outputs) if j not in columns and why_still(data.y[:, j]) is None]
     if len(columns) == 1 and others:
         every = case_samples(data, tuple(j + 1 for j in columns + others))
         if every.t.shape == cart_data.t.shape and np.array_equal(every.t, cart_data.t):

@@ -27,3 +27,11 @@ def test_the_held_carts_motion_enters_the_diagnosis_of_a_one_cart_case() -> None
     assert abs(gain - truth) <= 0.05 * truth, (gain, truth)
     # the fits' own data stay the free cart's
     assert analysis.data.y.shape[1] == 1
+
+
+def test_a_pinned_cart_that_never_moves_is_left_out_of_the_diagnosis() -> None:
+    case = make_case(5, "coulomb_friction", carts=1)
+    y = np.column_stack([case.observed.y[:, 0], np.zeros(case.observed.t.size)])
+    analysis = analyse(IdData(case.observed.t, np.zeros(case.observed.t.size), y))
+    assert analysis.diagnosis_y is not None and analysis.diagnosis_y.shape[1] == 1
+    assert analysis.diagnosis is not None and "never moves" not in analysis.diagnosis.validation
