@@ -16,10 +16,10 @@ from typing import Any
 
 from ident import progress
 from ident.commands.fit import run_id_of
-from ident.data import IdData
+from ident.data import FloatArray, IdData
 from ident.errors import DataFileError, IdentError
 from ident.fitrun import RunFileOptions, RunIdentity, fit_file, load_run
-from ident.fitrun.analysis import case_samples, on_one_grid
+from ident.fitrun.analysis import case_samples, diagnosis_columns, on_one_grid
 from ident.report.content import CaseResult
 from ident.report.figures import write_figures
 from ident.report.writer import FittedRun, write_report_dir
@@ -91,19 +91,24 @@ def fit_here(path: Path, fit_dir: Path, options: RunFileOptions = _READ_AS_IS) -
 
 
 def fitted_samples(run_file: Path, report: FitReport,
-                   options: RunFileOptions = _READ_AS_IS) -> IdData | None:
-    """The samples the report's fits used (its carts' columns), or None without the file."""
+                   options: RunFileOptions = _READ_AS_IS) -> tuple[IdData, FloatArray] | None:
+    """The samples the report's fits used (its carts' columns) and the other carts' positions
+    (N, k) its diagnosis took as inputs (a held cart; k may be 0, `diagnosis_columns`), or None
+    without the file."""
     if report.status != "ok" or not run_file.is_file():
         return None
     outputs = report.pem.outputs if report.pem else [s.output for s in report.simple[:1]]
     try:
-        data = load_run(run_file, options)
+        data = on_one_grid(load_run(run_file, options))
     except (IdentError, OSError):
         return None
     numbers = data.cart_numbers()          # the report names carts; the data has columns
     if not outputs or not set(outputs) <= set(numbers):
         return None
-    return case_samples(on_one_grid(data), tuple(numbers.index(c) + 1 for c in outputs))
+    columns = [numbers.index(c) for c in outputs]
+    fitted = case_samples(data, tuple(c + 1 for c in columns))
+    diagnosed, _ = diagnosis_columns(data, fitted, columns)
+    return fitted, diagnosed[:, len(columns):]
 
 
 def gather(paths: list[Path], work_dir: Path,
@@ -117,7 +122,7 @@ def gather(paths: list[Path], work_dir: Path,
             progress.advance()
         runs.append(_gather_one(path, work_dir, options))
     return [FittedRun(r.report, r.fit_dir, r.source,
-                      fitted_samples(_run_file(r), r.report, options)) for r in runs]
+                      *(fitted_samples(_run_file(r), r.report, options) or (None, None))) for r in runs]
 
 
 def _run_file(run: FittedRun) -> Path:

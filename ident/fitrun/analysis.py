@@ -113,12 +113,10 @@ class RunAnalysis:
     envelope: EnvelopeRec | None = None
     timings_s: dict[str, float] = field(default_factory=dict)
     errors: dict[str, str] = field(default_factory=dict)
-    #: what the diagnosis fits (`ident.diagnose.diagnose`): its positions (N, k) on `data.t`, a
+    #: what the diagnosis fits (`ident.diagnose.diagnose`): positions (N, k) on `data.t`, a
     #: one-cart case's free cart first and then the other carts (a held cart's motion enters as
-    #: an input), and the same columns as read before any resampling (their encoder lattice);
-    #: None: `data.y` (and no readings)
+    #: an input, `diagnosis_columns`); None: `data.y`
     diagnosis_y: FloatArray | None = None
-    readings: FloatArray | None = None
 
     @property
     def release_time_s(self) -> float | None:
@@ -196,25 +194,24 @@ def choose_case(data: IdData, carts: int | None) -> tuple[LabCase, tuple[int, ..
 
 
 def case_samples(data: IdData, carts: tuple[int, ...]) -> IdData:
-    """The samples the fits use: the columns of `carts` (1-based), on a uniform grid.
+    """The samples the fits use: the columns of `carts` (1-based, in that order), on a uniform grid.
 
     A record with irregular stamps (the ECP Teensy's 1 and 2 ms steps) is resampled by
     `ident.make_uniform` (the note says how): every fit then runs on one grid, and the
     simulators take their fast uniform path.
     """
     columns = [c - 1 for c in carts]
-    selected = data.select_outputs(columns) if data.n_outputs != len(columns) else data
+    selected = data.select_outputs(columns) if columns != list(range(data.n_outputs)) else data
     return selected if selected.is_uniform() else make_uniform(selected)
 
 
 def analyse_fits(data: IdData, settings: FitSettings = FitSettings()) -> RunAnalysis:
     """The case, the simple identifications and PEM (fast: well under a second)."""
-    readings = data.y
     data = on_one_grid(data)
     case, moving = choose_case(data, settings.carts)
     columns = [c - 1 for c in moving]
     cart_data = case_samples(data, moving)
-    diagnosed = _diagnosis_columns(data, cart_data, columns)
+    diagnosed, _ = diagnosis_columns(data, cart_data, columns)
     case, moving = _named(data, case, columns)
     timings: dict[str, float] = {}
     errors: dict[str, str] = {}
@@ -235,11 +232,11 @@ def analyse_fits(data: IdData, settings: FitSettings = FitSettings()) -> RunAnal
                        lambda: pem(cart_data, order, noise_model=settings.noise_model))
         y_hat = None if model is None else model.simulate(cart_data.u)
     analysis = RunAnalysis(case, cart_data, moving, tuple(simple), model, y_hat, timings_s=timings,
-                           errors=errors, diagnosis_y=diagnosed[0], readings=readings[:, diagnosed[1]])
+                           errors=errors, diagnosis_y=diagnosed)
     return dataclasses.replace(analysis, envelope=envelope_of(analysis))
 
 
-def _diagnosis_columns(data: IdData, cart_data: IdData, columns: list[int]) -> tuple[FloatArray, list[int]]:
+def diagnosis_columns(data: IdData, cart_data: IdData, columns: list[int]) -> tuple[FloatArray, list[int]]:
     """(the diagnosis' positions on `cart_data.t`, their columns in `data`): a one-cart case's
     free cart and then the other carts (held by a hand, their motion moves the free cart
     through the spring: the diagnosis takes it as an input, as `ident diagnose` does; a pinned
@@ -305,7 +302,7 @@ def with_diagnosis(analysis: RunAnalysis) -> RunAnalysis:
 def _diagnose(analysis: RunAnalysis, carts: int) -> Diagnosis:
     data = analysis.data
     y = data.y if analysis.diagnosis_y is None else analysis.diagnosis_y
-    return diagnose(data.t, y, carts=carts, source=data.name, readings=analysis.readings)
+    return diagnose(data.t, y, carts=carts, source=data.name)
 
 
 def fit_simple_result(data: IdData, method: SimpleMethod, output: int, friction: bool = False) -> SimpleResult:
@@ -324,4 +321,4 @@ def fit_simple_result(data: IdData, method: SimpleMethod, output: int, friction:
 
 __all__ = ["MOVING_COUNTS", "MOVING_SIGMAS", "FitSettings", "Method", "NoiseModel", "RunAnalysis",
            "SimpleResult", "analyse", "analyse_fits", "case_samples", "choose_case", "detect_case",
-           "envelope_of", "fit_simple_result", "on_one_grid", "with_diagnosis"]
+           "diagnosis_columns", "envelope_of", "fit_simple_result", "on_one_grid", "with_diagnosis"]

@@ -25,18 +25,21 @@ from ident.diagnose import diagnose
 
 numbers = {}   # every number the report quotes, recomputed here
 runs = {}      # case -> (data, meta)
+held = {}      # case -> the other carts' positions (a held cart's motion: the diagnosis' input)
 simple_fits = {}  # case -> (rk4, euler)"""
 
 
 def load(case: LabCase) -> str:
-    """Read `data/<case>.csv` (time, input, positions) into `ident.IdData`."""
+    """Read `data/<case>.csv` (time, input, positions, held carts' positions) into `ident.IdData`."""
     return f"""\
-table = np.loadtxt("data/{case}.csv", delimiter=",", skiprows=1)
+table = np.loadtxt("data/{case}.csv", delimiter=",", skiprows=1, ndmin=2)
 meta = json.loads(open("data/{case}.json").read())
-data = ident.IdData(t=table[:, 0], u=table[:, 1], y=table[:, 2:],
+n = len(meta["outputs"])
+data = ident.IdData(t=table[:, 0], u=table[:, 1], y=table[:, 2:2 + n],
                     release_time_s=meta["release_time_s"], pulled_cart=meta["pulled_cart"])
 numbers["{case}"] = {{}}
 runs["{case}"] = (data, meta)
+held["{case}"] = table[:, 2 + n:]
 print(f"{{data.n_samples}} samples at {{1 / data.sample_time():.4g}} Hz, carts {{meta['outputs']}}")"""
 
 
@@ -95,7 +98,8 @@ def diagnosis(case: LabCase, carts: int) -> str:
     """What the linear simulation gets wrong: the effects and their held-out gains."""
     return f"""\
 data, meta = runs["{case}"]
-found = diagnose(data.t, data.y, carts={carts}).report
+# a held cart's measured motion enters as an input (its columns after the fitted carts')
+found = diagnose(data.t, np.column_stack([data.y, held["{case}"]]), carts={carts}).report
 print(f"cause: {{found.cause}}, gain {{found.gain_points:+.3f}} fit-% points held out")
 for c in found.candidates:
     print(f"  {{c.effect:18s}} gain {{c.gain_points:+.3f}}  significant: {{c.significant}}")

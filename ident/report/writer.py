@@ -17,8 +17,10 @@ from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
 
+import numpy as np
+
 from ident import __version__
-from ident.data import IdData
+from ident.data import FloatArray, IdData
 from ident.errors import IdentError
 from ident.report import notebook as nb
 from ident.report.content import CaseResult, report_blocks
@@ -30,12 +32,15 @@ from schemas.fit import LAB_CASES, FitReport
 @dataclass(frozen=True)
 class FittedRun:
     """A run's final report, the directory holding its figures, and the samples its fits
-    used (`data`: the fitted carts' columns; None when the run file is not at hand)."""
+    used (`data`: the fitted carts' columns; None when the run file is not at hand), with the
+    other carts' positions (N, k) on `data.t` its diagnosis took as inputs (`held`: a held
+    cart's motion; k may be 0)."""
 
     report: FitReport
     fit_dir: Path
     source: Path
     data: IdData | None = None
+    held: FloatArray | None = None
 
 
 class NotebookError(IdentError, RuntimeError):
@@ -43,15 +48,18 @@ class NotebookError(IdentError, RuntimeError):
 
 
 def export_data(run: FittedRun, out_dir: Path) -> str | None:
-    """Write `data/<case>.csv` (time_s, u_m, x<cart>_m…, full precision) and its `.json`."""
+    """Write `data/<case>.csv` (time_s, u_m, x<cart>_m…, then held<k>_m…: the other carts'
+    positions the diagnosis took as inputs; full precision) and its `.json`."""
     data, case = run.data, run.report.case
     if data is None or case is None:
         return None
     outputs = run.report.pem.outputs if run.report.pem else [s.output for s in run.report.simple[:1]]
     folder = out_dir / "data"
     folder.mkdir(parents=True, exist_ok=True)
-    header = ",".join(["time_s", "u_m", *(f"x{c}_m" for c in outputs)])
-    table = [[t, u, *y] for t, u, y in zip(data.t, data.u, data.y, strict=True)]
+    held = np.zeros((data.n_samples, 0)) if run.held is None else run.held
+    names = [*(f"x{c}_m" for c in outputs), *(f"held{k + 1}_m" for k in range(held.shape[1]))]
+    header = ",".join(["time_s", "u_m", *names])
+    table = [[t, u, *y, *h] for t, u, y, h in zip(data.t, data.u, data.y, held, strict=True)]
     lines = [header] + [",".join(repr(float(v)) for v in row) for row in table]
     (folder / f"{case}.csv").write_text("\n".join(lines) + "\n")
     meta = {"run_id": run.report.run_id, "case": case, "outputs": outputs,

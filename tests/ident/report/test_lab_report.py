@@ -193,7 +193,7 @@ def test_report_md_holds_the_python_of_each_identification(report: tuple[Path, l
     for step in ('np.loadtxt("data/cart1.csv"', 'np.loadtxt("data/both.csv"', "ident.IdData(",
                  'ident.fit_simple(data, "rk4")', 'ident.fit_simple(data, "euler")',
                  "ident.pem(data, 2)", "ident.pem(data, 4)", "model.tf", "model.simulate(data.u)",
-                 "plt.show()", "diagnose(data.t, data.y"):
+                 "plt.show()", "diagnose(data.t, np.column_stack([data.y, held["):
         assert step in code, step
     for block in blocks:
         compile(block, "report.md", "exec")                  # each block is valid Python
