@@ -30,7 +30,8 @@ from ident.text_table import Table, count_lines, read_columns, read_table, text_
 from schemas import SchemaError, run_file, topics
 
 _UNIT_SCALES = {"m": 1.0, "cm": 1e-2, "mm": 1e-3, "in": 0.0254, "s": 1.0, "ms": 1e-3, "us": 1e-6}
-_POSITION_HINTS = ("pos", "encoder", "x1", "x2", "distance", "position")
+#: Words in a column name that mark a position (the default position columns; never a drive).
+POSITION_HINTS = ("pos", "encoder", "x1", "x2", "distance", "position")
 
 
 def _find_column(names: list[str], wanted: str) -> int:
@@ -61,7 +62,7 @@ def _default_position_columns(names: list[str]) -> list[int]:
     if ours:
         return ours
     hits = [i for i, n in enumerate(lowered)
-            if any(h in n for h in _POSITION_HINTS) and "command" not in n and "target" not in n]
+            if any(h in n for h in POSITION_HINTS) and "command" not in n and "target" not in n]
     if not hits:
         raise IdentValueError("position columns", f"columns named like position/encoder in {names} (name "
                               "them with --pos COLUMN, once per cart)", "none")
@@ -258,4 +259,4 @@ def load(path: str | Path, time_col: str | None = None, pos_cols: list[str] | No
                      rate_hz=rate_hz)
 
 
-__all__ = ["MAX_POSITION_M", "Table", "load", "load_mcap", "load_text", "read_table", "unit_scale"]
+__all__ = ["MAX_POSITION_M", "POSITION_HINTS", "Table", "load", "load_mcap", "load_text", "read_table", "unit_scale"]

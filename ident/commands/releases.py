@@ -37,7 +37,55 @@ def run(args: argparse.Namespace) -> int:
         print(json.dumps([r.to_dict() for r in releases], indent=2))
     else:
         print(table(args.path, releases))
+    note = drive_note(args, releases)
+    if note:
+        print(note, file=sys.stderr)
     return 0
+
+
+#: Column names of a recorded drive (a motor's command, `ident diagnose --input`).
+DRIVE_HINTS = ("effort", "input", "duty", "voltage", "current", "command", "pwm", "force")
+#: A drive that switches at most this long (s) before a listed release is named beside it.
+DRIVE_LEAD_S = 0.2
+
+
+def drive_note(args: argparse.Namespace, releases: list[Any]) -> str | None:
+    """A note when a text export has a column named like a drive (`DRIVE_HINTS`) that switches
+    within `DRIVE_LEAD_S` before a listed release: in the positions alone a force step on a
+    cart at rest is a release from a still hold (a motor pulse's on and off), and the record
+    is the response to that drive (`ident diagnose FILE --input COLUMN`). None otherwise."""
+    from pathlib import Path
+
+    import numpy as np
+
+    from ident.data import input_jumps
+    from ident.errors import IdentError
+    from ident.io import POSITION_HINTS, load
+    from ident.text_table import read_table, text_lines
+
+    path = Path(args.path)
+    if not releases or path.suffix == ".mcap":
+        return None
+    try:
+        names = read_table(text_lines(path)).names
+    except (IdentError, OSError):
+        return None
+    drives = [n for n in names if any(h in n.lower() for h in DRIVE_HINTS)
+              and not any(h in n.lower() for h in POSITION_HINTS)]   # a commanded position is no force
+    for name in drives:
+        try:
+            data = load(path, time_col=args.time_col, pos_cols=args.pos_cols, scale=args.scale,
+                        input_col=name, rate_hz=args.rate_hz, raw=True)
+        except IdentError:
+            continue
+        switches = data.t[np.clip(input_jumps(data.u) + 1, 0, data.n_samples - 1)]
+        led = [(r.number, r.release_time_s - float(s)) for r in releases for s in switches
+               if 0.0 <= r.release_time_s - float(s) <= DRIVE_LEAD_S]
+        if led:
+            which = ", ".join(f"{1e3 * lead:.0f} ms before release {k}" for k, lead in led)
+            return (f"note: column {name!r} switches {which}: a recorded drive moves the carts there, not a "
+                    f"hand; `ident diagnose {args.path} --input '{name}'` fits the response to it")
+    return None
 
 
 def releases_of_file(args: argparse.Namespace) -> list[Any]:
