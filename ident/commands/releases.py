@@ -54,6 +54,7 @@ def drive_note(args: argparse.Namespace, releases: list[Any]) -> str | None:
     within `DRIVE_LEAD_S` before a listed release: in the positions alone a force step on a
     cart at rest is a release from a still hold (a motor pulse's on and off), and the record
     is the response to that drive (`ident diagnose FILE --input COLUMN`). None otherwise."""
+    import itertools
     from pathlib import Path
 
     import numpy as np
@@ -61,13 +62,13 @@ def drive_note(args: argparse.Namespace, releases: list[Any]) -> str | None:
     from ident.data import input_jumps
     from ident.errors import IdentError
     from ident.io import POSITION_HINTS, load
-    from ident.text_table import read_table, text_lines
+    from ident.text_table import MAX_HEAD_LINES, read_table, text_lines
 
     path = Path(args.path)
     if not releases or path.suffix == ".mcap":
         return None
-    try:
-        names = read_table(text_lines(path)).names
+    try:   # the names only: the header and the first rows, not the whole record again
+        names = read_table(itertools.islice(text_lines(path), MAX_HEAD_LINES + 2)).names
     except (IdentError, OSError):
         return None
     drives = [n for n in names if any(h in n.lower() for h in DRIVE_HINTS)

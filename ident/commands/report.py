@@ -107,8 +107,7 @@ def fitted_samples(run_file: Path, report: FitReport,
         return None
     columns = [numbers.index(c) for c in outputs]
     fitted = case_samples(data, tuple(c + 1 for c in columns))
-    diagnosed, _ = diagnosis_columns(data, fitted, columns)
-    return fitted, diagnosed[:, len(columns):]
+    return fitted, diagnosis_columns(data, fitted, columns)[:, len(columns):]
 
 
 def gather(paths: list[Path], work_dir: Path,

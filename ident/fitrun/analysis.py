@@ -211,7 +211,7 @@ def analyse_fits(data: IdData, settings: FitSettings = FitSettings()) -> RunAnal
     case, moving = choose_case(data, settings.carts)
     columns = [c - 1 for c in moving]
     cart_data = case_samples(data, moving)
-    diagnosed, _ = diagnosis_columns(data, cart_data, columns)
+    diagnosed = diagnosis_columns(data, cart_data, columns)
     case, moving = _named(data, case, columns)
     timings: dict[str, float] = {}
     errors: dict[str, str] = {}
@@ -236,18 +236,18 @@ def analyse_fits(data: IdData, settings: FitSettings = FitSettings()) -> RunAnal
     return dataclasses.replace(analysis, envelope=envelope_of(analysis))
 
 
-def diagnosis_columns(data: IdData, cart_data: IdData, columns: list[int]) -> tuple[FloatArray, list[int]]:
-    """(the diagnosis' positions on `cart_data.t`, their columns in `data`): a one-cart case's
-    free cart and then the other carts (held by a hand, their motion moves the free cart
-    through the spring: the diagnosis takes it as an input, as `ident diagnose` does; a pinned
-    cart that never moves is left out), or the case's own columns when there are no others or
-    they do not share the case's grid."""
+def diagnosis_columns(data: IdData, cart_data: IdData, columns: list[int]) -> FloatArray:
+    """The diagnosis' positions (N, k) on `cart_data.t`: a one-cart case's free cart (column
+    `columns[0]` of `data`) and then the other carts (held by a hand, their motion moves the
+    free cart through the spring: the diagnosis takes it as an input, as `ident diagnose`
+    does; a pinned cart that never moves is left out), or the case's own columns when there
+    are no others or they do not share the case's grid."""
     others = [j for j in range(data.n_outputs) if j not in columns and why_still(data.y[:, j]) is None]
     if len(columns) == 1 and others:
         every = case_samples(data, tuple(j + 1 for j in columns + others))
         if every.t.shape == cart_data.t.shape and np.array_equal(every.t, cart_data.t):
-            return every.y, columns + others
-    return cart_data.y, columns
+            return every.y
+    return cart_data.y
 
 
 def on_one_grid(data: IdData) -> IdData:
