@@ -168,7 +168,7 @@ def diagnose(t: FloatArray, y: FloatArray, carts: int | None = None, step_m: flo
     if last is not None and steps:
         progress.stage("diagnosis: the final model on every sample")
         final = refit_fine(prob, ext, last, win, t_arr, y_arr, None if other is None else y_all[:, other], u_arr)
-    effects = _ranked(prob, steps, y_arr, hold_level(y_arr)[2], final)
+    effects = _ranked(prob, steps, y_arr, hold_level(y_arr)[2], final, base)
     cause = next((e.effect for e in effects if e.material), "none")
     report = _report(prob, win, t_arr, base, ext, first_round, effects, cause, ev, coherence, step_m,
                      source, time.perf_counter() - started, start_s is not None or stop_s is not None, final, read)
@@ -299,10 +299,11 @@ def _no_lattice(prob: Problem, base: FitResult, read: Lattice | None = None) -> 
 
 
 def _ranked(prob: Problem, steps: list[Step], record: FloatArray, first_motion: int,
-            refit: tuple[Problem, FitResult]) -> list[EffectFit]:
+            refit: tuple[Problem, FitResult], baseline: FitResult) -> list[EffectFit]:
     """Accepted effects with their own gain, largest first (parameters from `refit`, the final
     model on its finer grid, `fine.refit_fine`); `record` (N, c) the readings of the whole
-    record and `first_motion` where its motion begins (an encoder lattice's worth)."""
+    record and `first_motion` where its motion begins (an encoder lattice's worth); whether
+    each is material against the `baseline`'s misfit and the final model's (`is_material`)."""
     final = steps[-1].judgement.result if steps else None
     fine_prob, fine = refit
     rows = []
@@ -319,7 +320,7 @@ def _ranked(prob: Problem, steps: list[Step], record: FloatArray, first_motion: 
         # model with it can fit worse: the 2023 open-loop test_3_13 at -1.08 points)
         if j.effect == "quantization":
             gain = lattice_worth_points(record, params["quantum_m"], first_motion)
-        rows.append((gain, k, j, params, std, is_material(step, gain, final)))
+        rows.append((gain, k, j, params, std, is_material(step, gain, final, baseline)))
     rows.sort(key=lambda r: -r[0])
     return [EffectFit(effect=j.effect, rank=rank, step=k, parameters=params, parameter_std=std,  # type: ignore[arg-type]
                       gain_points=gain, cv_ratio=j.lr_cv, cv_threshold=j.threshold, bic_drop=j.bic_drop,

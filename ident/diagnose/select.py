@@ -35,9 +35,9 @@ SEARCHED = ("coupled_mode", "quantization")
 #: Effects of the carts a model may carry (an encoder lattice, a property of the sensor, is not
 #: counted: it must not take the place of a physical effect).
 MAX_EFFECTS = 4
-#: An accepted effect is material when the misfit it removes is this fraction of the final
-#: model's, or it adds this many fit-% points; otherwise it is listed as immaterial and is
-#: never the headline.
+#: An accepted effect is material when it adds this many fit-% points, or the misfit it
+#: removes is this fraction of the final model's and of all the effects removed
+#: (`is_material`); otherwise it is listed as immaterial and is never the headline.
 MATERIAL_FRACTION = 0.1
 MATERIAL_POINTS = 0.05
 
@@ -331,15 +331,19 @@ def _yield(passing: Iterable[Judgement]) -> list[Judgement]:
     return kept
 
 
-def is_material(step: Step, gain_points: float, final: FitResult) -> bool:
-    """Whether an accepted effect matters: the misfit it removed is at least
-    `MATERIAL_FRACTION` of what the final model still misses, or it adds `MATERIAL_POINTS`.
-    (An encoder lattice of 0.3 counts under a friction model's 20-count misfit does not.)
+def is_material(step: Step, gain_points: float, final: FitResult, baseline: FitResult) -> bool:
+    """Whether an accepted effect matters: it adds `MATERIAL_POINTS`, or the misfit it removed is
+    at least `MATERIAL_FRACTION` both of what the final model still misses and of all that the
+    accepted effects removed from the `baseline`'s. (An encoder lattice of 0.3 counts under a
+    friction model's 20-count misfit does not; nor a 2 µm "mode" that takes a tenth of the noise
+    left under a friction model that gained 6-13 points: red team `coulomb+force_pulse`,
+    `coulomb+held_cart` and `two_cart_coulomb_y1` 700, +0.008-0.015 points.)
     An encoder lattice is a property of the measurement, not of the carts: it matters only by
     its points (`gain_points` is then what it costs a perfect reading,
     `lattice.lattice_worth_points`: a 50 µm lattice worth 0.02 points on an otherwise linear
     run is listed, never the headline, even though it removes most of the little misfit left)."""
-    if step.judgement.effect == "quantization":
+    if step.judgement.effect == "quantization" or gain_points >= MATERIAL_POINTS:
         return gain_points >= MATERIAL_POINTS
     removed = step.before.sse_train - step.judgement.result.sse_train
-    return removed >= MATERIAL_FRACTION * final.sse_train or gain_points >= MATERIAL_POINTS
+    explained = baseline.sse_train - final.sse_train
+    return removed >= MATERIAL_FRACTION * max(final.sse_train, explained)

@@ -32,6 +32,12 @@ MIN_RELEASE_AMPLITUDE_M = 0.01
 #: ... and this many noise stds and this many dry-friction bands.
 MIN_AMPLITUDE_SIGMAS = 30.0
 MIN_AMPLITUDE_BANDS = 4.0
+#: A released cart leaves at once: within a quarter period of the hand's last force it moves
+#: by at least this share of that swing (a free response does, by 0.59-1 of it: from a hold it
+#: reaches its centre, and a flick let go φ before its extreme turns there and comes back by
+#: (1 - cos φ) + (1 - sin φ) of it), and as much in the half period after its first turn
+#: (`stays`); a hand that puts a cart back where it stays (a nudge) does not.
+LEAVES_SHARE = 0.25
 #: A hand that lets a ringing cart go where it took it leaves a swing below this many
 #: `min_amplitude_m` when it only nudged it (`nudged_while_ringing`).
 NUDGE_AMPLITUDE_FACTOR = 2.0
@@ -67,11 +73,12 @@ def is_release(m: Motion, model: FreeModel, first: int, last: int, nxt: int, fre
     band = abs(model.dry) / max(float(model.stiffness[0]), 1e-12)
     # (the swing is read off the smoothed position: the noise left there counts)
     level = max(MIN_AMPLITUDE_SIGMAS * float(m.x_noise_m[j]), MIN_AMPLITUDE_BANDS * band)
-    if turning_points(x[last:stop], max(level / 3.0, 2.0 * band)) < MIN_TURNS:
+    turns = turning_indices(x[last:stop], max(level / 3.0, 2.0 * band))
+    if turns.size < MIN_TURNS:
         return False
     span = x[last:min(stop, last + m.samples(m.period_s))]
     amplitude = 0.5 * float(np.ptp(span))
-    if amplitude < max(level, min_amplitude_m):
+    if amplitude < max(level, min_amplitude_m) or stays(m, x, last, last + int(turns[0]), nxt, amplitude):
         return False
     if nudged_while_ringing(m, j, first, last, amplitude, min_amplitude_m) or steady_force(m, model, first, last):
         return False
@@ -88,6 +95,22 @@ def is_release(m: Motion, model: FreeModel, first: int, last: int, nxt: int, fre
     moved = {i: float(np.ptp(m.x[lead:last + 1, i])) for i in held}
     return all(moved[i] < TOUCH_FRACTION * own or moved[i] <= TOUCH_WANDERS * _usual_wander(m, i, last + 1 - lead)
                for i in held)
+
+
+def stays(m: Motion, x: FloatArray, last: int, turn: int, nxt: int, amplitude: float) -> bool:
+    """Whether the cart stays where the hand left it at `last` (it moves by less than
+    `LEAVES_SHARE` of `amplitude` within a quarter period), or stops at its first turn (`turn`:
+    as little over the half period after it, when at least a quarter period of it comes before
+    the hand's next episode at `nxt`): the hand moved it there, no free response follows. A
+    free response of a centimetre or more swings back from its first turn by most of it (dry
+    friction of a quarter of it still leaves half), and a record of handling only has no
+    ringing to set the period by (red team handling records 701 and 706: 4.4 s, over which a
+    nudge and a slow pull's return by hand, each let go where the cart stayed, read as swings)."""
+    quarter, half = m.samples(m.period_s / 4), m.samples(m.period_s / 2)
+    if float(np.ptp(x[last:min(nxt, last + quarter + 1)])) < LEAVES_SHARE * amplitude:
+        return True
+    back = x[turn:min(nxt, turn + half + 1)]
+    return back.size > quarter and float(np.ptp(back)) < LEAVES_SHARE * amplitude
 
 
 def _usual_wander(m: Motion, column: int, width: int) -> float:
