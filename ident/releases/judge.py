@@ -33,11 +33,12 @@ MIN_RELEASE_AMPLITUDE_M = 0.01
 MIN_AMPLITUDE_SIGMAS = 30.0
 MIN_AMPLITUDE_BANDS = 4.0
 #: A released cart leaves at once: within a quarter period of the hand's last force it moves
-#: by at least this share of that swing (a free response does, by 0.59-1 of it: from a hold it
-#: reaches its centre, and a flick let go φ before its extreme turns there and comes back by
-#: (1 - cos φ) + (1 - sin φ) of it), and as much in the half period after its first turn
-#: (`stays`); a hand that puts a cart back where it stays (a nudge) does not.
-LEAVES_SHARE = 0.25
+#: by more than this share of that swing (one cart does by 0.59-1 of it: from a hold it reaches
+#: its centre, and a flick let go φ before its extreme turns there and comes back by (1 - cos φ)
+#: + (1 - sin φ) of it; the pulled cart of a chain whose slow mode dominates, with the period
+#: the fast one's, by 0.18: testkit's students, seed 3014), and as much in the half period after
+#: its first turn (`stays`); a hand that puts a cart back where it stays (a nudge) does not.
+LEAVES_SHARE = 0.1
 #: A hand that lets a ringing cart go where it took it leaves a swing below this many
 #: `min_amplitude_m` when it only nudged it (`nudged_while_ringing`).
 NUDGE_AMPLITUDE_FACTOR = 2.0
