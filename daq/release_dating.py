@@ -25,8 +25,9 @@ as the end of a hand force joined to the free response:
   linear in the free coefficients and (F_r, S) for a given t0, t0 by a grid an eighth of a
   sample apart, then finer. A quartic hand (the previous model) also follows the first free
   samples and dated real flicks 8-29 ms late. From a still hold the onset fit is kept unless
-  the free response clearly begins later (more than two samples: a hand that lets go
-  gradually).
+  the free response clearly begins later (more than two samples) and the onset starts the
+  cart slower than the spring's pull at the hold (`let_go_at_once`): a hand that lets go
+  gradually.
 """
 
 from __future__ import annotations
@@ -63,6 +64,9 @@ MAX_COUPLING_SHARE = 1.25
 # real 2025 flick, gently let go, fits 3.4 times its residual with it or without)
 DRIVEN_FIT = 4.0
 DRIVEN_EXPLAINS = 0.5
+# a hold's onset that starts the cart at this share of the spring's pull there or more was a
+# hand let go at once (`let_go_at_once`): a hand that eases off starts it slower
+AT_ONCE = 0.7
 
 
 @dataclass(frozen=True, slots=True)
@@ -268,9 +272,23 @@ def date_ringing_release(s: Samples, t_now: float, channel: int, turns: tuple[Tu
         return free
     if not isinstance(free, Released) or free.channel != hold.channel or others_swing(s, hold, settings.held_ratio):
         return hold     # two carts ring together: one damped sinusoid does not describe them
-    # a hand that lets go gradually: the motion starts before the free response does
+    # a hand that lets go gradually: the motion starts before the free response does, and
+    # slower than the spring's pull at the hold (a hand let go at once starts it at that pull)
     late = free.t_release_s - hold.t_release_s > max(2.0 * float(np.median(np.diff(s.t[-20:]))), 0.005)
-    return free if late else hold
+    return free if late and not let_go_at_once(hold, turns) else hold
+
+
+def let_go_at_once(hold: Released, turns: tuple[Turn, Turn, Turn]) -> bool:
+    """Whether the hold's onset starts the cart at the spring's pull there: its acceleration at
+    least `AT_ONCE` of ω² times the hold's distance from the ringing's centre ((A + 2B + C)/4,
+    ω from the turns). A free response that begins later then misses a mode the damped
+    sinusoid lacks, not a hand that eased off (red team `coupled_span` 1500: a pinned 0.75 kg
+    cart beside a 2.8 kg one, 1.34 of the pull at the onset, the free response's start 242 ms
+    late; the red team's hold releases start at 0.98-1.22 of it)."""
+    a, b, c = turns
+    omega = spring_of(turns)[1]
+    centre = 0.25 * (a.x_m + 2.0 * b.x_m + c.x_m)
+    return hold.accel_m_s2 >= AT_ONCE * omega ** 2 * abs(hold.hold_pos[hold.channel] - centre)
 
 
 # --- driven by the other cart ---------------------------------------------------------------

@@ -32,7 +32,7 @@ from ident.releases.hand import HAND_SIGMAS, STICK_ALLOWANCE, FreeModel, drift, 
 from ident.releases.instant import release_instant
 from ident.releases.joined import joined_instant
 from ident.releases.judge import MIN_RELEASE_AMPLITUDE_M, held_at_a_steady_level, is_release, steady_level
-from ident.releases.misfit import free_misfit, rest
+from ident.releases.misfit import TAKE_FORCE_FRACTION, free_misfit, rest
 from ident.releases.motion import Motion, motion, moving_samples
 from ident.releases.record import HELD_FRACTION, EndedBy, Release
 from ident.releases.restart import moved_after_rest
@@ -80,7 +80,8 @@ def find_releases(t: NDArray[np.float64], y: NDArray[np.float64],
         # this cart's rest through the spring, which is not a hand on this cart
         model = fit_free_model(m, j, tuple(i for i in range(n_cols) if i != j), tuple(held))
         # a free response's own misfit (an effect of the state the model lacks) is no hand
-        episodes = [e for e in hand_episodes(m, model) if not free_misfit(m, model, *e)]
+        episodes = [e for e in hand_episodes(m, model)
+                    if not free_misfit(m, model, *e, fraction=TAKE_FORCE_FRACTION)]
         # a cart another free one pulls (read, or an unread mass) creeps where it stops
         partner = len(free) > 1 or model.hidden is not None
         pushes = [p for p in sustained_pushes(m, model, partner) if not free_misfit(m, model, *p)]

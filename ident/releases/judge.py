@@ -22,6 +22,11 @@ TOUCH_FRACTION = 0.2
 #: holding a cart loosely lets it wander by a few mm (the 2025 records: 100-400 counts, up
 #: to 7 mm), a fifth of a 3 cm pull, more over a hold of seconds.
 TOUCH_WANDERS = 2.0
+#: ... and the hand's force on this cart is at most this many times what the held cart's move
+#: pulls it by through the spring (k_ji · its move): a hand that holds this cart pulled while
+#: the other is moved pushes far harder (red team record 1509 at 50 Hz: 33 m/s² against the
+#: coupling's 2-4 from a 13 mm move of the held cart; the release that ended that hold was lost).
+TOUCH_FORCE_FACTOR = 2.0
 #: A release rings: at least this many turning points in its free response (the cart swings
 #: out and back; a cart whose slow mode has a long period may be taken again within a cycle).
 MIN_TURNS = 1
@@ -95,7 +100,15 @@ def is_release(m: Motion, model: FreeModel, first: int, last: int, nxt: int, fre
     held = [i for i in range(m.y.shape[1]) if i not in free]
     moved = {i: float(np.ptp(m.x[lead:last + 1, i])) for i in held}
     return all(moved[i] < TOUCH_FRACTION * own or moved[i] <= TOUCH_WANDERS * _usual_wander(m, i, last + 1 - lead)
-               for i in held)
+               or push > TOUCH_FORCE_FACTOR * _coupling(model, i) * moved[i] for i in held)
+
+
+def _coupling(model: FreeModel, column: int) -> float:
+    """|k_ji| (1/s²): what a unit move of held cart `column` pulls this cart by through the
+    spring (infinite when its position is not in the model: no bound)."""
+    if column not in model.others:
+        return float("inf")
+    return abs(float(model.stiffness[1 + model.others.index(column)]))
 
 
 def stays(m: Motion, x: FloatArray, last: int, turn: int, nxt: int, amplitude: float) -> bool:
