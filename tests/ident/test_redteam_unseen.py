@@ -304,7 +304,8 @@ def test_a_hold_while_the_held_cart_is_moved_still_ends_in_a_release() -> None:
     rec = cases10.make_record(1509)
     t = np.asarray(rec.t, dtype=np.float64)
     t = t / 1000.0 if rec.t.dtype.kind in "iu" else t
-    found = [r.release_time_s for r in find_releases(t, np.asarray(rec.counts, dtype=np.float64) / cases10.COUNTS_PER_M)]
+    y = np.asarray(rec.counts, dtype=np.float64) / cases10.COUNTS_PER_M
+    found = [r.release_time_s for r in find_releases(t, y)]
     truths = [float(r["t_r"]) for r in rec.releases]
     assert len(found) == len(truths) == 3, (found, truths)
     assert all(abs(f - r) <= 0.02 for f, r in zip(found, truths)), (found, truths)
