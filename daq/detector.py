@@ -64,7 +64,15 @@ from daq.detector_events import (
     Settled,
 )
 from daq.onset import OnsetFit, fit_onset
-from daq.release_dating import Samples, date_ringing_release, fit_onset_at, free_span, redate_hold, spring_of_pull
+from daq.release_dating import (
+    Samples,
+    centre_of,
+    date_ringing_release,
+    fit_onset_at,
+    free_span,
+    redate_hold,
+    spring_of_pull,
+)
 from daq.ringing import RingingLimits, Turn, Zigzag, is_ringing
 
 log = logging.getLogger(__name__)
@@ -403,11 +411,10 @@ class ReleaseDetector:
         return event
 
     def _rest_of_ringing(self, channel: int, hold: tuple[float, ...], a: Turn, b: Turn, c: Turn) -> None:
-        """A free ringing swings about the cart's rest: (A + 2B + C) / 4 of three turning points
-        is the rest exactly under dry friction's linear decay and to first order under viscous
-        decay. It replaces the rest taken at start-up where the carts were first still, which
+        """A free ringing swings about the cart's rest (`centre_of` its three turning points). It
+        replaces the rest taken at start-up where the carts were first still, which
         may have been a cart held pulled (a later release from a hold near the true rest was then
         taken for a release "toward the rest"; a hand's swing from there was dated at its start)."""
         rest = list(self._rest if self._rest is not None and len(self._rest) == len(hold) else hold)
-        rest[channel] = 0.25 * (a.x_m + 2.0 * b.x_m + c.x_m)
+        rest[channel] = centre_of((a, b, c))
         self._rest = tuple(rest)

@@ -285,10 +285,15 @@ def let_go_at_once(hold: Released, turns: tuple[Turn, Turn, Turn]) -> bool:
     sinusoid lacks, not a hand that eased off (red team `coupled_span` 1500: a pinned 0.75 kg
     cart beside a 2.8 kg one, 1.34 of the pull at the onset, the free response's start 242 ms
     late; the red team's hold releases start at 0.98-1.22 of it)."""
-    a, b, c = turns
     omega = spring_of(turns)[1]
-    centre = 0.25 * (a.x_m + 2.0 * b.x_m + c.x_m)
-    return hold.accel_m_s2 >= AT_ONCE * omega ** 2 * abs(hold.hold_pos[hold.channel] - centre)
+    return hold.accel_m_s2 >= AT_ONCE * omega ** 2 * abs(hold.hold_pos[hold.channel] - centre_of(turns))
+
+
+def centre_of(turns: tuple[Turn, Turn, Turn]) -> float:
+    """Where a ringing swings about, from its turns A, B, C: (A + 2B + C) / 4, exact under dry
+    friction's linear decay and to first order under viscous decay."""
+    a, b, c = turns
+    return 0.25 * (a.x_m + 2.0 * b.x_m + c.x_m)
 
 
 # --- driven by the other cart ---------------------------------------------------------------

@@ -342,8 +342,10 @@ def is_material(step: Step, gain_points: float, final: FitResult, baseline: FitR
     its points (`gain_points` is then what it costs a perfect reading,
     `lattice.lattice_worth_points`: a 50 µm lattice worth 0.02 points on an otherwise linear
     run is listed, never the headline, even though it removes most of the little misfit left)."""
-    if step.judgement.effect == "quantization" or gain_points >= MATERIAL_POINTS:
-        return gain_points >= MATERIAL_POINTS
+    if gain_points >= MATERIAL_POINTS:
+        return True
+    if step.judgement.effect == "quantization":
+        return False
     removed = step.before.sse_train - step.judgement.result.sse_train
     explained = baseline.sse_train - final.sse_train
     return removed >= MATERIAL_FRACTION * max(final.sse_train, explained)
