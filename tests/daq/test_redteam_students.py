@@ -20,6 +20,7 @@ import pytest
 from daq.detector import ReleaseDetector
 from daq.detector_events import Released
 from testkit.redteam import redteam_module
+from testkit.release_tally import detect
 
 
 @pytest.fixture(scope="module")
@@ -97,9 +98,7 @@ def test_a_hold_let_go_at_once_beside_a_pinned_cart_is_dated_at_its_onset() -> N
     late, which was taken for a hand that eased off; the hold's onset starts the cart at 1.34
     of the spring's pull there (a hand let go at once), and is kept."""
     case = redteam_module("run11").case_of("coupled_span", 1500)
-    detector = ReleaseDetector()
-    found = [e.t_release_s for k in range(case.t.size) for e in detector.feed(float(case.t[k]), (float(case.y[k, 0]),))
-             if isinstance(e, Released)]
+    found = detect((float(t), (float(y),)) for t, y in zip(case.t, case.y[:, 0]))
     step = float(np.median(np.diff(case.t)))
     assert len(found) == 1 and abs(found[0] - case.truth["release_time_s"]) <= step, found
 
@@ -123,7 +122,5 @@ def test_a_hold_let_go_gradually_is_dated_where_the_force_ends(rate_hz: int, ram
     rng = np.random.default_rng(rate_hz)
     t = np.arange(0.0, end + 6.0, 1.0 / rate_hz) + rng.uniform(0.0, 1.0 / rate_hz)
     x = np.round((sol.sol(t)[0] + rng.normal(0.0, 3e-6, t.size)) / 1e-5) * 1e-5
-    detector = ReleaseDetector()
-    found = [e.t_release_s for k in range(t.size) for e in detector.feed(float(t[k]), (float(x[k]),))
-             if isinstance(e, Released)]
+    found = detect((float(tk), (float(xk),)) for tk, xk in zip(t, x))
     assert len(found) == 1 and abs(found[0] - end) <= 0.01, (found, end)

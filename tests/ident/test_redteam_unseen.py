@@ -103,6 +103,16 @@ def _record(seed: int) -> Any:
     return cases10, cases10.make_record(seed)
 
 
+def _readings(seed: int, handling: bool = False) -> tuple[Any, np.ndarray, np.ndarray]:
+    """An issue-10 red-team record, its times (s: the ECP clock counts whole ms) and positions
+    (m), as `ident releases` reads them."""
+    cases10 = redteam_module("cases10")
+    rec = cases10.make_record(seed, handling=handling)
+    t = np.asarray(rec.t, dtype=np.float64)
+    t = t / 1000.0 if rec.t.dtype.kind in "iu" else t
+    return rec, t, np.asarray(rec.counts, dtype=np.float64) / cases10.COUNTS_PER_M
+
+
 def _record_311() -> Any:
     return _record(311)
 
@@ -258,11 +268,8 @@ def test_handling_let_go_where_the_cart_stays_is_no_release(seed: int) -> None:
     two nudges (701) the slow pulls that followed counted as 17 mm swings, and a slow pull's
     return by hand (706) as a 22 mm swing that stopped at its first turn: each was listed as a
     release. A released cart leaves at once and swings back from its first turn."""
-    cases10 = redteam_module("cases10")
-    rec = cases10.make_record(seed, handling=True)
-    t = np.asarray(rec.t, dtype=np.float64)
-    t = t / 1000.0 if rec.t.dtype.kind in "iu" else t
-    assert find_releases(t, np.asarray(rec.counts, dtype=np.float64) / cases10.COUNTS_PER_M) == []
+    _, t, y = _readings(seed, handling=True)
+    assert find_releases(t, y) == []
 
 
 @pytest.mark.parametrize(("family", "seed"), [("coulomb+force_pulse", 700), ("coulomb+held_cart", 700),
@@ -300,11 +307,7 @@ def test_a_hold_while_the_held_cart_is_moved_still_ends_in_a_release() -> None:
     cart moved by more than a fifth of the pulled one and beyond its wander, and the hold was
     taken for a touch of it: the release was lost. The hand pushed 33 m/s², eight times what the
     held cart's move pulls through the spring."""
-    cases10 = redteam_module("cases10")
-    rec = cases10.make_record(1509)
-    t = np.asarray(rec.t, dtype=np.float64)
-    t = t / 1000.0 if rec.t.dtype.kind in "iu" else t
-    y = np.asarray(rec.counts, dtype=np.float64) / cases10.COUNTS_PER_M
+    rec, t, y = _readings(1509)
     found = [r.release_time_s for r in find_releases(t, y)]
     truths = [float(r["t_r"]) for r in rec.releases]
     assert len(found) == len(truths) == 3, (found, truths)
