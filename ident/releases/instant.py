@@ -6,7 +6,8 @@ evaluated with derivatives over a window 2.5 times shorter (a 25th of a period, 
 5 samples, wider where the reading noise would bury the hand's force: `_fine_window`), which
 is noisier but sharp, and the release is the sample after the last one,
 after the episode's peak force and before the first stretch of T/12 where it stays
-below the limit, where that finer residual |r| exceeds
+below the limit (that the force does not leave by coming back over twice the limit),
+where that finer residual |r| exceeds
 
     max(FRACTION_OF_PEAK · max|r| over the episode, NOISE_SIGMAS · its robust std in the
         free period that follows):
@@ -35,6 +36,10 @@ FRACTION_OF_PEAK = 0.02
 NOISE_SIGMAS = 4.0
 #: The force has ended when the residual stays below the limit this fraction of a period.
 QUIET_FRACTION = 1.0 / 12.0
+#: ... unless it comes back after that stretch above this multiple of the limit: the hand's
+#: force passed through zero (a flick braked to its path's end and held there) and it is
+#: still there (`release_instant`)
+RETURN_FACTOR = 2.0
 #: The local stiffness is refitted on at least this many free samples (`_local_stiffness`).
 MIN_LOCAL_SAMPLES = 10
 #: ... and a curved spring (x², x³) on at least this many, when it leaves at most this share of
@@ -87,11 +92,16 @@ def release_instant(m: Motion, model: FreeModel, first: int, last: int) -> float
     loud = _loud(seg, limit, max(peak_at, last - first - 2 * m.window), late, m.uneven_stamps)
     if not loud.size:
         loud = _loud(seg, limit, peak_at, late, m.uneven_stamps)
-    # the first gap between loud samples that lasts a quiet stretch: the force has ended
+    # the first gap between loud samples that lasts a quiet stretch: the force has ended,
+    # unless it comes back strong after it (a braked flick held at its path's end: red team
+    # quantization 1500, 176 Hz, dated 83 ms early at the brake's zero crossing)
     gaps = np.flatnonzero(np.diff(np.concatenate([loud, [seg.size + quiet]])) > quiet)
     if not loud.size:
         return float(m.t[min(last + 1, m.n_samples - 1)])
-    k = int(loud[gaps[0]])
+    g = 0
+    while g + 1 < gaps.size and np.max(seg[loud[gaps[g] + 1]:loud[gaps[g + 1]] + 1]) > RETURN_FACTOR * limit:
+        g += 1
+    k = int(loud[gaps[g]])
     if k + 1 >= seg.size:
         return float(m.t[first + k])
     # where |r| crosses the limit, between samples, less the smoothing's delay for a force

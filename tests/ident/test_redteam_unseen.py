@@ -312,3 +312,17 @@ def test_a_hold_while_the_held_cart_is_moved_still_ends_in_a_release() -> None:
     truths = [float(r["t_r"]) for r in rec.releases]
     assert len(found) == len(truths) == 3, (found, truths)
     assert all(abs(f - r) <= 0.02 for f, r in zip(found, truths)), (found, truths)
+
+
+def test_a_flick_braked_to_its_path_end_and_held_there_is_dated_at_the_let_go() -> None:
+    """Red team `quantization` 1500 (176 Hz, an 84 µm lattice with noise after it): the hand
+    flicks the cart 45 mm out, brakes it to rest at the end of its path and holds it there
+    a moment. Its force passed through zero while braking and stayed under the limit for 51 ms,
+    then held back at up to 2.5 limits for the 40 ms before the let-go; the release was dated
+    at the zero crossing, 83 ms early, and the diagnosis took the hand's hold for a 2.5 Hz
+    mode (+0.56 points)."""
+    case = _case("quantization", 1500)
+    releases = find_releases(case.t, case.y)
+    step = float(np.median(np.diff(case.t)))
+    assert len(releases) == 1
+    assert abs(releases[0].release_time_s - case.truth["release_time_s"]) <= 1.5 * step, releases[0].release_time_s
