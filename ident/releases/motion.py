@@ -10,7 +10,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from ident.data import uniform_grid
+from ident.data import stamps_line, uniform_grid
 from ident.physics.measures import noise_std, spectral_peaks
 
 FloatArray = NDArray[np.float64]
@@ -68,16 +68,19 @@ class Motion:
         return max(1, round(seconds / self.dt))
 
 
-def uniform(t: FloatArray, y: FloatArray) -> tuple[FloatArray, FloatArray]:
-    """`(t, y)` on a uniform grid, same time base: as they are when the steps differ by no
-    more than 1 %, else linearly interpolated onto `ident.data.uniform_grid` (which evens out
-    a coarse clock's stamps first: the ECP Teensy's whole ms on ~1.13 ms samples)."""
+def uniform(t: FloatArray, y: FloatArray) -> tuple[FloatArray, FloatArray, bool]:
+    """`(t, y)` on a uniform grid, same time base, and whether the stamps were uneven. When
+    the steps differ by no more than 1 %, the readings as they are on the stamps' least-squares
+    line t0 + k·Ts (every index and time of the finder is t0 + k·Ts: taken from the first
+    step, a record read at 25 Hz whose first step was 0.9 % short of the others dated a release
+    80 ms early 9 s on); else linearly interpolated onto `ident.data.uniform_grid` (which evens
+    out a coarse clock's stamps first: the ECP Teensy's whole ms on ~1.13 ms samples)."""
     dt = np.diff(t)
     step = float(np.median(dt))
     if float(np.max(np.abs(dt - step))) <= 0.01 * step:
-        return t, y
+        return stamps_line(t), y, False
     times, grid = uniform_grid(t, y)
-    return grid, np.column_stack([np.interp(grid, times, col) for col in y.T])
+    return grid, np.column_stack([np.interp(grid, times, col) for col in y.T]), True
 
 
 def dominant_period(y: FloatArray, dt: float) -> float:
@@ -182,7 +185,7 @@ def motion(t: FloatArray, y: FloatArray) -> Motion:
     """Grid, period, noise and Savitzky–Golay (cubic) derivatives of a record."""
     from scipy.signal import savgol_filter  # deferred: keeps `import ident` fast
     t_arr = np.asarray(t, dtype=np.float64)
-    t_u, y_u = uniform(t_arr, np.asarray(y, dtype=np.float64).reshape(len(t), -1))
+    t_u, y_u, uneven = uniform(t_arr, np.asarray(y, dtype=np.float64).reshape(len(t), -1))
     dt = float(t_u[1] - t_u[0])
     period = dominant_period(y_u, dt)
     noise = measurement_noise(np.asarray(y, dtype=np.float64).reshape(len(t), -1))
@@ -190,7 +193,7 @@ def motion(t: FloatArray, y: FloatArray) -> Motion:
     x = savgol_filter(y_u, window, 3, axis=0, mode="interp")
     v = savgol_filter(y_u, window, 3, deriv=1, delta=dt, axis=0, mode="interp")
     a = savgol_filter(y_u, window, 3, deriv=2, delta=dt, axis=0, mode="interp")
-    return Motion(t_u, y_u, x, v, a, dt, period, noise, window, smoothed_noise(noise, window), t_u is not t_arr)
+    return Motion(t_u, y_u, x, v, a, dt, period, noise, window, smoothed_noise(noise, window), uneven)
 
 
 def smoothing_window(y: FloatArray, dt: float, period: float) -> int:

@@ -7,6 +7,8 @@ short ring. The window took its modes from that step (0.9 rad/s for a 17 rad/s r
 scan then ran out of samples and the modal fit crashed ("Initial guess is outside of provided
 bounds"). Its first fix, the velocity's spectrum, then lost noisy rings to the differenced
 reading noise. The records come from a plain fine-step integration in this test, not from `ident`.
+
+And a clock whose first step is short: the window's simulation steps by the stamps' line.
 """
 
 from __future__ import annotations
@@ -15,6 +17,7 @@ import numpy as np
 import pytest
 
 from ident.diagnose import diagnose
+from testkit.effects import make_case
 
 FINE_S = 2e-5
 
@@ -58,3 +61,14 @@ def test_a_damped_ring_released_far_from_rest_is_fitted_at_its_own_frequency(wn:
     report = diagnose(t, y[:, None], carts=1).report
     assert report.extended.parameters["wn_rad_s"] == pytest.approx(wn, rel=0.05)
     assert abs(report.release_time_s - release) < 2.0 / rate_hz
+
+
+def test_a_clock_whose_first_step_is_short_leaves_the_frequency_where_it_is() -> None:
+    """Stamps within 1 % of each other pass as a uniform grid, but the simulation stepped by
+    t[1] - t[0]: with the first step 0.9 % short (a logger whose clock rounds) the fitted wn
+    came out 0.9 % high on every case. Now the stamps' least-squares line sets the step."""
+    case = make_case(5, "none", carts=1)
+    t = case.observed.t.copy()
+    t[0] += 0.009 * (t[1] - t[0])
+    report = diagnose(t, case.observed.y, carts=1).report
+    assert report.corrected_linear["wn_rad_s"] == pytest.approx(case.truth.details["wn_rad_s"], rel=1e-3)

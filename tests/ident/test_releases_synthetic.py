@@ -114,6 +114,21 @@ def test_a_chain_flicked_near_its_extreme_leaves_the_hand_slowly_but_is_released
     assert all(abs(f.release_time_s - r.time_s) <= _tolerance(100.0) for f, r in zip(found, rec.releases))
 
 
+def test_a_clock_whose_first_step_is_short_dates_late_releases_on_its_own_line() -> None:
+    """A logger's stamps within 1 % of each other are taken as they are, but the first step
+    set the grid: 0.9 % short (a 25 Hz record of a real release, decimated from the 2025
+    rig's clock), a release 9 s on was dated 80 ms early. The same records with the first
+    stamp moved 0.9 % of a step later: every release where it was."""
+    for seed in (21, 24):
+        rec = student_record(seed, 50.0)
+        t = rec.t.copy()
+        t[0] += 0.009 * (t[1] - t[0])
+        found = find_releases(t, rec.y)
+        assert len(found) == len(rec.releases), (seed, [f.release_time_s for f in found])
+        assert all(abs(f.release_time_s - r.time_s) <= _tolerance(50.0) for f, r in zip(found, rec.releases)), \
+            (seed, [f.release_time_s for f in found], [r.time_s for r in rec.releases])
+
+
 def test_a_flat_record_has_no_release() -> None:
     t = np.arange(0.0, 5.0, 0.01)
     y = np.zeros((t.size, 2))
