@@ -33,7 +33,7 @@ from numpy.typing import NDArray
 from ident import progress, summary
 from ident.diagnose import candidates as cands
 from ident.diagnose import explain
-from ident.diagnose.backward import eliminate
+from ident.diagnose.backward import settle
 from ident.diagnose.candidates import Problem, fit_baseline
 from ident.diagnose.drift import drift_basis, drift_spacing, slow_residual
 from ident.diagnose.evidence import EvidenceResult, collect
@@ -160,8 +160,8 @@ def diagnose(t: FloatArray, y: FloatArray, carts: int | None = None, step_m: flo
     steps, first_round, base, last = selection.steps, selection.first_round, selection.baseline, selection.last
     if last is not None and len(steps) > 1:
         progress.stage("diagnosis: backward elimination")
-        elimination = eliminate(steps, last, lambda trial, result, refit: cands.without(prob, trial, result, refit),
-                                carts)
+        elimination = settle(steps, last, lambda trial, result, refit: cands.without(prob, trial, result, refit),
+                             carts)
         steps, last = elimination.steps, elimination.last
     ext = steps[-1].judgement.result if steps else base
     final = (prob, ext)
