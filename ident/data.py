@@ -307,11 +307,18 @@ class IdData:
         return summary.html_table(self._title(), self.summary_rows())
 
 
-def _grid_deviation(t: FloatArray) -> float:
-    """max |t_k - (a + b k)| / b for the least-squares line a + b k."""
+def _line(t: FloatArray) -> tuple[FloatArray, float]:
+    """The least-squares line a + b k through the stamps `t` (N,), and its step b."""
     k = np.arange(t.shape[0], dtype=np.float64)
     slope, intercept = np.polyfit(k, t, 1)
-    return float(np.max(np.abs(t - (intercept + slope * k))) / slope)
+    line: FloatArray = intercept + slope * k
+    return line, float(slope)
+
+
+def _grid_deviation(t: FloatArray) -> float:
+    """max |t_k - (a + b k)| / b for the least-squares line a + b k."""
+    line, slope = _line(t)
+    return float(np.max(np.abs(t - line)) / slope)
 
 
 def stamps_line(t: FloatArray) -> FloatArray:
@@ -323,10 +330,7 @@ def stamps_line(t: FloatArray) -> FloatArray:
     dt = np.diff(t)
     if dt.size == 0 or float(np.ptp(dt)) <= 1e-9 * abs(float(np.median(dt))):
         return t
-    k = np.arange(t.size, dtype=np.float64)
-    slope, intercept = np.polyfit(k, t, 1)
-    line: FloatArray = intercept + slope * k
-    return line
+    return _line(t)[0]
 
 
 def uniform_grid(t: FloatArray, y: FloatArray | None = None) -> tuple[FloatArray, FloatArray]:
