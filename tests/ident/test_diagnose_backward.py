@@ -9,6 +9,8 @@ N = 500 residuals, one cart; an effect of 1 parameter needs n ln(SSE ratio) > χ
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+
 import numpy as np
 import pytest
 
@@ -113,7 +115,7 @@ def test_of_two_unneeded_effects_the_weaker_goes_first_and_the_other_is_judged_a
     assert [s.judgement.effect for s in out.steps] == ["coulomb_friction"]
 
 
-def _without_models(costs: dict[tuple[str, ...], float | tuple[float, float]],
+def _without_models(costs: Mapping[tuple[str, ...], float | tuple[float, float]],
                     calls: list[tuple[tuple[str, ...], int]]):
     """`without` whose refitted model costs `costs[its effects]` (whole window and held out,
     or the pair (whole window, held out))."""
