@@ -277,8 +277,12 @@ class ReleaseDetector:
         self._anchor = None
         self._run_channel = release.channel
         self._run_turns = 0
-        now = self._history[-1][1]
-        self._run_low, self._run_high = list(now), list(now)
+        # the spans from the release on: a ringing is confirmed about a period after it, and the
+        # swings before are the largest (spanned from the confirmation, a pulled cart's 70 mm
+        # swing counted 41 mm, and a held cart moved 6 mm by hand made the run two free carts)
+        since = [x for t, x in self._history if t >= release.t_release_s] or [self._history[-1][1]]
+        self._run_low = [min(column) for column in zip(*since)]
+        self._run_high = [max(column) for column in zip(*since)]
         return release
 
     def _away_from_rest(self, channel: int, direction: float) -> str:

@@ -30,7 +30,7 @@ def cases10() -> ModuleType:
 
 
 @pytest.mark.parametrize(("seed", "rate"), [(s, None) for s in range(9)] + [(s, "50") for s in range(220, 227)]
-                         + [(1006, None), (1315, None)])
+                         + [(1006, None), (1315, None), (2203, None)])
 def test_every_release_of_a_red_team_student_is_dated_within_20_ms(cases10: ModuleType, seed: int,
                                                                      rate: str | None) -> None:
     """Seeds 220-226 at 50 Hz (the red team's batch 5): springs up to 40 rad/s leave 4 samples a
@@ -42,7 +42,12 @@ def test_every_release_of_a_red_team_student_is_dated_within_20_ms(cases10: Modu
     the first quarter of its half-period held no sample crashed the dating (and `daq run` with
     it, every later release of the record lost). Seed 1315 (100 Hz, drawn 2026-11-29): a record
     that starts in a swing of two coupled carts, whose free response fits across the instant
-    the joined model dated 0.11 s in; with no stream before that half-period, not a release."""
+    the joined model dated 0.11 s in; with no stream before that half-period, not a release.
+    Seed 2203 (100 Hz, drawn 2026-11-30): a flick, grabbed while it rang and flicked again;
+    the run's spans were taken from the ringing's confirmation, 0.6 s after the release, so the
+    flicked cart's 70 mm counted 41, the other cart moved 6 mm by the hand counted as a second
+    free cart, and two free carts' growing swings (their beating) do not end a run: the
+    second flick was lost."""
     record = cases10.make_record(seed, rate=rate)
     t = np.asarray(record.t, dtype=np.float64)
     t = t / 1000.0 if record.t.dtype.kind in "iu" else t     # the ECP clock counts whole ms
