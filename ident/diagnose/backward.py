@@ -142,7 +142,7 @@ def _weakest(steps: list[Step], last: Trial, without: Without, carts: int) -> tu
             through = dataclasses.replace(through, lr_cv=through.lr_fit)
             if judgement.passes:
                 judgement = through
-            elif through.passes:   # held out alone says nothing the whole window read does not
+            elif through.passes:   # failing held out alone: kept (see above)
                 continue
         if not judgement.passes and (worst is None or judgement.lr_cv < worst[1].lr_cv):
             worst = at, judgement, reduced
