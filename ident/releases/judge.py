@@ -52,6 +52,11 @@ NUDGE_AMPLITUDE_FACTOR = 2.0
 #: allows for the amplitudes' estimates).
 NUDGE_RETURN_M = 0.003
 NUDGE_SWING_MARGIN = 1.1
+#: ... unless the hand held the cart still before letting it go: it moved by less than this
+#: share of the swing that follows over the quarter period before the let-go (a free swing
+#: moves by about all of it there; testkit's students' holds 0.1-0.4 %, their nudges of a
+#: ringing cart, a 2-8 mm bump and back, 5-8 %)
+HELD_STILL_SHARE = 0.02
 #: The hand's largest force on a released cart is at least this fraction of the spring's
 #: force at the amplitude of the free response (per unit mass: wn²·A).
 HAND_FORCE_FRACTION = 0.3
@@ -156,12 +161,24 @@ def nudged_while_ringing(m: Motion, j: int, first: int, last: int, amplitude: fl
     # a hand that put the ringing cart back where it took it, to within a few millimetres,
     # added no swing whatever the swing left: only the swing the cart had (a release let go
     # there by chance leaves its own, larger swing); told only when the two places are read
-    # apart, half a smoothing window inside each end of the episode
+    # apart, half a smoothing window inside each end of the episode. Not when the hand held
+    # the cart still before letting it go: that is a hold's release, wherever the hand took
+    # the cart (testkit's students, seed 3048 at 50 Hz: a ringing cart caught at -28 mm and
+    # held at -31 mm for a second, then let go to a 25 mm swing, was lost)
     if (last - first > 2 * m.window and returned < NUDGE_RETURN_M
-            and amplitude <= NUDGE_SWING_MARGIN * before):
+            and amplitude <= NUDGE_SWING_MARGIN * before and not _held_still(m, x, first, last, amplitude)):
         return True
     return (amplitude <= before and amplitude < NUDGE_AMPLITUDE_FACTOR * min_amplitude_m
             and returned < min_amplitude_m)
+
+
+def _held_still(m: Motion, x: FloatArray, first: int, last: int, amplitude: float) -> bool:
+    """Whether the hand held the cart still (within `HELD_STILL_SHARE` of the `amplitude` that
+    follows) for the quarter period before it let go at `last` (read half a smoothing window
+    inside the episode, as `nudged_while_ringing` reads its ends)."""
+    end = max(last - m.window // 2, first)
+    start = end - m.samples(m.period_s / 4)
+    return start >= first and float(np.ptp(x[start:end + 1])) < HELD_STILL_SHARE * amplitude
 
 
 def steady_force(m: Motion, model: FreeModel, first: int, last: int) -> bool:

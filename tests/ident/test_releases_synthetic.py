@@ -114,6 +114,20 @@ def test_a_chain_flicked_near_its_extreme_leaves_the_hand_slowly_but_is_released
     assert all(abs(f.release_time_s - r.time_s) <= _tolerance(100.0) for f, r in zip(found, rec.releases))
 
 
+@pytest.mark.parametrize("seed", [3048, 3007])
+def test_a_ringing_cart_caught_and_held_still_where_it_was_caught_is_released(seed: int) -> None:
+    """Seed 3048 at 50 Hz: the hand catches the ringing cart at -28 mm, holds it still at -31 mm
+    for a second and lets go to a 25 mm swing, less than the swing it caught. Taken for a nudge
+    (let go within 3 mm of where it was taken, swinging no more than before), the release was
+    lost; a hold let go is a release wherever the hand took the cart. Seed 3007: a nudge of a
+    ringing cart at +37 mm (a 2.5 mm bump and back over 0.45 s, the cart still moving by 5 % of
+    the swing that follows in the quarter period before the let-go) stays a nudge."""
+    rec = student_record(seed, 50.0)
+    found = find_releases(rec.t, rec.y)
+    assert len(found) == len(rec.releases) == 4
+    assert all(abs(f.release_time_s - r.time_s) <= _tolerance(50.0) for f, r in zip(found, rec.releases))
+
+
 def test_a_clock_whose_first_step_is_short_dates_late_releases_on_its_own_line() -> None:
     """A logger's stamps within 1 % of each other are taken as they are, but the first step
     set the grid: 0.9 % short (a 25 Hz record of a real release, decimated from the 2025
