@@ -165,8 +165,10 @@ def own_gain(judgement: Judgement, bare: FitResult) -> float:
 
 def forward(baseline: FitResult, effects: Callable[[FitResult], list[str]],
             screen: Callable[[FitResult, str], Trial], refine: Callable[[Trial], FitResult],
-            carts: int, without: Callable[[Trial, FitResult, int], FitResult]) -> Selection:
-    """Accepted steps in order, the first round's judgements and the baseline (`Selection`).
+            carts: int, without: Callable[[Trial, FitResult, int], FitResult],
+            resume: Selection | None = None) -> Selection:
+    """Accepted steps in order, the first round's judgements and the baseline (`Selection`);
+    from `resume`'s steps on when given (its first round kept).
 
     Each round screens every available effect with a quick fit; the `REFINED` with the
     largest whole-window ratio above the noise bound are fitted on to convergence and
@@ -176,11 +178,11 @@ def forward(baseline: FitResult, effects: Callable[[FitResult], list[str]],
     model, which replaces it (the last step's model, or the baseline) and the round is screened
     again (at most `MAX_REFRESHES` times).
     """
-    current = baseline
-    steps: list[Step] = []
-    first_round: list[Judgement] = []
+    steps: list[Step] = list(resume.steps) if resume is not None else []
+    current = steps[-1].judgement.result if steps else baseline
+    first_round: list[Judgement] = list(resume.first_round) if resume is not None else []
     refreshes = lookaheads = 0
-    last: Trial | None = None
+    last: Trial | None = resume.last if resume is not None else None
     while sum(s.judgement.effect != "quantization" for s in steps) < MAX_EFFECTS:
         trials = {e: screen(current, e) for e in effects(current)}
         judged = _round(current, trials, refine, carts)

@@ -106,3 +106,23 @@ def test_a_force_input_is_modelled_not_taken_for_a_mode(tmp_path: Path, capsys: 
     gain = report.extended.parameters["input_gain_1_1"]
     assert gain == pytest.approx(0.002 / 1.2, rel=0.1)          # force per duty unit / mass
     assert report.extended.fit_percent > 97.0
+
+
+def test_an_effect_that_a_dropped_one_had_kept_out_still_enters() -> None:
+    """testkit `coulomb+held_cart` 1072896855 (bench seed 51, case 40): static friction (1.43
+    times the kinetic level) holds the stopped cart against the held cart's pull. Pre-sliding
+    friction came in second (static friction is not tried beside it), the held cart's coupling
+    third, and backward elimination then dropped pre-sliding: the selection ended there, 1.4
+    points under the noise floor, the coupling 56 % off. Selected once more from the eliminated
+    model, static friction enters."""
+    case = make_case(1072896855, "coulomb+held_cart")
+    report = diagnose(case.observed.t, case.observed.y, carts=case.observed.carts).report
+    effects = {e.effect: e for e in report.effects}
+    assert {"coulomb_friction", "held_cart_motion", "static_friction"} <= set(effects), list(effects)
+    assert "presliding" not in effects
+    for name, value in case.truth.parameters.items():
+        found = next(e.parameters[name] for e in report.effects if name in e.parameters)
+        assert found == pytest.approx(value, rel=0.05), name
+    ratio = effects["static_friction"].parameters["static_friction_ratio"]
+    assert ratio == pytest.approx(case.truth.details["static_accel_m_s2_mass2"]
+                                  / case.truth.parameters["coulomb_accel_m_s2"], rel=0.05)
