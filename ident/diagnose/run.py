@@ -182,10 +182,13 @@ def _stepwise(prob: Problem, ev: EvidenceResult, wn_modes: FloatArray, base: Fit
     def without(trial: cands.Trial, result: FitResult, refit: int) -> FitResult:
         return cands.without(prob, trial, result, refit)
 
+    def effects(current: FitResult, removed: frozenset[str]) -> list[str]:
+        return [e for e in EFFECTS if e not in removed and cands.available(e, current.spec, prob, ev)
+                and (e != "rest_drift" or slow_residual(prob, current.prediction))]
+
     def select(removed: frozenset[str], resume: Selection | None) -> Selection:
         return forward(
-            resume.baseline if resume is not None else base, lambda cur: [e for e in EFFECTS if e not in removed and cands.available(e, cur.spec, prob, ev)
-                               and (e != "rest_drift" or slow_residual(prob, cur.prediction))],
+            resume.baseline if resume is not None else base, lambda cur: effects(cur, removed),
             lambda cur, e: _staged(f"diagnosis: screening {e}", lambda: cands.screen(prob, cur, e, ev, wn_modes)),
             lambda trial: _staged(f"diagnosis: fitting {trial.effect}", lambda: cands.refine(prob, trial)),
             carts, without, resume)
