@@ -40,8 +40,9 @@ down ("in motion since the stream started"); each ringing is judged once (a hold
 handling lets it be judged again). Springs slower than `ring_max_half_s` per half-period are
 not confirmed by ringing.
 
-Settling is judged on the moving carts only: a held cart that wanders (its span below
-`held_ratio` times the pulled cart's) does not keep a run open.
+Settling is judged on the moving carts only (`daq.held.moving_carts`, the rule the run's
+metadata states): a held cart that wanders (its span below `held_ratio` times the pulled
+cart's, or below 2 mm) does not keep a run open.
 
 Positions may be zeroed or not: only motion relative to the hold matters. Pure: no clocks,
 no I/O; time comes with the samples (float seconds, continuous).
@@ -63,6 +64,7 @@ from daq.detector_events import (
     Released,
     Settled,
 )
+from daq.held import moving_carts
 from daq.onset import OnsetFit, fit_onset
 from daq.release_dating import (
     Samples,
@@ -327,11 +329,11 @@ class ReleaseDetector:
         return []
 
     def _moving_channels(self) -> list[int]:
-        """The run's channel and every channel that swung like it (not a held cart's wander)."""
+        """The run's channel and every channel that swung like it (not a held cart's wander), as
+        the run's metadata will say (`daq.held.moving_carts`)."""
         spans = [hi - lo for lo, hi in zip(self._run_low, self._run_high)]
-        pulled = spans[self._run_channel]
-        return [c for c, span in enumerate(spans)
-                if c == self._run_channel or span >= self.settings.held_ratio * pulled]
+        moving = moving_carts(self._run_channel + 1, spans, self.settings.held_ratio)
+        return [c - 1 for c in moving] if moving is not None else [self._run_channel]
 
     def _handled_again(self) -> bool:
         """A swing of the run's cart that grew, or came after a half-period unlike the last (a hand

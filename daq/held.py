@@ -17,21 +17,23 @@ PINNED_SPAN_M = 0.002
 HELD_RATIO = 0.2
 
 
-def moving_carts(pulled_cart: int | None, spans_m: Sequence[float]) -> list[int] | None:
+def moving_carts(pulled_cart: int | None, spans_m: Sequence[float],
+                 held_ratio: float = HELD_RATIO) -> list[int] | None:
     """The carts (1-based) that swung freely, the pulled one first; `spans_m` is each cart's
-    span (max - min, m) after the release. None when the pulled cart is not one of them."""
+    span (max - min, m) after the release (`held_ratio`: the detector's setting, `HELD_RATIO`
+    by default). None when the pulled cart is not one of them."""
     n = len(spans_m)
     if pulled_cart not in (1, 2) or pulled_cart > n:
         return None
-    free_above = max(PINNED_SPAN_M, HELD_RATIO * spans_m[pulled_cart - 1])
+    free_above = max(PINNED_SPAN_M, held_ratio * spans_m[pulled_cart - 1])
     others = [c + 1 for c in range(n) if c + 1 != pulled_cart and spans_m[c] >= free_above]
     return [pulled_cart, *others]
 
 
-def lab_case(pulled_cart: int | None, spans_m: Sequence[float]) -> str | None:
+def lab_case(pulled_cart: int | None, spans_m: Sequence[float], held_ratio: float = HELD_RATIO) -> str | None:
     """The lab case of a two-encoder run: `cart1`/`cart2` (the other cart held), `both` (cart 1
     pulled, cart 2 free) or `both_cart2_pulled`; None for another number of encoders."""
-    moving = moving_carts(pulled_cart, spans_m) if len(spans_m) == 2 else None
+    moving = moving_carts(pulled_cart, spans_m, held_ratio) if len(spans_m) == 2 else None
     if moving is None:
         return None
     if len(moving) == 1:

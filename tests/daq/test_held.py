@@ -30,3 +30,11 @@ def test_no_pulled_cart_or_one_encoder() -> None:
     assert moving_carts(2, [0.1]) is None
     assert moving_carts(1, [0.1]) == [1]
     assert lab_case(1, [0.1]) is None
+
+
+def test_a_configured_held_ratio_moves_the_boundary() -> None:
+    # the detector settles a run on the carts this rule calls moving, with its `held_ratio`
+    # setting, and the pipeline states the same carts in the run's metadata
+    assert moving_carts(1, [0.1, 0.3 * 0.1], held_ratio=0.5) == [1]
+    assert lab_case(1, [0.1, 0.3 * 0.1], held_ratio=0.5) == "cart1"
+    assert moving_carts(1, [0.1, 0.3 * 0.1]) == [1, 2]
