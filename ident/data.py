@@ -233,8 +233,7 @@ class IdData:
 
     def sample_time(self) -> float:
         """The sample period Ts (s): the slope of a least-squares line through `t`."""
-        k = np.arange(self.n_samples, dtype=np.float64)
-        return float(np.polyfit(k, self.t, 1)[0])
+        return _line(self.t)[1]
 
     def is_uniform(self, tolerance: float = GRID_TOLERANCE) -> bool:
         """True when every stamp is within `tolerance`·Ts of the uniform grid through `t`."""
