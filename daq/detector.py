@@ -328,11 +328,18 @@ class ReleaseDetector:
             return [Settled(t_s, "still")]
         return []
 
+    def run_spans_m(self) -> list[float] | None:
+        """Each cart's span (m) from the last release to `SPAN_S` after it (`daq.held` tells held
+        or free from them: the detector settles on them, the run's metadata states them); None
+        before the first release."""
+        if not self._run_low:
+            return None
+        return [hi - lo for lo, hi in zip(self._run_low, self._run_high)]
+
     def _moving_channels(self) -> list[int]:
         """The run's channel and every channel that swung like it (not a held cart's wander), as
         the run's metadata will say (`daq.held.moving_carts`)."""
-        spans = [hi - lo for lo, hi in zip(self._run_low, self._run_high)]
-        moving = moving_carts(self._run_channel + 1, spans, self.settings.held_ratio)
+        moving = moving_carts(self._run_channel + 1, self.run_spans_m() or [], self.settings.held_ratio)
         return [c - 1 for c in moving] if moving is not None else [self._run_channel]
 
     def _handled_again(self) -> bool:

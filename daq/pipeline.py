@@ -20,7 +20,6 @@ while a disconnect or a clock anomaly always does.
 from __future__ import annotations
 
 import logging
-import math
 from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -32,7 +31,6 @@ from daq.calibration import Calibration
 from daq.decode import make_decoder
 from daq.detector import (
     METHOD,
-    SPAN_S,
     Armed,
     DetectorSettings,
     Disarmed,
@@ -133,8 +131,6 @@ class _Run:
     batch: _Batch = field(default_factory=_Batch)
     gains: tuple[float, ...] = ()
     offsets_m: tuple[float, ...] = ()
-    low_m: list[float] = field(default_factory=lambda: [math.inf, math.inf])
-    high_m: list[float] = field(default_factory=lambda: [-math.inf, -math.inf])
     batch_seq: int = 0
     n_samples: int = 0
     last_t_ns: int = 0
@@ -362,7 +358,7 @@ class Acquisition:
         assert run is not None
         self._flush_run(run)
         counters = _delta(self.counters(), run.counters_at_start, run.gaps)
-        pulled, spans, ratio = run.metadata.pulled_cart, _spans(run), self.config.detector.held_ratio
+        pulled, spans, ratio = run.metadata.pulled_cart, self.detector.run_spans_m(), self.config.detector.held_ratio
         meta = run.metadata.model_copy(update={
             "counters": counters, "ended_utc": self._wall_clock().isoformat(timespec="milliseconds"),
             "lab_case": self.config.lab_case or (lab_case(pulled, spans, ratio) if spans else None),
@@ -398,13 +394,6 @@ class Acquisition:
         run.batch_seq += 1
         run.n_samples += len(batch.t_ns)
         run.last_t_ns = batch.t_ns[-1]
-        release_ns = run.metadata.release_t_ns or 0
-        span_end_ns = release_ns + int(SPAN_S * 1e9)   # a later touch of a held cart is no swing
-        keep = [i for i, t in enumerate(batch.t_ns) if release_ns <= t <= span_end_ns]
-        for c, pos in enumerate((batch.pos1_m, batch.pos2_m)):
-            if pos and keep:
-                run.low_m[c] = min(run.low_m[c], min(pos[i] for i in keep))
-                run.high_m[c] = max(run.high_m[c], max(pos[i] for i in keep))
         self.outputs.run_samples(batch)
 
 
@@ -414,14 +403,6 @@ def _utc_ns(moment: datetime) -> int:
         moment = moment.replace(tzinfo=UTC)
     delta = moment - datetime(1970, 1, 1, tzinfo=UTC)
     return (delta.days * 86_400 + delta.seconds) * 1_000_000_000 + delta.microseconds * 1000
-
-
-def _spans(run: _Run) -> list[float] | None:
-    """Each cart's span (m) in the first `SPAN_S` after the release (`daq.held` tells held or
-    free from them); None before the run's first sample."""
-    if run.n_samples == 0:
-        return None
-    return [run.high_m[c] - run.low_m[c] for c in range(run.calibration.n_channels)]
 
 
 def _delta(now: DaqCounters, start: DaqCounters, gaps: list[GapInterval]) -> DaqCounters:
