@@ -40,6 +40,7 @@ import numpy.typing as npt
 from scipy.optimize import least_squares, lsq_linear
 
 from daq.detector_events import DetectorSettings, Rejected, Released
+from daq.held import moving_carts
 from daq.onset import OnsetFit, fit_onset
 from daq.ringing import FreeFit, Turn, basis, fit_free, forced_response, friction_response, motion_sign, slide_back
 
@@ -186,11 +187,12 @@ def date_hold_release(s: Samples, t_now: float, a: Turn, settings: DetectorSetti
 
 
 def others_swing(s: Samples, release: Released, held_ratio: float) -> bool:
-    """True when a channel other than the released one swung like it since the release."""
+    """True when a channel other than the released one swung like it since the release (held or
+    free by `daq.held.moving_carts`, the rule the run's metadata states)."""
     after = s.pos[s.t >= release.t_release_s]
-    swing = np.max(np.abs(after - np.array(release.hold_pos)), axis=0)
-    pulled = swing[release.channel]
-    return any(c != release.channel and v >= held_ratio * pulled for c, v in enumerate(swing))
+    spans = [float(v) for v in np.ptp(after, axis=0)] if after.size else [0.0] * s.pos.shape[1]
+    moving = moving_carts(release.channel + 1, spans, held_ratio)
+    return moving is not None and len(moving) > 1
 
 
 # --- a ringing ------------------------------------------------------------------------------
