@@ -28,6 +28,7 @@ loses 2–15 % of a 4 cm swing, static 1–1.3× kinetic):
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -47,6 +48,9 @@ class TrueRelease:
     pulled_cart: int
     kind: str
     cut: bool = False
+    #: the jump in the pulled cart's acceleration as the hand lets go (m/s²): the hand's
+    #: force per unit mass there (`_let_go_jump`)
+    jump_m_s2: float = float("nan")
 
 
 @dataclass(frozen=True)
@@ -60,6 +64,15 @@ class StudentRecord:
     rate_hz: float
     events: tuple[str, ...] = field(default=())
     touches_s: tuple[float, ...] = field(default=())
+    #: the readings' noise RMS (m): the Gaussian noise and the encoder's count, q²/12
+    noise_m: float = float("nan")
+
+    def in_data(self, snr: float = 10.0) -> list[bool]:
+        """Per release: whether its instant is in the data, the acceleration jump moving the
+        cart by at least `snr` noise RMS within one sample period (½ |Δa| T², as
+        `testkit.release_tally.Record.in_data`)."""
+        step = 1.0 / self.rate_hz
+        return [0.5 * abs(r.jump_m_s2) * step * step >= snr * self.noise_m for r in self.releases]
 
 
 def _bump(t0: float, duration: float, height: float, back: bool) -> Trajectory:
@@ -189,6 +202,19 @@ def student_records(seed: int, rates_hz: tuple[float, ...], releases: int | None
                      tuple(tt[0] for tt in touches))
 
 
+def _let_go_jump(rig: Rig, path: Trajectory, t: float, z: FloatArray, cart: int) -> float:
+    """The pulled cart's acceleration on its hand's path just before `t` less the free one
+    just after (the state `z` = (x, v) there; dry friction against the motion, or against the
+    net force when the cart is still)."""
+    step = 1e-6
+    held = (path(t)[1] - path(t - step)[1]) / step
+    n = rig.n
+    free = float(rig.accel(t, z[:n], z[n:])[cart])
+    v = float(z[n + cart])
+    free -= float(rig.kinetic[cart]) * float(np.sign(v if abs(v) > 1e-9 else free))
+    return held - free
+
+
 def _grids(end: float, rates_hz: tuple[float, ...]) -> tuple[FloatArray, dict[float, FloatArray]]:
     """Each rate's sample times `k / rate` on [0, end] and their union (sorted, exact floats)."""
     grids = {r: np.arange(int(np.floor(end * r)) + 1) / r for r in rates_hz}
@@ -232,7 +258,8 @@ def _simulate(rng: np.random.Generator, rig: Rig, wn: float, pulled: int,
             traj = _pull_hold(start, spec["pull"], spec["duration"] - spec["pull"], x0, spec["x1"])
         advance(Phase(start, start + spec["duration"], {pulled: traj}))
         if kind != "nudge":
-            truth.append(TrueRelease(start + spec["duration"], pulled + 1, kind))
+            let_go = start + spec["duration"]
+            truth.append(TrueRelease(let_go, pulled + 1, kind, jump_m_s2=_let_go_jump(rig, traj, let_go, z, pulled)))
     # the encoder's draws start from the same generator state for every rate (as in a record
     # generated at that rate alone)
     state = rng.bit_generator.state
@@ -251,11 +278,12 @@ def _sampled(rng: np.random.Generator, t: FloatArray, x: FloatArray, truth: list
     # cut: the pulled cart still swings by more than 1 mm in the record's last second, and
     # no touch ended its free response before
     cut = bool(np.ptp(x[t >= end - 1.0, pulled]) > 1e-3) and not any(s > truth[-1].time_s for s in touches)
-    last = TrueRelease(truth[-1].time_s, truth[-1].pulled_cart, truth[-1].kind, cut)
+    last = dataclasses.replace(truth[-1], cut=cut)
     quantum = 1.0 / 56000.0 if rng.random() < 0.5 else 1e-5
     noise = float(rng.uniform(0.0, 1e-5))
     y = quantum * np.round((x - x[0] + rng.normal(0.0, noise, x.shape)) / quantum)
-    return StudentRecord(t, y, (*truth[:-1], last), both, rate_hz, events, touches)
+    return StudentRecord(t, y, (*truth[:-1], last), both, rate_hz, events, touches,
+                         float(np.hypot(noise, quantum / np.sqrt(12.0))))
 
 
 def handling_record(seed: int, rate_hz: float, duration_s: float = 60.0) -> StudentRecord:

@@ -9,7 +9,10 @@ that wanders and is touched, records starting in motion, back-to-back releases, 
 both carts free). Each seed is simulated once and sampled at every rate. Printed per sample
 rate (50, 100, 200, 1000 Hz): releases found once (%), releases found elsewhere (false), the
 release-instant error against the simulator's (median, 95th percentile, share within one
-sample period), the pulled cart right (%), false releases in `--idle-minutes` of handling
+sample period; and of the releases whose instant is in the data, the hand's force as it lets
+go moving the cart by at least 10 noise RMS within one sample period, ½ |Δa| T², the share
+within one sample: a softer let-go leaves the free response indistinguishable from the hand's
+motion for more than a sample), the pulled cart right (%), false releases in `--idle-minutes` of handling
 only (nudges of one cart, touches of the other), and the misses by kind of release and by
 what else the record holds. `--list` prints every miss and false release (seed, time).
 
@@ -47,14 +50,21 @@ class Tally:
     false: int = 0
     idle_false: int = 0
     errors: list[float] = field(default_factory=list)
+    #: releases whose instant is in the data (`StudentRecord.in_data`), and of them those dated
+    #: within one sample (a missed one counts against)
+    in_data: int = 0
+    in_data_within: int = 0
     missed_by: Counter[str] = field(default_factory=Counter)
     listing: list[str] = field(default_factory=list)
 
     def add(self, seed: int, rec: StudentRecord) -> None:
         hits = find_releases(rec.t, rec.y)
         self.total += len(rec.releases)
-        for true in rec.releases:
+        for true, seen in zip(rec.releases, rec.in_data(), strict=True):
             near = [r for r in hits if abs(r.release_time_s - true.time_s) < MATCH_S]
+            self.in_data += seen
+            dated = len(near) == 1 and abs(near[0].release_time_s - true.time_s) <= 1.0 / rec.rate_hz
+            self.in_data_within += seen and dated
             if len(near) == 1:
                 self.found += 1
                 self.cart_ok += near[0].pulled_cart == true.pulled_cart
@@ -79,16 +89,23 @@ class Tally:
         idle = f"{idle_minutes:g} min of handling: {self.idle_false} false releases; " if idle_minutes else ""
         return (f"{rate_hz:6.0f} Hz  {records} records, {self.total} releases: found "
                 f"{100 * self.found / max(self.total, 1):.1f} %, false {self.false}{cart}; instant error "
-                f"median {med:.1f} ms, 95th {p95:.1f} ms, within one sample {100 * within:.1f} %; {idle}"
+                f"median {med:.1f} ms, 95th {p95:.1f} ms, within one sample {100 * within:.1f} % (in the data "
+                f"{self.in_data}, of them within one sample {_share(self.in_data_within, self.in_data)}); {idle}"
                 f"missed by kind: {kinds} ({seconds:.0f} s)")
+
+
+def _share(part: int, whole: int) -> str:
+    return f"{100 * part / whole:.1f} %" if whole else "-"
 
 
 def sim_record(seed: int, rate_hz: float) -> StudentRecord:
     """A `sim://?student=releases` record (the rig's own students) as the finder sees it."""
     rec = record(f"sim://?realtime=0&rate_hz={rate_hz:g}&student=releases&seed={seed}")
     t, y = zip(*rec.stream, strict=True)
-    return StudentRecord(np.asarray(t), np.asarray(y), tuple(TrueRelease(s, 0, "sim") for s in rec.releases),
-                         False, rate_hz)
+    return StudentRecord(np.asarray(t), np.asarray(y),
+                         tuple(TrueRelease(s, 0, "sim", jump_m_s2=a)
+                               for s, a in zip(rec.releases, rec.let_go_m_s2, strict=True)),
+                         False, rate_hz, noise_m=rec.noise_m)
 
 
 def main(argv: list[str] | None = None) -> int:
