@@ -72,6 +72,7 @@ from daq.release_dating import (
     date_ringing_release,
     fit_onset_at,
     free_span,
+    pair_still_free,
     redate_hold,
     spring_of_pull,
 )
@@ -347,9 +348,15 @@ class ReleaseDetector:
         caught the cart and moved it): a hand took it again (a new release may follow)."""
         self._run_turns += 1
         turns = self._zigzags[self._run_channel].turns
-        if self._run_turns < 3 or len(turns) < 3 or len(self._moving_channels()) > 1:
-            return False    # two free carts beat: their swings grow and shrink by themselves
+        if self._run_turns < 3 or len(turns) < 3:
+            return False
         a, b, c = turns[-3], turns[-2], turns[-1]
+        moving = self._moving_channels()
+        if len(moving) > 1:
+            # two free carts beat: their swings grow and shrink by themselves, but each one's
+            # motion stays its free response driven by the other's until a hand takes one
+            since = [h for h in self._history if h[0] >= a.t_s]
+            return not pair_still_free(Samples.of(since), moving, (a, b, c))
         return abs(c.x_m - b.x_m) >= self._limits.min_swing_m and self._broken(a, b, c)
 
     def _channel_moved_most(self, sample: tuple[float, ...]) -> int:

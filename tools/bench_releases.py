@@ -15,8 +15,13 @@ let-go leaves the free response indistinguishable from the hand's motion for mor
 sample, and no estimator can place it within one. The last two columns count those releases
 and how many of them were dated within one sample (a missed one counts against).
 
+`--generator testkit` scores the detector on another generator's students instead,
+`testkit.student_records` (the offline finder's benchmark, written apart from daq: softer
+rigs, 0.6-3.5 Hz, and both carts free in a fifth of the records), seeds from `--seed`.
+
     python tools/bench_releases.py                       # 200 records per rate, 600 s idle
     python tools/bench_releases.py --records 20 --idle-s 60 --rates 100
+    python tools/bench_releases.py --generator testkit --records 40 --idle-s 120 --seed 6000
 """
 
 from __future__ import annotations
@@ -25,13 +30,18 @@ import argparse
 import sys
 
 import numpy as np
+import numpy.typing as npt
 
-from testkit.release_tally import Tally, detect, record, samples
+from testkit.release_tally import Stream, Tally, detect, record, samples
+from testkit.student_records import handling_records, student_records
 
 RATES = (50, 100, 200, 1000)
 
 
-def run_rate(rate: int, records: int, idle_s: float, match_s: float, seed0: int) -> tuple[Tally, int]:
+def run_rate(rate: int, records: int, idle_s: float, match_s: float, seed0: int,
+             generator: str = "sim") -> tuple[Tally, int]:
+    if generator == "testkit":
+        return _testkit_rate(rate, records, idle_s, match_s, seed0)
     tally = Tally()
     for k in range(records):
         seed = seed0 + 1000 * rate + k
@@ -43,6 +53,25 @@ def run_rate(rate: int, records: int, idle_s: float, match_s: float, seed0: int)
     return tally, len(detect(stream))
 
 
+def _testkit_rate(rate: int, records: int, idle_s: float, match_s: float, seed0: int) -> tuple[Tally, int]:
+    """As `run_rate` on `testkit.student_records`' students (the offline finder's benchmark
+    generator, independent of daq: softer rigs, both carts free in some records), streamed as
+    (t, metres) samples."""
+    tally = Tally()
+    for seed in range(seed0, seed0 + records):
+        rec = student_records(seed, (float(rate),))[float(rate)]
+        tally.add([r.time_s for r in rec.releases], detect(_stream(rec.t, rec.y)), match_s,
+                  f"seed={seed}{' both free' if rec.both_free else ''}", rec.in_data())
+    # in minutes, seeds as `tools/bench_ident_releases.py` draws them (both tools score the same)
+    chunks = max(1, round(idle_s / 60.0)) if idle_s > 0 else 0
+    idle = [handling_records(10_000 + k, (float(rate),), idle_s / chunks)[float(rate)] for k in range(chunks)]
+    return tally, sum(len(detect(_stream(rec.t, rec.y))) for rec in idle)
+
+
+def _stream(t: npt.NDArray[np.float64], y: npt.NDArray[np.float64]) -> Stream:
+    return ((float(a), (float(b), float(c))) for a, (b, c) in zip(t, y, strict=True))
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--records", type=int, default=200, help="student records per rate (default 200)")
@@ -51,12 +80,14 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--match-s", type=float, default=0.25, help="a detection this close counts (0.25 s)")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--show-misses", action="store_true")
+    parser.add_argument("--generator", choices=("sim", "testkit"), default="sim",
+                        help="the simulated rig's students (sim://?student=releases) or testkit.student_records'")
     args = parser.parse_args(argv)
     print(f"{'rate Hz':>8} {'releases':>9} {'recorded %':>11} {'within 1 sample %':>18} {'|err| p50 ms':>13} "
           f"{'p95 ms':>8} {'max ms':>8} {'false runs':>11} {'idle runs':>10} {'in the data':>12} "
           f"{'of them within 1 sample %':>26}")
     for rate in args.rates:
-        tally, idle_runs = run_rate(rate, args.records, args.idle_s, args.match_s, args.seed)
+        tally, idle_runs = run_rate(rate, args.records, args.idle_s, args.match_s, args.seed, args.generator)
         err = np.abs(np.array(tally.errors_s or [np.nan])) * 1e3
         within = 100.0 * float(np.mean(err <= 1e3 / rate)) if tally.errors_s else float("nan")
         seen = np.abs(np.array(tally.errors_in_data_s)) * 1e3
