@@ -439,10 +439,9 @@ def pair_still_free(s: Samples, channels: list[int], turns: tuple[Turn, Turn, Tu
     """Whether each of `channels` (the carts that swing freely together) still moves over `s` (a
     period, from the turn A of `turns`) as its free response driven by the others' measured
     motion: within `PAIR_BREAK` × `DRIVEN_FIT` times `PAIR_FLOOR` of its swing (|C - B|) RMS (σ,
-    ω from the turns, ω within `PAIR_SPREAD`; without `PAIR_BREAK` a free pair's beat on a
-    testkit student at 200 Hz, seed 6026, ended its run 1.3 s after the release). A hand that takes one of them breaks its own equation at
-    once (not the other's: that one stays driven by whatever the held cart does); the pair's own
-    beating breaks neither."""
+    ω from the turns, ω within `PAIR_SPREAD`; a hand misses by far more, as in `pair_release`).
+    A hand that takes one of them breaks its own equation at once (not the other's: that one
+    stays driven by whatever the held cart does); the pair's own beating breaks neither."""
     if s.t.size < 12 or s.pos.shape[1] < 2:
         return True
     _, b, c = turns
