@@ -64,6 +64,7 @@ from daq.detector_events import (
     Released,
     Settled,
 )
+from daq.driven import pair_still_free
 from daq.held import moving_carts
 from daq.onset import OnsetFit, fit_onset
 from daq.release_dating import (
@@ -72,8 +73,8 @@ from daq.release_dating import (
     date_ringing_release,
     fit_onset_at,
     free_span,
-    pair_still_free,
     redate_hold,
+    spring_of,
     spring_of_pull,
 )
 from daq.ringing import RingingLimits, Turn, Zigzag, is_ringing
@@ -355,8 +356,8 @@ class ReleaseDetector:
         if len(moving) > 1:
             # two free carts beat: their swings grow and shrink by themselves, but each one's
             # motion stays its free response driven by the other's until a hand takes one
-            since = [h for h in self._history if h[0] >= a.t_s]
-            return not pair_still_free(Samples.of(since), moving, (a, b, c))
+            since = Samples.of([h for h in self._history if h[0] >= a.t_s])
+            return not pair_still_free(since.t, since.pos, moving, spring_of((a, b, c)), abs(c.x_m - b.x_m))
         return abs(c.x_m - b.x_m) >= self._limits.min_swing_m and self._broken(a, b, c)
 
     def _channel_moved_most(self, sample: tuple[float, ...]) -> int:

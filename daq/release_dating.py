@@ -37,12 +37,21 @@ from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
-from scipy.optimize import least_squares, lsq_linear
 
 from daq.detector_events import DetectorSettings, Rejected, Released
+from daq.driven import DRIVEN_EXPLAINS, DRIVEN_FIT, PAIR_FLOOR, fits_across, pair_release
 from daq.held import moving_carts
 from daq.onset import OnsetFit, fit_onset
-from daq.ringing import FreeFit, Turn, basis, fit_free, forced_response, friction_response, motion_sign, slide_back
+from daq.ringing import (
+    FreeFit,
+    Turn,
+    basis,
+    even_clock,
+    fit_free,
+    friction_response,
+    motion_sign,
+    slide_back,
+)
 
 Array = npt.NDArray[np.float64]
 # the hand's force is fitted as linear in time over this fraction of a half-period before the
@@ -56,25 +65,6 @@ FREE_MIN_SAMPLES = 16
 # ω from a pull's start acceleration, refitted this many times (`spring_of_pull`; the second
 # pass moves a 40 rad/s cart's date by 0.1 ms at 1 kHz, a third by less than 0.02)
 PULL_SPRING_PASSES = 2
-# the largest share of a cart's stiffness the coupling spring to the other cart may have in
-# `fits_across` (1 when all of it: 1.25 leaves room for a spring fitted on a short window)
-MAX_COUPLING_SHARE = 1.25
-# a ringing is driven by the other cart when its free response driven by the other's measured
-# motion fits across the release within DRIVEN_FIT times the ringing's own residual, and the
-# other's motion takes the misfit of the free response alone below DRIVEN_EXPLAINS of it (a
-# real 2025 flick, gently let go, fits 3.4 times its residual with it or without)
-DRIVEN_FIT = 4.0
-DRIVEN_EXPLAINS = 0.5
-# a cart of a free pair, driven by the other's measured motion, swings at √((k_own + k_c)/m), not
-# at one of the pair's modes: its ω is sought within these multiples of the ringing's (`pair_release`)
-PAIR_SPREAD = (0.5, 3.0)
-# ... and, sliding back, within this share of the last step's (`pair_release`)
-PAIR_DRIFT = 0.05
-# ... until a step misses by this many times its limit (`pair_release`)
-PAIR_BREAK = 3.0
-# ... and it stays its driven free response within DRIVEN_FIT times this share of its swing
-# (RMS) until a hand takes a cart of the pair (`pair_still_free`; as `date_ringing`'s floor)
-PAIR_FLOOR = 0.0003
 # a hold's onset that starts the cart at this share of the spring's pull there or more was a
 # hand let go at once (`let_go_at_once`): a hand that eases off starts it slower
 AT_ONCE = 0.7
@@ -196,12 +186,12 @@ def date_hold_release(s: Samples, t_now: float, a: Turn, settings: DetectorSetti
                     abs(fit.accel_m_s2), hold)
 
 
-def others_swing(s: Samples, release: Released, held_ratio: float) -> bool:
-    """True when a channel other than the released one swung like it since the release (held or
-    free by `daq.held.moving_carts`, the rule the run's metadata states)."""
-    after = s.pos[s.t >= release.t_release_s]
+def others_swing(s: Samples, channel: int, t0_s: float, held_ratio: float) -> bool:
+    """True when a channel other than `channel` swung like it since `t0_s` (held or free by
+    `daq.held.moving_carts`, the rule the run's metadata states)."""
+    after = s.pos[s.t >= t0_s]
     spans = [float(v) for v in np.ptp(after, axis=0)] if after.size else [0.0] * s.pos.shape[1]
-    moving = moving_carts(release.channel + 1, spans, held_ratio)
+    moving = moving_carts(channel + 1, spans, held_ratio)
     return moving is not None and len(moving) > 1
 
 
@@ -261,11 +251,12 @@ def date_ringing(s: Samples, t_now: float, channel: int, turns: tuple[Turn, Turn
                         if t[0] <= first_t else "ringing: no release in view (it rang before)")
     ref = max(free.rms_m, 0.0003 * s2)
     others = np.delete(s.pos, channel, axis=1)
-    driven, alone = fits_across(t, y, signs, others, date, half)
+    spring = (date.free.sigma, date.free.omega)
+    driven, alone = fits_across(t, y, signs, others, date.t0_s, half, date.free.t_ref, spring)
     if driven <= DRIVEN_FIT * ref and driven <= DRIVEN_EXPLAINS * alone:
         # two free carts each drive the other: the hand let go where that stops holding
-        start = (pair_release(t, y, signs, others, date, half, PAIR_FLOOR * s2, limit)
-                 if _both_swing(s, channel, date.t0_s, settings.held_ratio) else None)
+        start = (pair_release(t, y, signs, others, date.t0_s, half, spring, PAIR_FLOOR * s2, limit)
+                 if others_swing(s, channel, date.t0_s, settings.held_ratio) else None)
         if start is None or start - first_t < too_early:
             return Rejected(t_now, 0.0, "ringing: the other cart moved this one (no hand on it)")
         date, alone = ReleaseDate(start, date.accel_m_s2, date.free), math.inf
@@ -288,7 +279,8 @@ def date_ringing_release(s: Samples, t_now: float, channel: int, turns: tuple[Tu
     hold = date_hold_release(s, t_now, turns[0], settings, spring_of(turns))
     if hold is None:
         return free
-    if not isinstance(free, Released) or free.channel != hold.channel or others_swing(s, hold, settings.held_ratio):
+    if (not isinstance(free, Released) or free.channel != hold.channel
+            or others_swing(s, hold.channel, hold.t_release_s, settings.held_ratio)):
         return hold     # two carts ring together: one damped sinusoid does not describe them
     # a hand that lets go gradually: the motion starts before the free response does, and
     # slower than the spring's pull at the hold (a hand let go at once starts it at that pull)
@@ -314,157 +306,6 @@ def centre_of(turns: tuple[Turn, Turn, Turn]) -> float:
     return 0.25 * (a.x_m + 2.0 * b.x_m + c.x_m)
 
 
-# --- driven by the other cart ---------------------------------------------------------------
-def fits_across(t: Array, y: Array, signs: Array, others: Array, date: ReleaseDate,
-                half_s: float) -> tuple[float, float]:
-    """RMS (m) of a free response fitted across the release, from a half-period before
-    `date.t0_s` to 1.5 half-periods after: driven through the coupling spring by the other carts'
-    measured motion (`others` (N, K) m, K may be 0), and alone; `signs` (N,) are the signs of
-    the cart's measured velocity (`motion_sign`), for its dry friction. A released cart was held or
-    swung by the hand before t0: no free response, however driven, follows it there, and both
-    stay far above the ringing's own residual; a cart that a hand moving the held cart drove
-    fits driven (`date_ringing` judges both against `DRIVEN_FIT` times that residual).
-
-    The free cart obeys `x'' + 2σ x' + (σ² + ω²)(x - c - dτ) = Σ κ_k u_k(t) - μ sign(x')`, u_k the
-    other carts' positions; each forced response `r_k` (from rest at the window's start,
-    `forced_response`) joins the free model's columns with its own κ_k, the dry friction's with
-    the signs of the cart's measured motion, and σ, ω are fitted again over the window (the
-    ringing's, fitted later, left a touch of the held cart at 7-12 times the ringing's residual
-    on a simulated student's record: a 1 % error in ω over a 13 mm forced swing). Each κ_k / Ω²
-    is the coupling spring's share of the cart's stiffness, between 0 and `MAX_COUPLING_SHARE`
-    (unbounded, the held cart's measured motion with a share of -51 mimicked the hand that
-    flicked this one on a real ECP-210 record). With the ringing's spring, released carts had
-    fitted 12-250 times the ringing's residual driven, driven ones 1.3-2.8 times (simulated and
-    red-team records); refitted, that touch fits 0.67 times, and a real 2025 flick, gently let
-    go, 3.4 times with or without the other cart (`DRIVEN_EXPLAINS` keeps it a release).
-    """
-    keep = (t >= date.t0_s - half_s) & (t <= date.t0_s + 1.5 * half_s)
-    n = int(np.count_nonzero(keep))
-    if n < 12:
-        return math.inf, math.inf
-    tw, yw, vw = _even_clock(t[keep]), y[keep], signs[keep]
-    u = others[keep].reshape(n, -1)
-
-    def rms(k: int) -> float:
-        fitted = _driven_fit(tw, yw, vw, u[:, :k], date.free.t_ref, (date.free.sigma, date.free.omega), (0.8, 1.2))
-        return math.inf if fitted is None else float(np.sqrt(np.mean(fitted[0] ** 2)))
-
-    alone = rms(0)
-    return (rms(u.shape[1]) if u.shape[1] else alone), alone
-
-
-def _driven_fit(tw: Array, yw: Array, vw: Array, u: Array, t_ref: float, start: tuple[float, float],
-                spread: tuple[float, float]) -> tuple[Array, tuple[float, float]] | None:
-    """The residuals (n,) of the free response driven by the other carts' positions `u` (n, K)
-    (`_driven_residual`), and its (σ, ω) fitted again from `start`, ω within `spread` times the
-    start's; None when the fit fails."""
-    sigma0, omega0 = start
-    try:
-        fitted = least_squares(lambda p: _driven_residual(tw, yw, vw, u, t_ref, float(p[0]), float(p[1])),
-                               np.array([sigma0, omega0]), max_nfev=40,
-                               bounds=([0.0, spread[0] * omega0], [max(5.0 * sigma0, 2.0), spread[1] * omega0]))
-    except (ValueError, np.linalg.LinAlgError):
-        return None     # no fit: neither driven nor a swing that was going on
-    return np.asarray(fitted.fun, dtype=np.float64), (float(fitted.x[0]), float(fitted.x[1]))
-
-
-def _driven_residual(tw: Array, yw: Array, vw: Array, u: Array, t_ref: float, sigma: float, omega: float) -> Array:
-    """The residuals (n,) of `x'' + 2σ x' + (σ² + ω²)(x - c - dτ) = Σ κ_k u_k(t) - μ sign(x')`
-    fitted linearly (`fits_across`; each coupling's share κ_k / Ω² between 0 and
-    `MAX_COUPLING_SHARE`)."""
-    k = u.shape[1]
-    bounds = (np.r_[np.full(5, -np.inf), np.zeros(k)], np.r_[np.full(5, np.inf), np.full(k, MAX_COUPLING_SHARE)])
-    g1, g2, _, _ = basis(tw, t_ref, sigma, omega)
-    columns = [np.ones_like(tw), tw - t_ref, friction_response(tw, vw, sigma, omega), g1, g2]
-    columns += [forced_response(tw, u[:, j] - u[0, j], sigma, omega) for j in range(k)]
-    out: Array = lsq_linear(np.stack(columns, axis=1), yw, bounds=bounds).fun
-    return out
-
-
-def pair_release(t: Array, y: Array, signs: Array, others: Array, date: ReleaseDate, half_s: float,
-                 floor_m: float, t_limit: float) -> float | None:
-    """Where a hand let go of a cart that swings freely with another: each one's motion is then
-    its free response driven by the other's, so a ringing confirmed a while after its release
-    fits driven wherever it was dated. That driven free response, fitted on [t0, t0 + 1.5
-    half-periods] (t0 = `date.t0_s`; the driven cart swings at √((k_own + k_c)/m), not at one of
-    the pair's modes: ω within `PAIR_SPREAD` of the ringing's), is slid back in eighths of a
-    half-period, σ and ω fitted again at each step (held from the first fit, a slide over
-    seconds drifts off and stops anywhere), while every residual of its first quarter
-    half-period stays within `DRIVEN_FIT` times the first fit's RMS (at least `floor_m`), until
-    a step misses by `PAIR_BREAK` times that: a hand (on testkit students a hand missed by 4.8-42
-    times, an input read coarsely, the other cart flicked at 50 Hz, by 1-2.3); the release is
-    where it stops fitting, to a 64th of a half-period. None when the slide reaches `t_limit`
-    (no hand in view: the cart the hand never touched) or a fit fails."""
-    end = date.t0_s + 1.5 * half_s
-    spring, limit = (date.free.sigma, date.free.omega), math.inf
-
-    def fits_from(ts: float, factor: float = 1.0) -> bool | None:
-        nonlocal spring, limit
-        window = (t >= ts) & (t <= end)
-        if np.count_nonzero(window) < 12:
-            return None
-        tw = _even_clock(t[window])
-        # (after the first fit, ω within `PAIR_DRIFT` of the last: left within `PAIR_SPREAD`, it
-        # absorbed a hand's push, and a flick at 50 Hz was slid back to 0.3 s before its let-go)
-        spread = PAIR_SPREAD if not math.isfinite(limit) else (1.0 - PAIR_DRIFT, 1.0 + PAIR_DRIFT)
-        fitted = _driven_fit(tw, y[window], signs[window], others[window], float(tw[0]), spring, spread)
-        if fitted is None:
-            return None
-        r, found = fitted
-        if not math.isfinite(limit):
-            limit = DRIVEN_FIT * max(float(np.sqrt(np.mean(r ** 2))), floor_m)
-        if float(np.max(np.abs(r[tw <= tw[0] + half_s / 4.0]))) > factor * limit:
-            return False
-        spring = found
-        return True
-
-    if not fits_from(date.t0_s):
-        return None
-    step, start = half_s / 8.0, date.t0_s
-    while start - step >= t_limit:
-        fits = fits_from(start - step, PAIR_BREAK)
-        if fits is None:
-            return None
-        if not fits:
-            for _ in range(3):      # to an eighth of the step
-                step /= 2.0
-                if fits_from(start - step):
-                    start -= step
-            return start
-        start -= step
-    return None
-
-
-def pair_still_free(s: Samples, channels: list[int], turns: tuple[Turn, Turn, Turn]) -> bool:
-    """Whether each of `channels` (the carts that swing freely together) still moves over `s` (a
-    period, from the turn A of `turns`) as its free response driven by the others' measured
-    motion: within `PAIR_BREAK` × `DRIVEN_FIT` times `PAIR_FLOOR` of its swing (|C - B|) RMS (σ,
-    ω from the turns, ω within `PAIR_SPREAD`; a hand misses by far more, as in `pair_release`).
-    A hand that takes one of them breaks its own equation at once (not the other's: that one
-    stays driven by whatever the held cart does); the pair's own beating breaks neither."""
-    if s.t.size < 12 or s.pos.shape[1] < 2:
-        return True
-    _, b, c = turns
-    floor = PAIR_BREAK * DRIVEN_FIT * PAIR_FLOOR * abs(c.x_m - b.x_m)
-    tw = _even_clock(s.t)
-    for channel in channels:
-        y = s.pos[:, channel]
-        fitted = _driven_fit(tw, y, motion_sign(s.t, y), np.delete(s.pos, channel, axis=1), float(s.t[0]),
-                             spring_of(turns), PAIR_SPREAD)
-        if fitted is not None and float(np.sqrt(np.mean(fitted[0] ** 2))) > floor:
-            return False
-    return True
-
-
-def _both_swing(s: Samples, channel: int, t0: float, held_ratio: float) -> bool:
-    """Whether another cart swung freely with `channel` since `t0` (`daq.held.moving_carts`)."""
-    after = s.pos[s.t >= t0]
-    if after.shape[0] < 2:
-        return False
-    moving = moving_carts(channel + 1, [float(v) for v in np.ptp(after, axis=0)], held_ratio)
-    return moving is not None and len(moving) > 1
-
-
 # --- the joined model -------------------------------------------------------------------------
 def date_release(t: Array, y: Array, vs: Array, free: FreeFit, t_coarse: float,
                  half_s: float) -> ReleaseDate | None:
@@ -474,7 +315,7 @@ def date_release(t: Array, y: Array, vs: Array, free: FreeFit, t_coarse: float,
     back = max(HAND_WINDOW * half_s, 5 * step)
     lo, hi = t_coarse - back, t_coarse + back + 0.5 * half_s
     keep = (t >= lo) & (t <= hi)
-    tw, yw, vw = _even_clock(t[keep]), y[keep], vs[keep]
+    tw, yw, vw = even_clock(t[keep]), y[keep], vs[keep]
     if tw.size < 10:
         return None
     # the RSS has a local minimum between every two samples: the coarse grid must be finer
@@ -494,19 +335,6 @@ def date_release(t: Array, y: Array, vs: Array, free: FreeFit, t_coarse: float,
     refit = FreeFit(free.t_ref, free.sigma, free.omega,
                     (float(coef[0]), float(coef[1]), float(coef[2]), float(coef[3]), float(coef[4])), free.rms_m)
     return ReleaseDate(float(best), abs(float(accel)), refit)
-
-
-def _even_clock(t: Array) -> Array:
-    """The sample times of a window, evened out when the device stamps a coarse clock on evenly
-    taken samples (the ECP-210 stamps whole ms on ~1.13 ms samples: ±0.5 ms, ±0.3 mm at speed):
-    a straight line through (index, t) when every stamp lies within half a spacing of it (no
-    sample missing), else the stamps as they are."""
-    if t.size < 3:
-        return t
-    k = np.arange(t.size, dtype=np.float64)
-    slope, intercept = np.polyfit(k, t, 1)
-    line: Array = intercept + slope * k
-    return line if float(np.max(np.abs(t - line))) < 0.5 * slope else t
 
 
 def hand_response(s: Array, sigma: float, omega: float) -> tuple[Array, Array]:
