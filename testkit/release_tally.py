@@ -11,6 +11,7 @@ from daq.detector import Released, ReleaseDetector
 from daq.frames import DataFrame
 from daq.sim.options import parse_sim_url
 from daq.sim.rig import Rig
+from testkit.student_records import instants_in_data
 
 Stream = Iterator[tuple[float, tuple[float, float]]]
 
@@ -28,10 +29,8 @@ class Record:
     noise_m: float
 
     def in_data(self, rate_hz: float, snr: float = 10.0) -> list[bool]:
-        """Per release: whether its instant is in the data, the acceleration jump moving the cart
-        by at least `snr` noise RMS within one sample period (½ |Δa| T²)."""
-        step = 1.0 / rate_hz
-        return [0.5 * abs(a) * step * step >= snr * self.noise_m for a in self.let_go_m_s2]
+        """Per release: whether its instant is in the data (`testkit.student_records.instants_in_data`)."""
+        return instants_in_data(self.let_go_m_s2, rate_hz, self.noise_m, snr)
 
 
 def record(url: str) -> Record:

@@ -68,11 +68,17 @@ class StudentRecord:
     noise_m: float = float("nan")
 
     def in_data(self, snr: float = 10.0) -> list[bool]:
-        """Per release: whether its instant is in the data, the acceleration jump moving the
-        cart by at least `snr` noise RMS within one sample period (½ |Δa| T², as
-        `testkit.release_tally.Record.in_data`)."""
-        step = 1.0 / self.rate_hz
-        return [0.5 * abs(r.jump_m_s2) * step * step >= snr * self.noise_m for r in self.releases]
+        """Per release: whether its instant is in the data (`instants_in_data`)."""
+        return instants_in_data([r.jump_m_s2 for r in self.releases], self.rate_hz, self.noise_m, snr)
+
+
+def instants_in_data(jumps_m_s2: list[float], rate_hz: float, noise_m: float, snr: float = 10.0) -> list[bool]:
+    """Per release: whether its instant is in the data, the acceleration jump as the hand lets go
+    moving the cart by at least `snr` noise RMS within one sample period (½ |Δa| T²); a softer
+    let-go leaves the free response indistinguishable from the hand's motion for more than a
+    sample."""
+    step = 1.0 / rate_hz
+    return [0.5 * abs(a) * step * step >= snr * noise_m for a in jumps_m_s2]
 
 
 def _bump(t0: float, duration: float, height: float, back: bool) -> Trajectory:
