@@ -64,7 +64,7 @@ from daq.detector_events import (
     Released,
     Settled,
 )
-from daq.driven import pair_still_free
+from daq.driven import still_free
 from daq.held import moving_carts
 from daq.onset import OnsetFit, fit_onset
 from daq.release_dating import (
@@ -73,6 +73,7 @@ from daq.release_dating import (
     date_ringing_release,
     fit_onset_at,
     free_span,
+    others_swing,
     redate_hold,
     spring_of,
     spring_of_pull,
@@ -90,6 +91,11 @@ __all__ = ["METHOD", "SPAN_S", "Armed", "DetectorSettings", "Disarmed", "Event",
 State = Literal["idle", "armed", "released", "settled"]
 METHOD = "piecewise-polynomial-onset-fit"
 SPAN_S = 1.5    # held or free is judged on the carts' spans in the first 1.5 s after the release
+#: turns kept after a hand took a ringing cart: a swing that grew ends where the hand's push did,
+#: and starts what comes next; a cart that stopped moving as its free response may still be in
+#: the hand (caught and held: a ringing judged from there was fitted across the hand), and what
+#: comes next starts at the turn where that was seen
+_AFTER_HAND = {"grew": 2, "taken": 1}
 
 
 class ReleaseDetector:
@@ -315,11 +321,12 @@ class ReleaseDetector:
             for c, x in enumerate(sample):
                 self._run_low[c] = min(self._run_low[c], x)
                 self._run_high[c] = max(self._run_high[c], x)
-        if self._run_channel in turned and self._handled_again():
+        handled = self._handled_again(turned) if turned else None
+        if handled:
             self.state = "settled"
             self._unmute()
-            for zigzag in self._zigzags:   # the grown swing starts what comes next
-                zigzag.keep_last(2)
+            for zigzag in self._zigzags:
+                zigzag.keep_last(_AFTER_HAND[handled])
             return [Settled(t_s, "handled")]
         if self._still(t_s, sample, settings.settle_band_m, settings.settle_s, self._moving_channels()):
             self.state = "settled"
@@ -344,21 +351,38 @@ class ReleaseDetector:
         moving = moving_carts(self._run_channel + 1, self.run_spans_m() or [], self.settings.held_ratio)
         return [c - 1 for c in moving] if moving is not None else [self._run_channel]
 
-    def _handled_again(self) -> bool:
-        """A swing of the run's cart that grew, or came after a half-period unlike the last (a hand
-        caught the cart and moved it): a hand took it again (a new release may follow)."""
-        self._run_turns += 1
-        turns = self._zigzags[self._run_channel].turns
-        if self._run_turns < 3 or len(turns) < 3:
-            return False
-        a, b, c = turns[-3], turns[-2], turns[-1]
+    def _handled_again(self, turned: list[int]) -> Literal["grew", "taken"] | None:
+        """A swing of the run's cart that grew or came after a half-period unlike the last
+        ("grew"), or a moving cart that no longer moves as its free response ("taken"): a hand
+        took it again (a new release may follow); None while the run rings freely. Judged at a
+        turn of the run's cart, or of either cart of a free pair (a hand may hold the pulled
+        cart still: no turns)."""
         moving = self._moving_channels()
-        if len(moving) > 1:
-            # two free carts beat: their swings grow and shrink by themselves, but each one's
-            # motion stays its free response driven by the other's until a hand takes one
-            since = Samples.of([h for h in self._history if h[0] >= a.t_s])
-            return not pair_still_free(since.t, since.pos, moving, spring_of((a, b, c)), abs(c.x_m - b.x_m))
-        return abs(c.x_m - b.x_m) >= self._limits.min_swing_m and self._broken(a, b, c)
+        if self._run_channel in turned:
+            self._run_turns += 1
+            channel = self._run_channel
+        else:
+            channel = next((c for c in turned if c in moving), -1)
+            if len(moving) < 2 or channel < 0:
+                return None
+        turns = self._zigzags[channel].turns
+        if self._run_turns < 3 or len(turns) < 3 or turns[-3].t_s < self._release_t:
+            return None
+        a, b, c = turns[-3], turns[-2], turns[-1]
+        # two free carts beat: their swings grow and shrink by themselves, but each one's motion
+        # stays its free response driven by the other's until a hand takes one
+        if len(moving) < 2 and abs(c.x_m - b.x_m) >= self._limits.min_swing_m and self._broken(a, b, c):
+            return "grew"
+        return "taken" if self._taken(moving, (a, b, c)) else None
+
+    def _taken(self, channels: list[int], turns: tuple[Turn, Turn, Turn]) -> bool:
+        """Whether a hand took one of `channels` since turn A: it no longer moves as its free
+        response driven by the other carts' measured motion (`daq.driven.still_free`; a cart of
+        a free pair, one that others swing with as `daq.held` tells, at another ω than its own
+        ringing's)."""
+        since = Samples.of([h for h in self._history if h[0] >= turns[0].t_s])
+        paired = len(channels) > 1 or others_swing(since, channels[0], turns[0].t_s, self.settings.held_ratio)
+        return not still_free(since.t, since.pos, channels, spring_of(turns), self._limits.min_swing_m, paired)
 
     def _channel_moved_most(self, sample: tuple[float, ...]) -> int:
         moved = [abs(x - h) for x, h in zip(sample, self._hold)]
@@ -381,18 +405,27 @@ class ReleaseDetector:
             turns = self._zigzags[c].turns
             if len(turns) < 3:
                 continue
-            if self._muted[c] and self._broken(turns[-3], turns[-2], turns[-1]):
-                self._muted[c] = False   # the ringing judged before is over: a hand took the cart
-            if self._muted[c] or not is_ringing(turns[-3], turns[-2], turns[-1], self._limits):
-                continue
-            self._muted[c] = True       # judged once; stillness or a new handling unmutes
             a, b, t_c = turns[-3], turns[-2], turns[-1]
+            if self._muted[c]:
+                handled = "grew" if self._broken(a, b, t_c) else "taken" if self._taken([c], (a, b, t_c)) else None
+                if handled:   # the ringing judged before is over: a hand took the cart
+                    self._muted[c] = False
+                    self._zigzags[c].keep_last(_AFTER_HAND[handled])
+                continue
+            if not is_ringing(a, b, t_c, self._limits):
+                continue
             half = 0.5 * (t_c.t_s - a.t_s)
             # the free response is fitted from a quarter half-period after B (after any release
             # near B) over three quarters of a period (at least 16 samples: `free_span`)
             step = (self._history[-1][0] - self._history[0][0]) / max(len(self._history) - 1, 1)
             due = (b.t_s + 0.25 * half + free_span(half, step), c, a, b, t_c)
             if self._dating is None or due[0] < self._dating[0]:
+                # judged once (stillness or a new handling unmutes); a ringing that waits behind
+                # another channel's is judged at a later turn (muted unjudged, the pulled cart of
+                # a free pair went unrecorded while the other cart's ringing was turned down)
+                if self._dating is not None:
+                    self._muted[self._dating[1]] = False
+                self._muted[c] = True
                 self._dating = due
             return
 

@@ -39,7 +39,7 @@ import numpy as np
 import numpy.typing as npt
 
 from daq.detector_events import DetectorSettings, Rejected, Released
-from daq.driven import DRIVEN_EXPLAINS, DRIVEN_FIT, PAIR_FLOOR, fits_across, pair_release
+from daq.driven import DRIVEN_EXPLAINS, DRIVEN_FIT, PAIR_FLOOR, fits_across, pair_release, still_free
 from daq.held import moving_carts
 from daq.onset import OnsetFit, fit_onset
 from daq.ringing import (
@@ -235,6 +235,11 @@ def date_ringing(s: Samples, t_now: float, channel: int, turns: tuple[Turn, Turn
     if free.rms_m > settings.ring_fit_max_rel * s2:
         return Rejected(t_now, 0.0, f"ringing: not a free response (fit rms {free.rms_m:.2g} m "
                                     f"for a swing of {s2:.2g} m)")
+    paired = others_swing(s, channel, t_from, settings.held_ratio)
+    # (the ringing swings by at least `ring_min_swing_m`: its window is judged whatever it spans)
+    if not still_free(t[window], s.pos[window], [channel], (sigma0, math.pi / half), 0.0, paired):
+        # a hand in the window (a cart caught as it swung and moved on): judged when it is let go
+        return Rejected(t_now, 0.0, "ringing: not a free response (a hand moved the cart in it)")
     limit = max(float(t[0]), a.t_s - 4.0 * half)
     t_coarse, free = slide_back(t, y, vs, t_from, span, half, free, limit, 0.0003 * s2)
     # a release shows the hand before it: within a half-period of the stream's start the data
@@ -253,12 +258,19 @@ def date_ringing(s: Samples, t_now: float, channel: int, turns: tuple[Turn, Turn
     others = np.delete(s.pos, channel, axis=1)
     spring = (date.free.sigma, date.free.omega)
     driven, alone = fits_across(t, y, signs, others, date.t0_s, half, date.free.t_ref, spring)
+    # two free carts each drive the other: the hand let go where that stops holding
+    start = (pair_release(t, y, signs, others, date.t0_s, half, spring, PAIR_FLOOR * s2, limit)
+             if paired else None)
+    if start is not None and start - first_t < too_early:
+        start = None
     if driven <= DRIVEN_FIT * ref and driven <= DRIVEN_EXPLAINS * alone:
-        # two free carts each drive the other: the hand let go where that stops holding
-        start = (pair_release(t, y, signs, others, date.t0_s, half, spring, PAIR_FLOOR * s2, limit)
-                 if others_swing(s, channel, date.t0_s, settings.held_ratio) else None)
-        if start is None or start - first_t < too_early:
+        if start is None:
             return Rejected(t_now, 0.0, "ringing: the other cart moved this one (no hand on it)")
+        date, alone = ReleaseDate(start, date.accel_m_s2, date.free), math.inf
+    elif start is not None and start < date.t0_s - half / 8.0:
+        # the driven free response holds a step further back than the lone one: that one's
+        # slide stopped at the pair's other mode, not at the hand (a flick of a free pair
+        # dated a third of a period after its let-go)
         date, alone = ReleaseDate(start, date.accel_m_s2, date.free), math.inf
     if alone <= DRIVEN_FIT * ref and date.t0_s - 2.0 * half < first_t:
         # no hand in the half-period before t0, and nothing of the stream before that half-period
