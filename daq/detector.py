@@ -51,6 +51,7 @@ no I/O; time comes with the samples (float seconds, continuous).
 from __future__ import annotations
 
 import logging
+import math
 from collections import deque
 from collections.abc import Sequence
 from typing import Literal
@@ -113,7 +114,7 @@ class ReleaseDetector:
         self._trigger_t: float | None = None
         self._trigger_channel = 0
         self._post_samples = 0
-        self._release_t = 0.0
+        self._release_t = -math.inf        # the last run's release instant
         self._first_t: float | None = None
         self._zigzags: list[Zigzag] = []
         self._muted: list[bool] = []        # ringing already judged (and turned down) on this channel
@@ -459,6 +460,9 @@ class ReleaseDetector:
             log.warning("dating the ringing confirmed at %.3f s failed (%s: %s): no run for it; please report "
                         "this record", t_s, type(exc).__name__, exc)
             return Rejected(t_s, 0.0, f"ringing: dating failed ({type(exc).__name__})")
+        if isinstance(event, Released) and event.t_release_s <= self._release_t + self.settings.fit_post_s:
+            # the other cart of a free pair rings on after its partner's release was recorded
+            return Rejected(t_s, 0.0, "ringing: dated at the last run's release (recorded)")
         if isinstance(event, Released):
             self._hold = event.hold_pos
             self._rest_of_ringing(channel, event.hold_pos, a, b, c)

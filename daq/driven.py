@@ -20,6 +20,9 @@ from daq.ringing import basis, even_clock, forced_response, friction_response, m
 
 Array = npt.NDArray[np.float64]
 
+# a driven fit's σ and ω are fitted on at most about this many samples of its window (a slide-back
+# over seconds of a 1 kHz record fitted thousands: one feed took 7 s)
+FIT_SAMPLES = 300
 # the largest share of a cart's stiffness the coupling spring to the other cart may have in
 # `fits_across` (1 when all of it: 1.25 leaves room for a spring fitted on a short window)
 MAX_COUPLING_SHARE = 1.25
@@ -93,34 +96,40 @@ def _driven_fit(tw: Array, yw: Array, vw: Array, u: Array, t_ref: float, start: 
                 spread: tuple[float, float]) -> tuple[Array, tuple[float, float]] | None:
     """The residuals (n,) of the free response driven by the other carts' positions `u` (n, K)
     (`_driven_residual`), and its (σ, ω) fitted again from `start`, ω within `spread` times the
-    start's; None when the fit fails."""
+    start's (on every `n // FIT_SAMPLES`-th sample: the motion is smooth at that spacing); None
+    when the fit fails."""
     sigma0, omega0 = start
+    k = max(1, tw.size // FIT_SAMPLES)
+    ts, ys, vs, us = tw[::k], yw[::k], vw[::k], u[::k]
     try:
-        fitted = least_squares(lambda p: _driven_residual(tw, yw, vw, u, t_ref, float(p[0]), float(p[1])),
+        fitted = least_squares(lambda p: _driven_residual(ts, ys, vs, us, t_ref, float(p[0]), float(p[1])),
                                np.array([sigma0, omega0]), max_nfev=40,
                                bounds=([0.0, spread[0] * omega0], [max(5.0 * sigma0, 2.0), spread[1] * omega0]))
     except (ValueError, np.linalg.LinAlgError):
         return None     # no fit: neither driven nor a swing that was going on
-    return np.asarray(fitted.fun, dtype=np.float64), (float(fitted.x[0]), float(fitted.x[1]))
+    sigma, omega = float(fitted.x[0]), float(fitted.x[1])
+    residual = fitted.fun if k == 1 else _driven_residual(tw, yw, vw, u, t_ref, sigma, omega)
+    return np.asarray(residual, dtype=np.float64), (sigma, omega)
 
 
-#: starts of the first driven fit of a free pair's cart, multiples of the ringing's ω within
+#: ω tried for the widest driven fit of a free pair's cart, multiples of the ringing's within
 #: `PAIR_SPREAD` (from the ringing's ω alone, a strongly coupled pair's cart settled at 1.3 times
 #: its true ω, and the slide-back, held within `PAIR_DRIFT` of it, broke 0.57 s after the let-go)
-PAIR_STARTS = (0.5, 0.7, 1.0, 1.4, 2.0, 3.0)
+PAIR_GRID = tuple(float(f) for f in np.geomspace(PAIR_SPREAD[0], PAIR_SPREAD[1], 12))
 
 
 def _widest_driven_fit(tw: Array, yw: Array, vw: Array, u: Array,
                        spring: tuple[float, float]) -> tuple[Array, tuple[float, float]] | None:
-    """`_driven_fit` over ω within `PAIR_SPREAD` of `spring`'s, the best of `PAIR_STARTS`."""
+    """`_driven_fit` over ω within `PAIR_SPREAD` of `spring`'s, from the best ω of `PAIR_GRID`
+    (each tried at `spring`'s σ, on the samples the fit uses)."""
     sigma0, omega0 = spring
+    k = max(1, tw.size // FIT_SAMPLES)
+    ts, ys, vs, us = tw[::k], yw[::k], vw[::k], u[::k]
+    misfit = [float(np.sum(_driven_residual(ts, ys, vs, us, float(tw[0]), sigma0, f * omega0) ** 2))
+              for f in PAIR_GRID]
+    f = PAIR_GRID[int(np.argmin(misfit))]
     lo, hi = PAIR_SPREAD
-    best: tuple[Array, tuple[float, float]] | None = None
-    for f in PAIR_STARTS:
-        fitted = _driven_fit(tw, yw, vw, u, float(tw[0]), (sigma0, f * omega0), (lo / f, hi / f))
-        if fitted is not None and (best is None or float(np.sum(fitted[0] ** 2)) < float(np.sum(best[0] ** 2))):
-            best = fitted
-    return best
+    return _driven_fit(tw, yw, vw, u, float(tw[0]), (sigma0, f * omega0), (lo / f, hi / f))
 
 
 def _driven_residual(tw: Array, yw: Array, vw: Array, u: Array, t_ref: float, sigma: float, omega: float) -> Array:
@@ -148,8 +157,8 @@ def pair_release(t: Array, y: Array, signs: Array, others: Array, t0_s: float, h
     half-period stays within `DRIVEN_FIT` times the first fit's RMS (at least `floor_m`), until
     a step misses by `PAIR_BREAK` times that: a hand (on testkit students a hand missed by 4.8-42
     times, an input read coarsely, the other cart flicked at 50 Hz, by 1-2.3); the release is
-    where it stops fitting, to a 64th of a half-period. None when the slide reaches `t_limit`
-    (no hand in view: the cart the hand never touched) or a fit fails."""
+    where it stops fitting, to a 64th of a half-period. `-inf` when the slide reaches `t_limit`
+    (no hand in view: the cart the hand never touched); None when a fit fails."""
     end = t0_s + 1.5 * half_s
     limit = math.inf
 
@@ -196,7 +205,7 @@ def pair_release(t: Array, y: Array, signs: Array, others: Array, t0_s: float, h
                     start -= step
             return start
         start -= step
-    return None
+    return -math.inf
 
 
 def still_free(t: Array, pos: Array, channels: list[int], spring: tuple[float, float], min_swing_m: float,

@@ -261,6 +261,9 @@ def date_ringing(s: Samples, t_now: float, channel: int, turns: tuple[Turn, Turn
     # two free carts each drive the other: the hand let go where that stops holding
     start = (pair_release(t, y, signs, others, date.t0_s, half, spring, PAIR_FLOOR * s2, limit)
              if paired else None)
+    if start == -math.inf:
+        # driven back as far as it was searched: the cart of the pair the hand never touched
+        return Rejected(t_now, 0.0, "ringing: the other cart moved this one (no hand on it)")
     if start is not None and start - first_t < too_early:
         start = None
     if driven <= DRIVEN_FIT * ref and driven <= DRIVEN_EXPLAINS * alone:

@@ -29,8 +29,10 @@ def _released(seed: int) -> tuple[list[float], list[tuple[float, str, bool]]]:
 
 # 6035: a strongly coupled pair's flick, dated 0.56 s late (the driven slide-back started from
 # the ringing's ω, 1.3 times the driven cart's, and broke before the hand); 6036: a pull-and-hold
-# while the other cart's ringing waited to be dated, never recorded
-@pytest.mark.parametrize("seed", [6019, 6021, 6018, 6035, 6036])
+# while the other cart's ringing waited to be dated, never recorded; 9039: each flick of cart 1
+# recorded on cart 2, the cart the hand never touched, 0.5 s late (its driven response holds back
+# as far as it is searched: turned down, and cart 1's own ringing dated)
+@pytest.mark.parametrize("seed", [6019, 6021, 6018, 6035, 6036, 9039])
 def test_a_free_pair_releases_are_recorded_and_its_hands_end_the_runs(seed: int) -> None:
     found, truth = _released(seed)
     for t_true, kind, cut in truth:
