@@ -270,10 +270,11 @@ def date_ringing(s: Samples, t_now: float, channel: int, turns: tuple[Turn, Turn
         if start is None:
             return Rejected(t_now, 0.0, "ringing: the other cart moved this one (no hand on it)")
         date, alone = ReleaseDate(start, date.accel_m_s2, date.free), math.inf
-    elif start is not None and start < date.t0_s - half / 8.0:
-        # the driven free response holds a step further back than the lone one: that one's
-        # slide stopped at the pair's other mode, not at the hand (a flick of a free pair
-        # dated a third of a period after its let-go)
+    elif start is not None and start < date.t0_s - half / 2.0:
+        # the driven free response holds half a half-period further back than the lone one:
+        # that one's slide stopped at the pair's other mode, not at the hand (flicks of a free
+        # pair dated 0.27-0.65 s after their let-go); closer, the lone date is the finer (the
+        # driven slide's steps are coarser, and a gentle let-go let it pass 35 ms into the hand)
         date, alone = ReleaseDate(start, date.accel_m_s2, date.free), math.inf
     if alone <= DRIVEN_FIT * ref and date.t0_s - 2.0 * half < first_t:
         # no hand in the half-period before t0, and nothing of the stream before that half-period
