@@ -370,8 +370,8 @@ class ReleaseDetector:
         if self._run_turns < 3 or len(turns) < 3 or turns[-3].t_s < self._release_t:
             return None
         a, b, c = turns[-3], turns[-2], turns[-1]
-        # two free carts beat: their swings grow and shrink by themselves, but each one's motion
-        # stays its free response driven by the other's until a hand takes one
+        # (two free carts beat: their swings grow and shrink by themselves, and only a cart that
+        # stops moving as its free response driven by the other's tells a hand)
         if len(moving) < 2 and abs(c.x_m - b.x_m) >= self._limits.min_swing_m and self._broken(a, b, c):
             return "grew"
         return "taken" if self._taken(moving, (a, b, c)) else None

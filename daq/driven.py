@@ -99,8 +99,7 @@ def _driven_fit(tw: Array, yw: Array, vw: Array, u: Array, t_ref: float, start: 
     start's (on every `n // FIT_SAMPLES`-th sample: the motion is smooth at that spacing); None
     when the fit fails."""
     sigma0, omega0 = start
-    k = max(1, tw.size // FIT_SAMPLES)
-    ts, ys, vs, us = tw[::k], yw[::k], vw[::k], u[::k]
+    ts, ys, vs, us = _thinned(tw, yw, vw, u)
     try:
         fitted = least_squares(lambda p: _driven_residual(ts, ys, vs, us, t_ref, float(p[0]), float(p[1])),
                                np.array([sigma0, omega0]), max_nfev=40,
@@ -108,8 +107,14 @@ def _driven_fit(tw: Array, yw: Array, vw: Array, u: Array, t_ref: float, start: 
     except (ValueError, np.linalg.LinAlgError):
         return None     # no fit: neither driven nor a swing that was going on
     sigma, omega = float(fitted.x[0]), float(fitted.x[1])
-    residual = fitted.fun if k == 1 else _driven_residual(tw, yw, vw, u, t_ref, sigma, omega)
+    residual = fitted.fun if ts.size == tw.size else _driven_residual(tw, yw, vw, u, t_ref, sigma, omega)
     return np.asarray(residual, dtype=np.float64), (sigma, omega)
+
+
+def _thinned(tw: Array, yw: Array, vw: Array, u: Array) -> tuple[Array, Array, Array, Array]:
+    """Every `n // FIT_SAMPLES`-th sample of a driven fit's window (all of a short one)."""
+    k = max(1, tw.size // FIT_SAMPLES)
+    return tw[::k], yw[::k], vw[::k], u[::k]
 
 
 #: ω tried for the widest driven fit of a free pair's cart, multiples of the ringing's within
@@ -123,8 +128,7 @@ def _widest_driven_fit(tw: Array, yw: Array, vw: Array, u: Array,
     """`_driven_fit` over ω within `PAIR_SPREAD` of `spring`'s, from the best ω of `PAIR_GRID`
     (each tried at `spring`'s σ, on the samples the fit uses)."""
     sigma0, omega0 = spring
-    k = max(1, tw.size // FIT_SAMPLES)
-    ts, ys, vs, us = tw[::k], yw[::k], vw[::k], u[::k]
+    ts, ys, vs, us = _thinned(tw, yw, vw, u)
     misfit = [float(np.sum(_driven_residual(ts, ys, vs, us, float(tw[0]), sigma0, f * omega0) ** 2))
               for f in PAIR_GRID]
     f = PAIR_GRID[int(np.argmin(misfit))]
