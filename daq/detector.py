@@ -65,7 +65,6 @@ from daq.detector_events import (
     Released,
     Settled,
 )
-from daq.driven import still_free
 from daq.held import moving_carts
 from daq.onset import OnsetFit, fit_onset
 from daq.release_dating import (
@@ -74,12 +73,11 @@ from daq.release_dating import (
     date_ringing_release,
     fit_onset_at,
     free_span,
-    others_swing,
+    hand_took,
     redate_hold,
-    spring_of,
     spring_of_pull,
 )
-from daq.ringing import RingingLimits, Turn, Zigzag, is_ringing
+from daq.ringing import RingingLimits, Turn, Zigzag, is_broken, is_ringing
 
 log = logging.getLogger(__name__)
 #: What the numerical dating may raise on a record nobody foresaw: it turns the candidate down
@@ -372,18 +370,15 @@ class ReleaseDetector:
         a, b, c = turns[-3], turns[-2], turns[-1]
         # (two free carts beat: their swings grow and shrink by themselves, and only a cart that
         # stops moving as its free response driven by the other's tells a hand)
-        if len(moving) < 2 and abs(c.x_m - b.x_m) >= self._limits.min_swing_m and self._broken(a, b, c):
+        limits = self._limits
+        if len(moving) < 2 and abs(c.x_m - b.x_m) >= limits.min_swing_m and is_broken(a, b, c, limits):
             return "grew"
         return "taken" if self._taken(moving, (a, b, c)) else None
 
     def _taken(self, channels: list[int], turns: tuple[Turn, Turn, Turn]) -> bool:
-        """Whether a hand took one of `channels` since turn A: it no longer moves as its free
-        response driven by the other carts' measured motion (`daq.driven.still_free`; a cart of
-        a free pair, one that others swing with as `daq.held` tells, at another ω than its own
-        ringing's)."""
+        """Whether a hand took one of `channels` since turn A (`daq.release_dating.hand_took`)."""
         since = Samples.of([h for h in self._history if h[0] >= turns[0].t_s])
-        paired = len(channels) > 1 or others_swing(since, channels[0], turns[0].t_s, self.settings.held_ratio)
-        return not still_free(since.t, since.pos, channels, spring_of(turns), self._limits.min_swing_m, paired)
+        return hand_took(since, channels, turns, self._limits.min_swing_m, self.settings.held_ratio)
 
     def _channel_moved_most(self, sample: tuple[float, ...]) -> int:
         moved = [abs(x - h) for x, h in zip(sample, self._hold)]
@@ -407,11 +402,11 @@ class ReleaseDetector:
             if len(turns) < 3:
                 continue
             a, b, t_c = turns[-3], turns[-2], turns[-1]
-            if self._muted[c]:
-                handled = "grew" if self._broken(a, b, t_c) else "taken" if self._taken([c], (a, b, t_c)) else None
-                if handled:   # the ringing judged before is over: a hand took the cart
+            if self._muted[c]:   # judged before: over when a hand took the cart
+                grew = is_broken(a, b, t_c, self._limits)
+                if grew or self._taken([c], (a, b, t_c)):
                     self._muted[c] = False
-                    self._zigzags[c].keep_last(_AFTER_HAND[handled])
+                    self._zigzags[c].keep_last(_AFTER_HAND["grew" if grew else "taken"])
                 continue
             if not is_ringing(a, b, t_c, self._limits):
                 continue
@@ -429,13 +424,6 @@ class ReleaseDetector:
                 self._muted[c] = True
                 self._dating = due
             return
-
-    def _broken(self, a: Turn, b: Turn, c: Turn) -> bool:
-        """A swing that grew or a half-period that changed: not the same free ringing any more."""
-        limits = self._limits
-        s1, s2 = abs(b.x_m - a.x_m), abs(c.x_m - b.x_m)
-        h1, h2 = b.t_s - a.t_s, c.t_s - b.t_s
-        return s2 > limits.grow * s1 + 2.0 * limits.band_m or max(h1, h2) > limits.half_ratio * min(h1, h2)
 
     def _due(self, t_s: float) -> list[Event]:
         """The dating of a confirmed ringing, once its time has come."""

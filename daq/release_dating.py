@@ -195,6 +195,16 @@ def others_swing(s: Samples, channel: int, t0_s: float, held_ratio: float) -> bo
     return moving is not None and len(moving) > 1
 
 
+def hand_took(s: Samples, channels: list[int], turns: tuple[Turn, Turn, Turn], min_swing_m: float,
+              held_ratio: float) -> bool:
+    """Whether a hand took one of `channels` over `s` (the samples since turn A): it no longer
+    moves as its free response driven by the other carts' measured motion (`daq.driven.still_free`;
+    a cart of a free pair, one that others swing with as `daq.held` tells, at another ω than its
+    own ringing's)."""
+    paired = len(channels) > 1 or others_swing(s, channels[0], turns[0].t_s, held_ratio)
+    return not still_free(s.t, s.pos, channels, spring_of(turns), min_swing_m, paired)
+
+
 # --- a ringing ------------------------------------------------------------------------------
 def spring_of(turns: tuple[Turn, Turn, Turn]) -> tuple[float, float]:
     """(σ 1/s, ω rad/s) of a ringing from its turns A, B, C: ω = π / half-period, σ from the

@@ -137,6 +137,13 @@ def is_ringing(a: Turn, b: Turn, c: Turn, limits: RingingLimits) -> bool:
     return s2 >= limits.min_swing_m and s2 <= limits.grow * s1 + 2.0 * limits.band_m
 
 
+def is_broken(a: Turn, b: Turn, c: Turn, limits: RingingLimits) -> bool:
+    """A swing that grew or a half-period that changed: not the same free ringing any more."""
+    s1, s2 = abs(b.x_m - a.x_m), abs(c.x_m - b.x_m)
+    h1, h2 = b.t_s - a.t_s, c.t_s - b.t_s
+    return s2 > limits.grow * s1 + 2.0 * limits.band_m or max(h1, h2) > limits.half_ratio * min(h1, h2)
+
+
 @dataclass(frozen=True, slots=True)
 class FreeFit:
     """A damped sinusoid about a drifting centre, with dry friction, τ = t - t_ref:
