@@ -152,6 +152,16 @@ class ReleaseDetector:
             return self._feed_idle(t_s, sample)
         return self._feed_armed(t_s, sample)
 
+    def finish(self) -> list[Event]:
+        """The stream ended: a ringing confirmed but not yet dated (the end cut its free window
+        short) is dated on the samples there are, so a release cut by the record's end is still
+        recorded (a student's last release often is)."""
+        if self._dating is None or not self._history:
+            return []
+        t_s = self._history[-1][0]
+        self._dating = (t_s, *self._dating[1:])
+        return self._due(t_s)
+
     def arm_now(self, t_s: float, pos: Sequence[float]) -> list[Event]:
         """Arm at `pos` at once (a command), unless a run is in progress."""
         if self.state == "released":
@@ -448,8 +458,10 @@ class ReleaseDetector:
             log.warning("dating the ringing confirmed at %.3f s failed (%s: %s): no run for it; please report "
                         "this record", t_s, type(exc).__name__, exc)
             return Rejected(t_s, 0.0, f"ringing: dating failed ({type(exc).__name__})")
-        if isinstance(event, Released) and event.t_release_s <= self._release_t + self.settings.fit_post_s:
-            # the other cart of a free pair rings on after its partner's release was recorded
+        if isinstance(event, Released) and event.t_release_s <= self._release_t + max(self.settings.fit_post_s,
+                                                                                     0.5 * (c.t_s - a.t_s)):
+            # the other cart of a free pair rings on after its partner's release was recorded (a
+            # hand does not take a cart and let it go again within a half-period of letting it go)
             return Rejected(t_s, 0.0, "ringing: dated at the last run's release (recorded)")
         if isinstance(event, Released):
             self._hold = event.hold_pos

@@ -145,7 +145,18 @@ def _driven_residual(tw: Array, yw: Array, vw: Array, u: Array, t_ref: float, si
     g1, g2, _, _ = basis(tw, t_ref, sigma, omega)
     columns = [np.ones_like(tw), tw - t_ref, friction_response(tw, vw, sigma, omega), g1, g2]
     columns += [forced_response(tw, u[:, j] - u[0, j], sigma, omega) for j in range(k)]
-    out: Array = lsq_linear(np.stack(columns, axis=1), yw, bounds=bounds).fun
+    return _bounded_residual(np.stack(columns, axis=1), yw, *bounds)
+
+
+def _bounded_residual(a: Array, y: Array, lo: Array, hi: Array) -> Array:
+    """The residuals `a x - y` of the least-squares x within [lo, hi]: the unbounded solution
+    when it lies within them, else by BVLS. Not scipy's default `trf`: its line search never
+    ends on a rank-deficient `a` (a cart that moves one way over the window makes dry
+    friction's response a sum of the other columns: a feed at the end of a record hung)."""
+    x = np.linalg.lstsq(a, y, rcond=None)[0]
+    if not (np.all(x >= lo) and np.all(x <= hi)):
+        x = lsq_linear(a, y, bounds=(lo, hi), method="bvls").x
+    out: Array = a @ x - y
     return out
 
 

@@ -187,7 +187,11 @@ class Acquisition:
         self.reconnects += 1
 
     def finish(self, reason: str) -> None:
-        """End of stream or shutdown: send what is batched, close an open run as aborted."""
+        """End of stream or shutdown: a release the detector confirmed but had not dated yet
+        starts its run (`ReleaseDetector.finish`); send what is batched, close an open run as
+        aborted."""
+        if self.run is None and self.last_t_ns is not None:
+            self._events(self.detector.finish(), self.last_t_ns)
         self._flush_batches()
         if self.run is not None:
             self._end_run("aborted", reason)

@@ -45,6 +45,7 @@ from daq.onset import OnsetFit, fit_onset
 from daq.ringing import (
     FreeFit,
     Turn,
+    Zigzag,
     basis,
     even_clock,
     fit_free,
@@ -272,8 +273,10 @@ def date_ringing(s: Samples, t_now: float, channel: int, turns: tuple[Turn, Turn
     start = (pair_release(t, y, signs, others, date.t0_s, half, spring, PAIR_FLOOR * s2, limit)
              if paired else None)
     if start == -math.inf:
-        # driven back as far as it was searched: the cart of the pair the hand never touched
-        return Rejected(t_now, 0.0, "ringing: the other cart moved this one (no hand on it)")
+        # driven back as far as it was searched: the cart of the pair the hand never touched,
+        # and its partner the one it let go
+        partner = partner_release(s, t_now, channel, t_from, half, limit, first_t + too_early, settings)
+        return partner or Rejected(t_now, 0.0, "ringing: the other cart moved this one (no hand on it)")
     if start is not None and start - first_t < too_early:
         start = None
     if driven <= DRIVEN_FIT * ref and driven <= DRIVEN_EXPLAINS * alone:
@@ -295,6 +298,44 @@ def date_ringing(s: Samples, t_now: float, channel: int, turns: tuple[Turn, Turn
     trigger = float(t[k0 + int(away[0])]) if away.size else t_now
     hold = tuple(float(v) for v in s.pos[max(0, k0 - 1)])
     return Released(date.t0_s, trigger, t_now, channel, date.accel_m_s2, hold)
+
+
+def partner_release(s: Samples, t_now: float, channel: int, t0_s: float, half_s: float, t_limit: float,
+                    t_first: float, settings: DetectorSettings) -> Released | None:
+    """The release of the cart that swings freely with `channel` (a free pair whose other cart
+    the hand never touched, so its ringing is driven back as far as it is searched): the
+    partner's own driven free response slid back from the ringing's window (from `t0_s`, 1.5
+    half-periods) to where a hand held it (`pair_release`), when over the three half-periods
+    before the confirmation it swings (`swings`, by `ring_min_swing_m` at least) as that free
+    response (`still_free`: a hand may hold it, or push it smoothly away, while its partner
+    rings). None when there is no such partner or no release in view from `t_first` on. Its
+    `accel_m_s2` is 0: no onset is fitted."""
+    if s.pos.shape[1] != 2:
+        return None
+    partner = 1 - channel
+    t, y = s.t, s.pos[:, partner]
+    window = (t >= t0_s) & (t <= t0_s + 1.5 * half_s)
+    span = float(np.ptp(y[window])) if np.any(window) else 0.0
+    spring = (0.0, math.pi / half_s)
+    seen = (t >= t0_s - 1.5 * half_s) & (t <= t0_s + 1.5 * half_s)
+    if (np.count_nonzero(window) < 12 or span < settings.ring_min_swing_m or not swings(t[seen], y[seen])
+            or not still_free(t[seen], s.pos[seen], [partner], spring, 0.0, True)):
+        return None
+    others = np.delete(s.pos, partner, axis=1)
+    start = pair_release(t, y, motion_sign(t, y), others, t0_s, half_s, spring, PAIR_FLOOR * span, t_limit)
+    if start is None or not math.isfinite(start) or start < t_first:
+        return None
+    k0 = int(np.searchsorted(t, start))
+    away = np.flatnonzero(np.abs(y[k0:] - y[min(k0, y.size - 1)]) > settings.fire_m)
+    trigger = float(t[k0 + int(away[0])]) if away.size else t_now
+    return Released(start, trigger, t_now, partner, 0.0, tuple(float(v) for v in s.pos[max(0, k0 - 1)]))
+
+
+def swings(t: Array, y: Array) -> bool:
+    """Whether `y` goes out and comes back by a quarter of its span (a hand that pushes a cart
+    smoothly one way fits a free response over a window as well as a swing does)."""
+    zigzag = Zigzag(0.25 * float(np.ptp(y)))
+    return sum(zigzag.push(float(ti), float(yi)) for ti, yi in zip(t, y)) >= 2
 
 
 def date_ringing_release(s: Samples, t_now: float, channel: int, turns: tuple[Turn, Turn, Turn],

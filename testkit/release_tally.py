@@ -55,9 +55,11 @@ def samples(url: str) -> tuple[Stream, list[float]]:
 
 
 def detect(stream: Stream) -> list[float]:
-    """Release instants (device s) `daq.detector.ReleaseDetector` finds in a stream."""
+    """Release instants (device s) `daq.detector.ReleaseDetector` finds in a stream, up to its
+    end (`finish`, as `daq run --until-eof` calls it)."""
     detector = ReleaseDetector()
-    return [e.t_release_s for t, pos in stream for e in detector.feed(t, pos) if isinstance(e, Released)]
+    found = [e for t, pos in stream for e in detector.feed(t, pos)]
+    return [e.t_release_s for e in found + detector.finish() if isinstance(e, Released)]
 
 
 @dataclass

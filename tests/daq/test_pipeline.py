@@ -11,6 +11,7 @@ import pytest
 from daq.decode import encode_data, encode_info
 from daq.pipeline import MAX_LIVE_GAPS, Acquisition, AcquisitionConfig
 from schemas.daq import DetectorStateMsg, RunFinished, RunMetadata, SampleBatch
+from testkit.student_records import student_records
 from testkit.synth_runs import LAB_CASES, Trace, lab_run
 
 
@@ -141,3 +142,20 @@ def test_lost_lines_all_day_keep_the_live_gap_list_bounded_and_each_run_its_own_
     gaps = meta.counters.gap_intervals
     assert meta.counters.seq_gaps == len(gaps) > MAX_LIVE_GAPS   # a run keeps every gap of its own
     assert all(run_t[0] <= g.start_t_ns < g.end_t_ns <= run_t[-1] for g in gaps)
+
+
+def test_a_release_the_stream_cuts_before_it_is_dated_is_recorded_as_an_aborted_run() -> None:
+    """A student's last release cut by the record's end (`testkit.student_records` seed 6019, a
+    free pair's hold let go 0.84 s before the end): its ringing was confirmed but not dated when
+    the stream ended, and no run was written. At the end of the stream it starts its run, which
+    ends with the stream."""
+    rec = student_records(6019, (100.0,))[100.0]
+    counts_per_m = 56000.0
+    trace = Trace(rec.t - rec.t[0], np.round(rec.y * counts_per_m), counts_per_m, None)
+    out = _acquire(_stream(trace))
+    meta, done = out.finished[-1]
+    assert done.status == "aborted" and done.reason == "end of stream"
+    assert meta.release_t_ns is not None
+    release_s = (meta.release_t_ns - t_ns_of_first(out)) / 1e9 + rec.t[0]
+    assert abs(release_s - rec.releases[-1].time_s) < 0.02
+    assert meta.release_time_s is not None and 0.5 <= meta.release_time_s < 0.5 + 1 / 100
