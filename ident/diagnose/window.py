@@ -19,13 +19,14 @@ periods late. The release is then dated where the hand's force ends (`knot`): a 
 (the cart held still further than `HOLD_AWAY` of its swing from the middle of its swings) by
 its acceleration jump at the first motion (`knot.hold_release`); a flick by the C¹ join of a
 cubic hand path and the free modes of the scan's fit, searched from the onset to T/4 after
-the scan's start (`knot.flick_release`); the window starts there. Only when neither can be
-fitted, the release is the last zero of the fitted velocity before `t_w` (within half a
-period) when the fitted position there is the held level, else `t_w` itself. A record that
-starts at a release `ident.releases` dated (`released_at_start`: `ident diagnose` on a raw
-record) is not dated again: the window starts there. The fits start two samples (at least
-T/200) after `t_w`. Long runs
-are decimated for fitting (`MAX_WORK_SAMPLES`). No I/O here.
+the scan's start (`knot.flick_release`), and again up to the first extreme after the onset
+when the join lies well past it (a flick's hand lets go before the cart turns: `_first_turn`);
+the window starts there. Only when neither can be fitted, the release is the last zero of
+the fitted velocity before `t_w` (within half a period) when the fitted position there is the
+held level, else `t_w` itself. A record that starts at a release `ident.releases` dated
+(`released_at_start`: `ident diagnose` on a raw record) is not dated again: the window starts
+there. The fits start two samples (at least T/200) after `t_w`. Long runs are decimated for
+fitting (`MAX_WORK_SAMPLES`). No I/O here.
 """
 
 from __future__ import annotations
@@ -168,10 +169,47 @@ def _from(t: FloatArray, start: int, period: float, hold: FloatArray, noise: flo
 def _flick(t: FloatArray, y: FloatArray, onset: int, start: int, period: float, fit: ModalFit) -> Knot | None:
     """`knot.flick_release` from the onset to T/4 after the scan's start (it may start early or
     late), fitted to T/12 beyond: a longer free stretch would cross velocity reversals, where
-    dry friction shifts the free response's centre and drags the join."""
+    dry friction shifts the free response's centre and drags the join. A join more than half the
+    push (onset to extreme) after the first extreme (`_first_turn`) is no flick's let-go: it is
+    searched again up to two samples past that extreme (bench seeds 45, 51, 52: joins 9-106
+    samples late; a tighter margin moved good joins at a held extreme)."""
     dt, n = float(t[1] - t[0]), t.shape[0]
-    last = min(start + round(0.25 * period / dt), n - 1)
-    return flick_release(t, y, onset + 1, last, min(last + round(period / 12 / dt), n - 1), fit.freqs, fit.decays)
+    turn = _first_turn(y, onset)
+    late = min(turn + max(2, (turn - onset) // 2), n - 1)   # half the push after the turn
+    knot = None
+    for last in (min(start + round(0.25 * period / dt), n - 1), min(turn + 2, n - 1)):
+        knot = flick_release(t, y, onset + 1, last, min(last + round(period / 12 / dt), n - 1), fit.freqs, fit.decays)
+        if knot is None or knot.time_s <= t[late]:
+            return knot
+    return knot
+
+
+def _first_turn(y: FloatArray, onset: int) -> int:
+    """The index of the first extreme of `y` (N,) after the onset: where the running extreme of
+    the departure, once at least `TURN_FROM` of the record's largest, is followed by a retreat of
+    `TURN_BACK` of it (the plateau's end within `TURN_FLAT`). A flick's hand lets go at it or
+    before it (a search beyond it, on a two-mode record whose scan started a slow period late,
+    joined the hand to the free response 250 ms after the let-go, in the return swing)."""
+    d = y[onset:] - y[onset]
+    far = TURN_FROM * float(np.max(np.abs(d)))
+    x = d * (1.0 if d[int(np.argmax(np.abs(d) >= far))] >= 0 else -1.0)   # the way it first went far
+    reach = np.maximum.accumulate(x)
+    big = reach >= far
+    back = np.flatnonzero(big & (reach - x > TURN_BACK * reach))
+    if back.size == 0:
+        return y.shape[0] - 1
+    top = x[:back[0]]
+    # the end of the plateau at it: a hand may hold the cart there a moment before it lets go
+    return onset + int(np.flatnonzero(top >= (1.0 - TURN_FLAT) * float(np.max(top)))[-1])
+
+
+#: a flick's first extreme (`_first_turn`): a running extreme at least this share of the
+#: record's largest departure ...
+TURN_FROM = 0.3
+#: ... that the position then retreats from by this share of it; the turn is the last sample
+#: within `TURN_FLAT` of it
+TURN_BACK = 0.2
+TURN_FLAT = 0.02
 
 
 def _flick_any(t: FloatArray, y: FloatArray, onset: int, start: int, period: float, fit: ModalFit) -> Knot | None:

@@ -18,8 +18,10 @@ import numpy as np
 import pytest
 
 from ident.diagnose import diagnose
+from ident.diagnose.stretch import release_stretch
 from ident.diagnose.window import _pushed, find_window, hold_level
 from testkit.effects import make_case
+from testkit.effects.draw import CUBIC_R_MAX_FULL
 
 
 def _unpushed_swings_more(seed: int) -> bool:
@@ -56,3 +58,22 @@ def test_the_bench_flicks_that_named_a_mode_on_linear_carts_name_none(seed: int)
     assert report.cause == "none" and not any(e.material for e in report.effects), (
         f"seed {seed}: cause {report.cause}, effects {[(e.effect, e.gain_points) for e in report.effects]}")
     assert abs(report.release_time_s - case.truth.release_time_s) * case.truth.rate_hz <= 1.0
+
+
+@pytest.mark.parametrize(("family", "seed", "encoders"), [
+    ("coulomb_friction", 1877406440, 1),     # two carts through cart 1's encoder, 354 Hz: 89 samples late
+    ("coulomb+held_cart", 1262728783, None),  # 106 samples late
+    ("cubic_stiffness", 1957082756, None),    # 9 samples late
+])
+def test_a_flick_is_not_dated_after_the_cart_turned(family: str, seed: int, encoders: int | None) -> None:
+    """A flick's hand lets go before the cart turns: a join of the hand's path to the free
+    response found more than half the push after the first extreme (bench seeds 52, 51 and 45 of
+    `tools/bench_diagnose.py`; the scan's window started a slow period late and the join was
+    searched, across velocity reversals, up to a quarter period after it) is searched again up
+    to that extreme."""
+    case = (make_case(seed, family, carts=2, encoders=encoders) if encoders else
+            make_case(seed, family, cubic_r_max=CUBIC_R_MAX_FULL))
+    assert case.truth.release == "flick"
+    stretch = release_stretch(case.observed.t, case.observed.y, None, case.observed.carts, None, None)
+    error = (stretch.win.release_time_s - case.truth.release_time_s) * case.truth.rate_hz
+    assert abs(error) <= 1.5, error
