@@ -45,13 +45,13 @@ from daq.onset import OnsetFit, fit_onset
 from daq.ringing import (
     FreeFit,
     Turn,
-    Zigzag,
     basis,
     even_clock,
     fit_free,
     friction_response,
     motion_sign,
     slide_back,
+    swings,
 )
 
 Array = npt.NDArray[np.float64]
@@ -329,13 +329,6 @@ def partner_release(s: Samples, t_now: float, channel: int, t0_s: float, half_s:
     away = np.flatnonzero(np.abs(y[k0:] - y[min(k0, y.size - 1)]) > settings.fire_m)
     trigger = float(t[k0 + int(away[0])]) if away.size else t_now
     return Released(start, trigger, t_now, partner, 0.0, tuple(float(v) for v in s.pos[max(0, k0 - 1)]))
-
-
-def swings(t: Array, y: Array) -> bool:
-    """Whether `y` goes out and comes back by a quarter of its span (a hand that pushes a cart
-    smoothly one way fits a free response over a window as well as a swing does)."""
-    zigzag = Zigzag(0.25 * float(np.ptp(y)))
-    return sum(zigzag.push(float(ti), float(yi)) for ti, yi in zip(t, y)) >= 2
 
 
 def date_ringing_release(s: Samples, t_now: float, channel: int, turns: tuple[Turn, Turn, Turn],

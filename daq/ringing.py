@@ -9,7 +9,8 @@ by its ringing, and then dated by where a free response starts to fit.
 Turning points (`Zigzag`). A turn is recorded once the position retreats from its running
 extreme by more than `band_m` (hysteresis above the noise and the tremor). Its time is the
 end of the plateau at the extreme (the last sample within `band_m / 2` of it), so a hold
-followed by a release turns where the hand lets go, not somewhere inside the hold.
+followed by a release turns where the hand lets go, not somewhere inside the hold. `swings`
+asks the same of a stretch with a band of a quarter of its span: out and back at least once.
 
 Ringing test (`is_ringing`) on the last three turns A, B, C (times tA < tB < tC, positions):
 half-periods `B - A` and `C - B` within `[min_half_s, max_half_s]` and within a factor
@@ -112,6 +113,13 @@ class Zigzag:
             return False
         self._ext_x, self._ext_end_t = x, t_s
         return True
+
+
+def swings(t: Array, y: Array) -> bool:
+    """Whether `y` goes out and comes back by a quarter of its span (a hand that pushes a cart
+    smoothly one way fits a free response over a window as well as a swing does)."""
+    zigzag = Zigzag(0.25 * float(np.ptp(y)))
+    return sum(zigzag.push(float(ti), float(yi)) for ti, yi in zip(t, y)) >= 2
 
 
 @dataclass(frozen=True, slots=True)
