@@ -292,12 +292,17 @@ def date_ringing(s: Samples, t_now: float, channel: int, turns: tuple[Turn, Turn
     if alone <= DRIVEN_FIT * ref and date.t0_s - 2.0 * half < first_t:
         # no hand in the half-period before t0, and nothing of the stream before that half-period
         return Rejected(t_now, 0.0, "ringing: in motion since the stream started (no hand seen)")
-    k0 = int(np.searchsorted(t, date.t0_s))
-    x0 = y[min(k0, y.size - 1)]
-    away = np.flatnonzero(np.abs(y[k0:] - x0) > settings.fire_m)
+    return released_at(s, date.t0_s, channel, date.accel_m_s2, t_now, settings.fire_m)
+
+
+def released_at(s: Samples, t0_s: float, channel: int, accel_m_s2: float, t_now: float, fire_m: float) -> Released:
+    """A release of `channel` dated at `t0_s`, confirmed at `t_now`: its trigger where the cart
+    first moved `fire_m` from where it was at t0, its hold the positions at the sample before."""
+    t, y = s.t, s.pos[:, channel]
+    k0 = int(np.searchsorted(t, t0_s))
+    away = np.flatnonzero(np.abs(y[k0:] - y[min(k0, y.size - 1)]) > fire_m)
     trigger = float(t[k0 + int(away[0])]) if away.size else t_now
-    hold = tuple(float(v) for v in s.pos[max(0, k0 - 1)])
-    return Released(date.t0_s, trigger, t_now, channel, date.accel_m_s2, hold)
+    return Released(t0_s, trigger, t_now, channel, accel_m_s2, tuple(float(v) for v in s.pos[max(0, k0 - 1)]))
 
 
 def partner_release(s: Samples, t_now: float, channel: int, t0_s: float, half_s: float, t_limit: float,
@@ -325,10 +330,7 @@ def partner_release(s: Samples, t_now: float, channel: int, t0_s: float, half_s:
     start = pair_release(t, y, motion_sign(t, y), others, t0_s, half_s, spring, PAIR_FLOOR * span, t_limit)
     if start is None or not math.isfinite(start) or start < t_first:
         return None
-    k0 = int(np.searchsorted(t, start))
-    away = np.flatnonzero(np.abs(y[k0:] - y[min(k0, y.size - 1)]) > settings.fire_m)
-    trigger = float(t[k0 + int(away[0])]) if away.size else t_now
-    return Released(start, trigger, t_now, partner, 0.0, tuple(float(v) for v in s.pos[max(0, k0 - 1)]))
+    return released_at(s, start, partner, 0.0, t_now, settings.fire_m)
 
 
 def date_ringing_release(s: Samples, t_now: float, channel: int, turns: tuple[Turn, Turn, Turn],
