@@ -295,7 +295,10 @@ class ReleaseDetector:
         self._release_t = release.t_release_s
         self._anchor = None
         self._run_channel = release.channel
-        self._run_turns = 0
+        # a ringing confirms its release a period or more after it: a hand may take the cart
+        # again between its turns (testkit 9433: a free pair's cart flicked again 0.2 s after
+        # the confirmation, never judged, its run rang on through the second release)
+        self._run_turns = sum(turn.t_s > release.t_release_s for turn in self._zigzags[release.channel].turns)
         # the spans from the release on: a ringing is confirmed about a period after it, and the
         # swings before are the largest (spanned from the confirmation, a pulled cart's 70 mm
         # swing counted 41 mm, and a held cart moved 6 mm by hand made the run two free carts)

@@ -161,7 +161,8 @@ def _bounded_residual(a: Array, y: Array, lo: Array, hi: Array) -> Array:
 
 
 def pair_release(t: Array, y: Array, signs: Array, others: Array, t0_s: float, half_s: float,
-                 spring: tuple[float, float], floor_m: float, t_limit: float) -> float | None:
+                 spring: tuple[float, float], floor_m: float,
+                 t_limit: float) -> tuple[float, tuple[float, float]] | None:
     """Where a hand let go of a cart that swings freely with another: each one's motion is then
     its free response driven by the other's, so a ringing confirmed a while after its release
     fits driven wherever it was dated. That driven free response, fitted on [t0, t0 + 1.5
@@ -172,8 +173,9 @@ def pair_release(t: Array, y: Array, signs: Array, others: Array, t0_s: float, h
     half-period stays within `DRIVEN_FIT` times the first fit's RMS (at least `floor_m`), until
     a step misses by `PAIR_BREAK` times that: a hand (on testkit students a hand missed by 4.8-42
     times, an input read coarsely, the other cart flicked at 50 Hz, by 1-2.3); the release is
-    where it stops fitting, to a 64th of a half-period. `-inf` when the slide reaches `t_limit`
-    (no hand in view: the cart the hand never touched); None when a fit fails."""
+    where it stops fitting, to a 64th of a half-period, with the (σ, ω) of the last fit that
+    held (for `daq.release_dating.date_pair`'s finer date). `-inf` when the slide reaches
+    `t_limit` (no hand in view: the cart the hand never touched); None when a fit fails."""
     end = t0_s + 1.5 * half_s
     limit = math.inf
 
@@ -218,9 +220,9 @@ def pair_release(t: Array, y: Array, signs: Array, others: Array, t0_s: float, h
                 step /= 2.0
                 if fits_from(start - step):
                     start -= step
-            return start
+            return start, spring
         start -= step
-    return -math.inf
+    return -math.inf, spring
 
 
 def still_free(t: Array, pos: Array, channels: list[int], spring: tuple[float, float], min_swing_m: float,

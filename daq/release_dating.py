@@ -48,6 +48,7 @@ from daq.ringing import (
     basis,
     even_clock,
     fit_free,
+    forced_response,
     friction_response,
     motion_sign,
     slide_back,
@@ -59,6 +60,15 @@ Array = npt.NDArray[np.float64]
 # release: a force is linear only after its peak (real flicks: 30-100 ms before let-go, 0.15-0.5
 # half-period); over 0.3 the peak entered the window and dated flicks up to 25 ms early
 HAND_WINDOW = 0.2
+# why a ringing that the other cart's measured motion drives is no release
+DRIVEN_BY_OTHER = "ringing: the other cart moved this one (no hand on it)"
+# a free pair's cart is dated (`date_pair`) on a free response fitted this many half-periods past
+# the hand's window after the coarse date (the lone one's 0.5 left the coupling's coefficient free
+# to trade with the hand's: a free pair's flicks dated 10-20 ms early at 1 kHz), t0 sought this
+# many hand windows before and after it (the driven slide stops where its fit breaks, anywhere
+# within its last step, an eighth of a half-period, of the let-go)
+PAIR_AFTER = 1.0
+PAIR_SEARCH = (1.0, 1.5)
 # a hold's release is dated again with the hand's own motion from this long before the first
 # date: a quarter of a 7-12 Hz tremor's cycle, over which a quadratic follows it
 HAND_LOOKBACK_S = 0.025
@@ -157,12 +167,13 @@ def redate_hold(s: Samples, channel: int, hold: tuple[float, ...], trigger_t: fl
 
 
 def date_hold_release(s: Samples, t_now: float, a: Turn, settings: DetectorSettings,
-                      spring: tuple[float, float] | None = None) -> Released | None:
+                      spring: tuple[float, float] | None = None, channel: int | None = None) -> Released | None:
     """The ringing began from a hold (still before turn A): date it by the onset fit, or None.
 
-    The cart that moved most from the hold is the released one (two carts may both ring); only
-    it must have been still: the other cart, held by a hand, may wander by millimetres. With
-    `spring` (σ, ω of the ringing) the onset is the spring's motion from rest (`daq.onset`).
+    The cart that moved most from the hold is the released one (two carts may both ring) unless
+    `channel` is given; only it must have been still: the other cart, held by a hand, may
+    wander by millimetres. With `spring` (σ, ω of the ringing) the onset is the spring's motion
+    from rest (`daq.onset`).
     """
     plateau_mask = (s.t >= a.t_s - settings.still_s) & (s.t <= a.t_s)
     plateau = s.pos[plateau_mask]
@@ -171,8 +182,8 @@ def date_hold_release(s: Samples, t_now: float, a: Turn, settings: DetectorSetti
     hold = tuple(float(v) for v in plateau.mean(axis=0))
     after_mask = s.t > a.t_s
     after = s.pos[after_mask]
-    swing = np.max(np.abs(after - np.array(hold)), axis=0)
-    channel = int(np.argmax(swing))
+    if channel is None:
+        channel = int(np.argmax(np.max(np.abs(after - np.array(hold)), axis=0)))
     column = plateau[:, channel]
     if float(column.max() - column.min()) > 2.0 * settings.still_band_m:
         return None
@@ -270,25 +281,32 @@ def date_ringing(s: Samples, t_now: float, channel: int, turns: tuple[Turn, Turn
     spring = (date.free.sigma, date.free.omega)
     driven, alone = fits_across(t, y, signs, others, date.t0_s, half, date.free.t_ref, spring)
     # two free carts each drive the other: the hand let go where that stops holding
-    start = (pair_release(t, y, signs, others, date.t0_s, half, spring, PAIR_FLOOR * s2, limit)
-             if paired else None)
+    pair = pair_release(t, y, signs, others, date.t0_s, half, spring, PAIR_FLOOR * s2, limit) if paired else None
+    start = pair[0] if pair is not None else None
     if start == -math.inf:
         # driven back as far as it was searched: the cart of the pair the hand never touched,
         # and its partner the one it let go
-        partner = partner_release(s, t_now, channel, t_from, half, limit, first_t + too_early, settings)
-        return partner or Rejected(t_now, 0.0, "ringing: the other cart moved this one (no hand on it)")
-    if start is not None and start - first_t < too_early:
-        start = None
-    if driven <= DRIVEN_FIT * ref and driven <= DRIVEN_EXPLAINS * alone:
-        if start is None:
-            return Rejected(t_now, 0.0, "ringing: the other cart moved this one (no hand on it)")
-        date, alone = ReleaseDate(start, date.accel_m_s2, date.free), math.inf
-    elif start is not None and start < date.t0_s - half / 2.0:
-        # the driven free response holds half a half-period further back than the lone one:
-        # that one's slide stopped at the pair's other mode, not at the hand (flicks of a free
-        # pair dated 0.27-0.65 s after their let-go); closer, the lone date is the finer (the
-        # driven slide's steps are coarser, and a gentle let-go let it pass 35 ms into the hand)
-        date, alone = ReleaseDate(start, date.accel_m_s2, date.free), math.inf
+        # (its release, confirmed by the other's ringing, may lie further back than this
+        # ringing's search: as far as a release may be confirmed after it)
+        reach = min(limit, max(float(t[0]), t_now - settings.first_release_confirm_s))
+        partner = partner_release(s, t_now, channel, t_from, half, reach, first_t + too_early, settings)
+        return partner or Rejected(t_now, 0.0, DRIVEN_BY_OTHER)
+    if pair is not None:
+        start = date_pair(t, y, signs, others, pair[0], half, pair[1]) if pair[0] - first_t >= too_early else None
+    # driven across the would-be release within its limit, and the other cart's motion needed
+    # for it, or driven as closely as the ringing fits itself: nothing of a hand shows
+    driven_only = driven <= DRIVEN_FIT * ref and (driven <= DRIVEN_EXPLAINS * alone or driven <= ref)
+    if driven_only and start is None:
+        return Rejected(t_now, 0.0, DRIVEN_BY_OTHER)
+    if start is not None:
+        # a cart of a free pair swings as its free response driven by the other's, and is dated
+        # on it (`date_pair`; the lone damped sinusoid misses the pair's other mode: free pairs'
+        # flicks dated 10-25 ms early at 1 kHz, and 0.27-0.65 s late where its slide stopped at
+        # that mode). Found half a half-period further back than the lone date, the lone fit's
+        # check that no hand acted before it is not this date's
+        if driven_only or start < date.t0_s - half / 2.0:
+            alone = math.inf
+        date = ReleaseDate(start, date.accel_m_s2, date.free)
     if alone <= DRIVEN_FIT * ref and date.t0_s - 2.0 * half < first_t:
         # no hand in the half-period before t0, and nothing of the stream before that half-period
         return Rejected(t_now, 0.0, "ringing: in motion since the stream started (no hand seen)")
@@ -310,25 +328,33 @@ def partner_release(s: Samples, t_now: float, channel: int, t0_s: float, half_s:
     """The release of the cart that swings freely with `channel` (a free pair whose other cart
     the hand never touched, so its ringing is driven back as far as it is searched): the
     partner's own driven free response slid back from the ringing's window (from `t0_s`, 1.5
-    half-periods) to where a hand held it (`pair_release`), when over the three half-periods
-    before the confirmation it swings (`swings`, by `ring_min_swing_m` at least) as that free
-    response (`still_free`: a hand may hold it, or push it smoothly away, while its partner
-    rings). None when there is no such partner or no release in view from `t_first` on. Its
-    `accel_m_s2` is 0: no onset is fitted."""
+    half-periods) to where a hand held it (`pair_release`, no further back than `t_limit`, and
+    finely dated by `date_pair`), when from there it swings out and back (`swings`, by
+    `ring_min_swing_m` at least) within three half-periods and moves as that free response
+    over its first period (`still_free`: a hand may hold it, or push it smoothly away, while
+    its partner rings). None when there is no such partner or no release in view from
+    `t_first` on. Its `accel_m_s2` is 0: no onset is fitted."""
     if s.pos.shape[1] != 2:
         return None
     partner = 1 - channel
     t, y = s.t, s.pos[:, partner]
     window = (t >= t0_s) & (t <= t0_s + 1.5 * half_s)
     span = float(np.ptp(y[window])) if np.any(window) else 0.0
-    spring = (0.0, math.pi / half_s)
-    seen = (t >= t0_s - 1.5 * half_s) & (t <= t0_s + 1.5 * half_s)
-    if (np.count_nonzero(window) < 12 or span < settings.ring_min_swing_m or not swings(t[seen], y[seen])
-            or not still_free(t[seen], s.pos[seen], [partner], spring, 0.0, True)):
+    if np.count_nonzero(window) < 12 or span < settings.ring_min_swing_m:
         return None
+    spring = (0.0, math.pi / half_s)
     others = np.delete(s.pos, partner, axis=1)
-    start = pair_release(t, y, motion_sign(t, y), others, t0_s, half_s, spring, PAIR_FLOOR * span, t_limit)
-    if start is None or not math.isfinite(start) or start < t_first:
+    signs = motion_sign(t, y)
+    pair = pair_release(t, y, signs, others, t0_s, half_s, spring, PAIR_FLOOR * span, t_limit)
+    if pair is None or not math.isfinite(pair[0]) or pair[0] < t_first:
+        return None
+    start = date_pair(t, y, signs, others, pair[0], half_s, pair[1])
+    # judged from the release on (a hold before it is no hand on the free cart): out and back
+    # within three half-periods (a pair's beating may flatten its first swing), free over its
+    # first period (a back-to-back release may take it soon after)
+    swung = (t >= start) & (t <= start + 3.0 * half_s)
+    free = (t >= start) & (t <= start + 2.0 * math.pi / pair[1][1])
+    if not swings(t[swung], y[swung]) or not still_free(t[free], s.pos[free], [partner], spring, 0.0, True):
         return None
     return released_at(s, start, partner, 0.0, t_now, settings.fire_m)
 
@@ -341,13 +367,31 @@ def date_ringing_release(s: Samples, t_now: float, channel: int, turns: tuple[Tu
     hold = date_hold_release(s, t_now, turns[0], settings, spring_of(turns))
     if hold is None:
         return free
-    if (not isinstance(free, Released) or free.channel != hold.channel
-            or others_swing(s, hold.channel, hold.t_release_s, settings.held_ratio)):
-        return hold     # two carts ring together: one damped sinusoid does not describe them
-    # a hand that lets go gradually: the motion starts before the free response does, and
-    # slower than the spring's pull at the hold (a hand let go at once starts it at that pull)
+    after = s.t >= hold.t_release_s
+    if (not swings(s.t[after], s.pos[after, hold.channel])
+            or (isinstance(free, Rejected) and free.reason == DRIVEN_BY_OTHER and hold.channel == channel)):
+        # a hand pulled a cart and holds it: the other, coupled to it, left the hold with it
+        # and rings about its new rest, driven by it (when it left the hold further than the
+        # pulled cart, the onset fit took it for the released one)
+        return free
+    if isinstance(free, Released) and free.channel != hold.channel:
+        # the free response's cart is the released one (a free pair's partner may leave the
+        # hold further, driven: its onset is the push of a flick on the other cart)
+        hold = date_hold_release(s, t_now, turns[0], settings, spring_of(turns), free.channel)
+        if hold is None:
+            return free
+    if not isinstance(free, Released):
+        return hold
+    # a hand that lets go gradually, or a flick's push from rest: the motion starts before the
+    # free response does, and slower than the spring's pull at the hold (a hand let go at once
+    # starts it at that pull; judged when the ringing is the released cart's own)
+    # (a free pair's cart is dated on its free response driven by the other's measured motion,
+    # `date_pair`: no mode is left out, and a later start is the hand's; a lone cart's damped
+    # sinusoid may leave out a mode no encoder reads, `let_go_at_once`)
     late = free.t_release_s - hold.t_release_s > max(2.0 * float(np.median(np.diff(s.t[-20:]))), 0.005)
-    return free if late and not let_go_at_once(hold, turns) else hold
+    if others_swing(s, hold.channel, hold.t_release_s, settings.held_ratio):
+        return free if late else hold
+    return free if late and not (hold.channel == channel and let_go_at_once(hold, turns)) else hold
 
 
 def let_go_at_once(hold: Released, turns: tuple[Turn, Turn, Turn]) -> bool:
@@ -369,26 +413,56 @@ def centre_of(turns: tuple[Turn, Turn, Turn]) -> float:
 
 
 # --- the joined model -------------------------------------------------------------------------
-def date_release(t: Array, y: Array, vs: Array, free: FreeFit, t_coarse: float,
-                 half_s: float) -> ReleaseDate | None:
-    """Fine release instant near `t_coarse`: a linear hand force ending at t0 joined to the free
-    response (module docstring); shapes (N,)."""
+def date_pair(t: Array, y: Array, signs: Array, others: Array, t_coarse: float, half_s: float,
+              spring: tuple[float, float]) -> float:
+    """Fine release instant of a cart of a free pair near `t_coarse` (`pair_release`'s, a 64th
+    of a half-period apart and where the slid fit stops holding, which it does a little inside
+    the hand's push): the joined model with the free response driven by the other carts'
+    measured motion `others` (N, K) (`date_release`'s `drive`), (σ, ω) = `spring` from the
+    driven fit. `t_coarse` when that fit fails or its best instant lies at the edge of the
+    search, within a sample of it (no let-go the joined model finds: a cart that stuck and
+    slipped under dry friction after its let-go was dated 0.18 s later there)."""
+    free = FreeFit(t_coarse, spring[0], spring[1], (0.0, 0.0, 0.0, 0.0, 0.0), 0.0)
+    date = date_release(t, y, signs, free, t_coarse, half_s, drive=others, after=PAIR_AFTER, search=PAIR_SEARCH)
+    if date is None:
+        return t_coarse
+    step, back = _hand_window(t, half_s)
+    inside = t_coarse - PAIR_SEARCH[0] * back + step < date.t0_s < t_coarse + PAIR_SEARCH[1] * back - step
+    return date.t0_s if inside else t_coarse
+
+
+def _hand_window(t: Array, half_s: float) -> tuple[float, float]:
+    """(the sample period, how long before the release the hand's force is fitted) (s)."""
     step = float(np.median(np.diff(t)))
-    back = max(HAND_WINDOW * half_s, 5 * step)
-    lo, hi = t_coarse - back, t_coarse + back + 0.5 * half_s
+    return step, max(HAND_WINDOW * half_s, 5 * step)
+
+
+def date_release(t: Array, y: Array, vs: Array, free: FreeFit, t_coarse: float, half_s: float,
+                 drive: Array | None = None, after: float = 0.5,
+                 search: tuple[float, float] = (0.5, 0.75)) -> ReleaseDate | None:
+    """Fine release instant near `t_coarse`: a linear hand force ending at t0 joined to the free
+    response (module docstring); shapes (N,). Fitted from the hand's window before `t_coarse`
+    to `after` half-periods past that window after it, t0 sought from `search[0]` hand windows
+    before `t_coarse` to `search[1]` after. With `drive` (N, K), the other carts' measured
+    positions, the free response is driven by them through the coupling spring (a free pair's
+    cart, `daq.driven`): their forced responses join the free columns."""
+    step, back = _hand_window(t, half_s)
+    lo, hi = t_coarse - back, t_coarse + back + after * half_s
     keep = (t >= lo) & (t <= hi)
     tw, yw, vw = even_clock(t[keep]), y[keep], vs[keep]
     if tw.size < 10:
         return None
+    forced = (np.stack([forced_response(tw, u, free.sigma, free.omega) for u in drive[keep].T], axis=1)
+              if drive is not None and drive.shape[1] else None)
     # the RSS has a local minimum between every two samples: the coarse grid must be finer
     # than the sample spacing, or it lands in the wrong interval
-    candidates = np.arange(t_coarse - 0.5 * back, t_coarse + 0.75 * back, step / 8.0)
+    candidates = np.arange(t_coarse - search[0] * back, t_coarse + search[1] * back, step / 8.0)
     candidates = candidates[(candidates > tw[2]) & (candidates < tw[-4])]
     if candidates.size == 0:
         return None
-    best = _best_joint(tw, yw, vw, free, candidates)
-    best = _best_joint(tw, yw, vw, free, np.linspace(best - step / 8.0, best + step / 8.0, 25))
-    coef, _ = _joint_solve(tw, yw, vw, free, best)
+    best = _best_joint(tw, yw, vw, free, candidates, forced)
+    best = _best_joint(tw, yw, vw, free, np.linspace(best - step / 8.0, best + step / 8.0, 25), forced)
+    coef, _ = _joint_solve(tw, yw, vw, free, best, forced=forced)
     g1, g2, d1, d2 = basis(np.array([best]), free.t_ref, free.sigma, free.omega)
     # the spring's acceleration at t0, from the ODE x'' = -2σ x' - (σ² + ω²)(x - c)
     x_rel = coef[3] * g1[0] + coef[4] * g2[0]
@@ -423,10 +497,10 @@ def hand_response(s: Array, sigma: float, omega: float) -> tuple[Array, Array]:
 
 
 def _joint_solve(t: Array, y: Array, vs: Array, free: FreeFit, t0: float,
-                 friction: dict[int, Array] | None = None) -> tuple[Array, float]:
-    """Coefficients (c, d, f, A, B, F_r, S) (the hand's scaled) and RSS of the joined model for
-    one `t0`; `friction` caches the friction column by the first sample at or after t0 (it
-    depends on nothing else)."""
+                 friction: dict[int, Array] | None = None, forced: Array | None = None) -> tuple[Array, float]:
+    """Coefficients (c, d, f, A, B, F_r, S, then one per `forced` column) (the hand's scaled)
+    and RSS of the joined model for one `t0`; `friction` caches the friction column by the
+    first sample at or after t0 (it depends on nothing else)."""
     g1, g2, _, _ = basis(t, free.t_ref, free.sigma, free.omega)
     k0 = min(int(np.searchsorted(t, t0)), t.size - 1)
     col_f = friction.get(k0) if friction is not None else None
@@ -441,12 +515,14 @@ def _joint_solve(t: Array, y: Array, vs: Array, free: FreeFit, t0: float,
     h1 /= max(float(np.max(np.abs(h1))), 1e-300)       # for conditioning
     h2 /= max(float(np.max(np.abs(h2))), 1e-300)
     design = np.stack([np.ones_like(t), t - free.t_ref, col_f, g1, g2, h1, h2], axis=1)
+    if forced is not None:
+        design = np.concatenate([design, forced], axis=1)
     coef = np.asarray(np.linalg.lstsq(design, y, rcond=None)[0], dtype=np.float64)
     residual = y - design @ coef
     return coef, float(residual @ residual)
 
 
-def _best_joint(t: Array, y: Array, vs: Array, free: FreeFit, candidates: Array) -> float:
+def _best_joint(t: Array, y: Array, vs: Array, free: FreeFit, candidates: Array, forced: Array | None) -> float:
     friction: dict[int, Array] = {}
-    rss = [_joint_solve(t, y, vs, free, float(c), friction)[1] for c in candidates]
+    rss = [_joint_solve(t, y, vs, free, float(c), friction, forced)[1] for c in candidates]
     return float(candidates[int(np.argmin(rss))])
