@@ -119,6 +119,7 @@ class ReleaseDetector:
         self._dating: tuple[float, int, Turn, Turn, Turn] | None = None   # (due time, channel, turns)
         self._run_channel = 0
         self._run_turns = 0                 # turns of the run's channel since its release
+        self._judge_from = 0.0              # a hand on the run's carts is looked for from here (s)
         self._run_low: list[float] = []
         self._run_high: list[float] = []
         self._limits = RingingLimits(s.ring_min_swing_m, 0.03, s.ring_max_half_s, s.ring_half_ratio,
@@ -289,7 +290,12 @@ class ReleaseDetector:
         t0 = redate_hold(samples, channel, hold, trigger_t, fit, self.settings, spring)
         return self._release(Released(t0, trigger_t, t_s, channel, abs(fit.accel_m_s2), hold))
 
-    def _release(self, release: Released) -> Released:
+    def _release(self, release: Released, judged_to: float = -math.inf) -> Released:
+        """Enter the run of `release`; a hand that takes its cart again is looked for from the
+        release on, or from `judged_to` when the dating judged the motion free up to there (a
+        ringing's turn C: the swings before it may carry what its dating set aside, as the
+        0.3-0.9 s after a real motor pulse on a free pair, whose cart misfit its driven free
+        response by 0.7 % of its span there)."""
         self.state = "released"
         self._dating = None
         self._release_t = release.t_release_s
@@ -298,7 +304,8 @@ class ReleaseDetector:
         # a ringing confirms its release a period or more after it: a hand may take the cart
         # again between its turns (testkit 9433: a free pair's cart flicked again 0.2 s after
         # the confirmation, never judged, its run rang on through the second release)
-        self._run_turns = sum(turn.t_s > release.t_release_s for turn in self._zigzags[release.channel].turns)
+        self._judge_from = max(release.t_release_s, judged_to)
+        self._run_turns = sum(turn.t_s >= self._judge_from for turn in self._zigzags[release.channel].turns)
         # the spans from the release on: a ringing is confirmed about a period after it, and the
         # swings before are the largest (spanned from the confirmation, a pulled cart's 70 mm
         # swing counted 41 mm, and a held cart moved 6 mm by hand made the run two free carts)
@@ -378,7 +385,7 @@ class ReleaseDetector:
             if len(moving) < 2 or channel < 0:
                 return None
         turns = self._zigzags[channel].turns
-        if self._run_turns < 3 or len(turns) < 3 or turns[-3].t_s < self._release_t:
+        if self._run_turns < 3 or len(turns) < 3 or turns[-3].t_s < self._judge_from:
             return None
         a, b, c = turns[-3], turns[-2], turns[-1]
         # (two free carts beat: their swings grow and shrink by themselves, and only a cart that
@@ -448,7 +455,7 @@ class ReleaseDetector:
         _, channel, a, b, c = dating
         event = self._date(t_s, channel, a, b, c)
         if isinstance(event, Released):
-            return [self._release(event)]
+            return [self._release(event, c.t_s)]
         return [event]
 
     def _date(self, t_s: float, channel: int, a: Turn, b: Turn, c: Turn) -> Released | Rejected:

@@ -293,9 +293,7 @@ def date_ringing(s: Samples, t_now: float, channel: int, turns: tuple[Turn, Turn
         return partner or Rejected(t_now, 0.0, DRIVEN_BY_OTHER)
     if pair is not None:
         start = date_pair(t, y, signs, others, pair[0], half, pair[1]) if pair[0] - first_t >= too_early else None
-    # driven across the would-be release within its limit, and the other cart's motion needed
-    # for it, or driven as closely as the ringing fits itself: nothing of a hand shows
-    driven_only = driven <= DRIVEN_FIT * ref and (driven <= DRIVEN_EXPLAINS * alone or driven <= ref)
+    driven_only = driven <= DRIVEN_FIT * ref and driven <= DRIVEN_EXPLAINS * alone
     if driven_only and start is None:
         return Rejected(t_now, 0.0, DRIVEN_BY_OTHER)
     if start is not None:
@@ -383,15 +381,24 @@ def date_ringing_release(s: Samples, t_now: float, channel: int, turns: tuple[Tu
     if not isinstance(free, Released):
         return hold
     # a hand that lets go gradually, or a flick's push from rest: the motion starts before the
-    # free response does, and slower than the spring's pull at the hold (a hand let go at once
-    # starts it at that pull; judged when the ringing is the released cart's own)
-    # (a free pair's cart is dated on its free response driven by the other's measured motion,
-    # `date_pair`: no mode is left out, and a later start is the hand's; a lone cart's damped
-    # sinusoid may leave out a mode no encoder reads, `let_go_at_once`)
+    # free response does, and slower than the spring's pull at the hold, or from the cart's rest
+    # (a hand let go at once starts it at that pull)
     late = free.t_release_s - hold.t_release_s > max(2.0 * float(np.median(np.diff(s.t[-20:]))), 0.005)
     if others_swing(s, hold.channel, hold.t_release_s, settings.held_ratio):
-        return free if late else hold
-    return free if late and not (hold.channel == channel and let_go_at_once(hold, turns)) else hold
+        # two carts ring together: the onset stands unless it left the rest (the real motor
+        # pulses on a free pair start 0.23-0.32 s before their free response is found)
+        return free if late and hold.channel == channel and not from_afar(hold, turns) else hold
+    return free if late and not (from_afar(hold, turns) and let_go_at_once(hold, turns)) else hold
+
+
+def from_afar(hold: Released, turns: tuple[Turn, Turn, Turn]) -> bool:
+    """Whether the hold lay at least a quarter of the ringing's swing |C - B| from its centre
+    (`centre_of`): the cart was held against the spring, or a force (a motor's step) moved its
+    rest away. A hold at the centre is the cart's rest, and the motion that left it a hand's
+    push (a flick from rest), however fast: no spring's pull to compare its start with (free
+    pairs' flicks from rest were dated at the push's start, 0.1-0.2 s early)."""
+    _, b, c = turns
+    return abs(hold.hold_pos[hold.channel] - centre_of(turns)) >= 0.25 * abs(c.x_m - b.x_m)
 
 
 def let_go_at_once(hold: Released, turns: tuple[Turn, Turn, Turn]) -> bool:
