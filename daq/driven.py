@@ -174,7 +174,7 @@ def pair_release(t: Array, y: Array, signs: Array, others: Array, t0_s: float, h
     a step misses by `PAIR_BREAK` times that: a hand (on testkit students a hand missed by 4.8-42
     times, an input read coarsely, the other cart flicked at 50 Hz, by 1-2.3); the release is
     where it stops fitting, to a 64th of a half-period, with the (σ, ω) of the last fit that
-    held (for `daq.release_dating.date_pair`'s finer date). `-inf` when the slide reaches
+    held (for `daq.joined.date_pair`'s finer date). `-inf` when the slide reaches
     `t_limit` (no hand in view: the cart the hand never touched); None when a fit fails."""
     end = t0_s + 1.5 * half_s
     limit = math.inf

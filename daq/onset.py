@@ -43,7 +43,7 @@ def fit_onset(t: npt.NDArray[np.float64], y: npt.NDArray[np.float64], powers: Se
     With `spring` = (σ, ω) (1/s, rad/s) known (a release confirmed by its ringing) the motion
     after t0 is the spring's from rest instead of a polynomial: `y = x0 + a r1(τ) + b r2(τ)`,
     r1 the response to a constant force (`r1'' (0) = 1`), r2 to one that changes linearly
-    (`daq.release_dating.hand_response` run forwards): over the 40-70 ms fitted, (ωτ)² reaches
+    (`daq.joined.hand_response` run forwards): over the 40-70 ms fitted, (ωτ)² reaches
     ~0.5 and τ², τ³ would date a release from a hold ~1 ms late at 1 kHz.
     """
     before = 3 if hand_motion else 1      # columns of the motion before t0: 1 (x0), τ, τ²

@@ -15,19 +15,12 @@ as the end of a hand force joined to the free response:
 - a ringing (`date_ringing`): the free response `f` (a damped sinusoid about a drifting
   centre with dry friction, `daq.ringing.FreeFit`) is fitted a period on and slid back while
   the data keep following it (`daq.ringing.slide_back`); around where it stops, the joined
-  model (`date_release`)
-
-      t >= t0:  x = f(t)
-      t <  t0:  x = f(t) + F_r d1(t - t0) + S d2(t - t0)
-
-  is the free motion plus the cart's response to a hand force `F_r + S (t0 - t)` that ends
-  at t0 (linear over the 0.2 half-period before it, `HAND_WINDOW`; `hand_response`, ≈ F_r τ²/2 + S τ³/6);
-  linear in the free coefficients and (F_r, S) for a given t0, t0 by a grid an eighth of a
-  sample apart, then finer. A quartic hand (the previous model) also follows the first free
-  samples and dated real flicks 8-29 ms late. From a still hold the onset fit is kept unless
-  the free response clearly begins later (more than two samples) and the onset starts the
-  cart slower than the spring's pull at the hold (`let_go_at_once`): a hand that lets go
-  gradually.
+  model of `daq.joined` places t0 (`date_release`: `f` plus the cart's response to a hand
+  force that ends at t0; for a cart of a free pair, `date_pair`, with `f` driven by the
+  other cart's measured motion). From a still hold the onset fit is kept unless the free
+  response clearly begins later (more than two samples) and the onset starts the cart
+  slower than the spring's pull at the hold (`let_go_at_once`: a hand that lets go
+  gradually) or from its rest (`from_afar`: a flick's push).
 """
 
 from __future__ import annotations
@@ -41,34 +34,13 @@ import numpy.typing as npt
 from daq.detector_events import DetectorSettings, Rejected, Released
 from daq.driven import DRIVEN_EXPLAINS, DRIVEN_FIT, PAIR_FLOOR, fits_across, pair_release, still_free
 from daq.held import moving_carts
+from daq.joined import ReleaseDate, date_pair, date_release
 from daq.onset import OnsetFit, fit_onset
-from daq.ringing import (
-    FreeFit,
-    Turn,
-    basis,
-    even_clock,
-    fit_free,
-    forced_response,
-    friction_response,
-    motion_sign,
-    slide_back,
-    swings,
-)
+from daq.ringing import Turn, fit_free, motion_sign, slide_back, swings
 
 Array = npt.NDArray[np.float64]
-# the hand's force is fitted as linear in time over this fraction of a half-period before the
-# release: a force is linear only after its peak (real flicks: 30-100 ms before let-go, 0.15-0.5
-# half-period); over 0.3 the peak entered the window and dated flicks up to 25 ms early
-HAND_WINDOW = 0.2
 # why a ringing that the other cart's measured motion drives is no release
 DRIVEN_BY_OTHER = "ringing: the other cart moved this one (no hand on it)"
-# a free pair's cart is dated (`date_pair`) on a free response fitted this many half-periods past
-# the hand's window after the coarse date (the lone one's 0.5 left the coupling's coefficient free
-# to trade with the hand's: a free pair's flicks dated 10-20 ms early at 1 kHz), t0 sought this
-# many hand windows before and after it (the driven slide stops where its fit breaks, anywhere
-# within its last step, an eighth of a half-period, of the let-go)
-PAIR_AFTER = 1.0
-PAIR_SEARCH = (1.0, 1.5)
 # a hold's release is dated again with the hand's own motion from this long before the first
 # date: a quarter of a 7-12 Hz tremor's cycle, over which a quadratic follows it
 HAND_LOOKBACK_S = 0.025
@@ -93,15 +65,6 @@ class Samples:
         t = np.fromiter((h[0] for h in history), dtype=np.float64, count=len(history))
         pos = np.array([h[1] for h in history], dtype=np.float64).reshape(len(history), -1)
         return cls(t, pos)
-
-
-@dataclass(frozen=True, slots=True)
-class ReleaseDate:
-    """Where the free response begins: `t0_s`, the spring's acceleration there, the fit."""
-
-    t0_s: float
-    accel_m_s2: float
-    free: FreeFit
 
 
 # --- from a still hold ------------------------------------------------------------------------
@@ -417,119 +380,3 @@ def centre_of(turns: tuple[Turn, Turn, Turn]) -> float:
     friction's linear decay and to first order under viscous decay."""
     a, b, c = turns
     return 0.25 * (a.x_m + 2.0 * b.x_m + c.x_m)
-
-
-# --- the joined model -------------------------------------------------------------------------
-def date_pair(t: Array, y: Array, signs: Array, others: Array, t_coarse: float, half_s: float,
-              spring: tuple[float, float]) -> float:
-    """Fine release instant of a cart of a free pair near `t_coarse` (`pair_release`'s, a 64th
-    of a half-period apart and where the slid fit stops holding, which it does a little inside
-    the hand's push): the joined model with the free response driven by the other carts'
-    measured motion `others` (N, K) (`date_release`'s `drive`), (σ, ω) = `spring` from the
-    driven fit. `t_coarse` when that fit fails or its best instant lies at the edge of the
-    search, within a sample of it (no let-go the joined model finds: a cart that stuck and
-    slipped under dry friction after its let-go was dated 0.18 s later there)."""
-    free = FreeFit(t_coarse, spring[0], spring[1], (0.0, 0.0, 0.0, 0.0, 0.0), 0.0)
-    date = date_release(t, y, signs, free, t_coarse, half_s, drive=others, after=PAIR_AFTER, search=PAIR_SEARCH)
-    if date is None:
-        return t_coarse
-    step, back = _hand_window(t, half_s)
-    inside = t_coarse - PAIR_SEARCH[0] * back + step < date.t0_s < t_coarse + PAIR_SEARCH[1] * back - step
-    return date.t0_s if inside else t_coarse
-
-
-def _hand_window(t: Array, half_s: float) -> tuple[float, float]:
-    """(the sample period, how long before the release the hand's force is fitted) (s)."""
-    step = float(np.median(np.diff(t)))
-    return step, max(HAND_WINDOW * half_s, 5 * step)
-
-
-def date_release(t: Array, y: Array, vs: Array, free: FreeFit, t_coarse: float, half_s: float,
-                 drive: Array | None = None, after: float = 0.5,
-                 search: tuple[float, float] = (0.5, 0.75)) -> ReleaseDate | None:
-    """Fine release instant near `t_coarse`: a linear hand force ending at t0 joined to the free
-    response (module docstring); shapes (N,). Fitted from the hand's window before `t_coarse`
-    to `after` half-periods past that window after it, t0 sought from `search[0]` hand windows
-    before `t_coarse` to `search[1]` after. With `drive` (N, K), the other carts' measured
-    positions, the free response is driven by them through the coupling spring (a free pair's
-    cart, `daq.driven`): their forced responses join the free columns."""
-    step, back = _hand_window(t, half_s)
-    lo, hi = t_coarse - back, t_coarse + back + after * half_s
-    keep = (t >= lo) & (t <= hi)
-    tw, yw, vw = even_clock(t[keep]), y[keep], vs[keep]
-    if tw.size < 10:
-        return None
-    forced = (np.stack([forced_response(tw, u, free.sigma, free.omega) for u in drive[keep].T], axis=1)
-              if drive is not None and drive.shape[1] else None)
-    # the RSS has a local minimum between every two samples: the coarse grid must be finer
-    # than the sample spacing, or it lands in the wrong interval
-    candidates = np.arange(t_coarse - search[0] * back, t_coarse + search[1] * back, step / 8.0)
-    candidates = candidates[(candidates > tw[2]) & (candidates < tw[-4])]
-    if candidates.size == 0:
-        return None
-    best = _best_joint(tw, yw, vw, free, candidates, forced)
-    best = _best_joint(tw, yw, vw, free, np.linspace(best - step / 8.0, best + step / 8.0, 25), forced)
-    coef, _ = _joint_solve(tw, yw, vw, free, best, forced=forced)
-    g1, g2, d1, d2 = basis(np.array([best]), free.t_ref, free.sigma, free.omega)
-    # the spring's acceleration at t0, from the ODE x'' = -2σ x' - (σ² + ω²)(x - c)
-    x_rel = coef[3] * g1[0] + coef[4] * g2[0]
-    v = coef[3] * d1[0] + coef[4] * d2[0]
-    accel = -2.0 * free.sigma * v - (free.sigma ** 2 + free.omega ** 2) * x_rel
-    refit = FreeFit(free.t_ref, free.sigma, free.omega,
-                    (float(coef[0]), float(coef[1]), float(coef[2]), float(coef[3]), float(coef[4])), free.rms_m)
-    return ReleaseDate(float(best), abs(float(accel)), refit)
-
-
-def hand_response(s: Array, sigma: float, omega: float) -> tuple[Array, Array]:
-    """What a hand force that ends at s = 0 adds to the free motion before it, s = t - t0 ≤ 0 (N,).
-
-    d'' + 2σ d' + (σ² + ω²) d = h(s), d(0) = d'(0) = 0 (the hand lets go: position and velocity
-    are continuous), for h = 1 and h = -s (m/s² per unit, a force growing back in time):
-
-        d1 = (1 - e^{-σs} (cos ωs + σ/ω sin ωs)) / Ω²                       ≈ s²/2
-        d2 = -s/Ω² + 2σ/Ω⁴ + e^{-σs} (A cos ωs + B sin ωs),
-             A = -2σ/Ω⁴,  B = (1/Ω² - 2σ²/Ω⁴)/ω,  Ω² = σ² + ω²          ≈ -s³/6
-
-    The spring acts on the hand's push too: over the 0.2-0.3 half-period the hand is fitted, ω²s²
-    reaches ~1, and the bare polynomials α s² + β s³ would date the release ~1 ms early.
-    """
-    om2 = sigma ** 2 + omega ** 2
-    env = np.exp(-sigma * s)
-    cos, sin = np.cos(omega * s), np.sin(omega * s)
-    d1: Array = (1.0 - env * (cos + sigma / omega * sin)) / om2
-    a = -2.0 * sigma / om2 ** 2
-    b = (1.0 / om2 - 2.0 * sigma ** 2 / om2 ** 2) / omega
-    d2: Array = -s / om2 + 2.0 * sigma / om2 ** 2 + env * (a * cos + b * sin)
-    return d1, d2
-
-
-def _joint_solve(t: Array, y: Array, vs: Array, free: FreeFit, t0: float,
-                 friction: dict[int, Array] | None = None, forced: Array | None = None) -> tuple[Array, float]:
-    """Coefficients (c, d, f, A, B, F_r, S, then one per `forced` column) (the hand's scaled)
-    and RSS of the joined model for one `t0`; `friction` caches the friction column by the
-    first sample at or after t0 (it depends on nothing else)."""
-    g1, g2, _, _ = basis(t, free.t_ref, free.sigma, free.omega)
-    k0 = min(int(np.searchsorted(t, t0)), t.size - 1)
-    col_f = friction.get(k0) if friction is not None else None
-    if col_f is None:
-        # dry friction goes on pulling against the motion the cart has just before t0 while
-        # the hand acts (whole: the hand moves the cart; `vs` ramps only across a free turn)
-        before = np.sign(vs[max(k0 - 1, 0)])
-        col_f = friction_response(t, np.where(np.arange(t.size) < k0, before, vs), free.sigma, free.omega)
-        if friction is not None:
-            friction[k0] = col_f
-    h1, h2 = hand_response(np.minimum(t - t0, 0.0), free.sigma, free.omega)
-    h1 /= max(float(np.max(np.abs(h1))), 1e-300)       # for conditioning
-    h2 /= max(float(np.max(np.abs(h2))), 1e-300)
-    design = np.stack([np.ones_like(t), t - free.t_ref, col_f, g1, g2, h1, h2], axis=1)
-    if forced is not None:
-        design = np.concatenate([design, forced], axis=1)
-    coef = np.asarray(np.linalg.lstsq(design, y, rcond=None)[0], dtype=np.float64)
-    residual = y - design @ coef
-    return coef, float(residual @ residual)
-
-
-def _best_joint(t: Array, y: Array, vs: Array, free: FreeFit, candidates: Array, forced: Array | None) -> float:
-    friction: dict[int, Array] = {}
-    rss = [_joint_solve(t, y, vs, free, float(c), friction, forced)[1] for c in candidates]
-    return float(candidates[int(np.argmin(rss))])

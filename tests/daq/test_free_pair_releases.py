@@ -71,3 +71,17 @@ def test_a_release_the_record_cuts_before_its_ringing_is_dated_is_recorded_at_th
     at_end = [e for e in detector.finish() if isinstance(e, Released)]
     assert len(at_end) == 1 and abs(at_end[0].t_release_s - last.time_s) < 0.02, (at_end, last)
     assert detector.finish() == []
+
+
+# flicks of a free pair whose let-go is in the data (`StudentRecord.in_data`: its acceleration
+# jump moves the cart by ten noise RMS within a sample): dated 1.1-1.2 samples early on the
+# driven slide's coarse date or the lone damped sinusoid's (neither is the pair's free response
+# joined to a hand; `daq.joined.date_pair` is)
+@pytest.mark.parametrize(("seed", "t_true"), [(9004, 3.663), (9023, 5.244), (9035, 4.002), (9039, 3.112)])
+def test_a_free_pair_flick_in_the_data_is_dated_within_a_sample(seed: int, t_true: float) -> None:
+    rec = student_records(seed, (RATE_HZ,))[RATE_HZ]
+    (truth,) = [r for r, seen in zip(rec.releases, rec.in_data(), strict=True)
+                if abs(r.time_s - t_true) < 1e-3 and seen]
+    found, _ = _released(seed)
+    near = [f for f in found if abs(f - truth.time_s) < 0.25]
+    assert len(near) == 1 and abs(near[0] - truth.time_s) <= 1.0 / RATE_HZ, (truth.time_s, near)

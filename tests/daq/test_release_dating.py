@@ -1,4 +1,4 @@
-"""`daq.release_dating.date_release` against an independent ODE solve of a hand's force that
+"""`daq.joined.date_release` against an independent ODE solve of a hand's force that
 ends at the release (the truth is used only in the assertions).
 
 A cart on a spring with viscous damping, `x'' = -wn² x - 2 ζ wn x' + h(t)`, with a hand force
@@ -17,7 +17,7 @@ from scipy.integrate import solve_ivp
 
 from daq.detector import ReleaseDetector
 from daq.detector_events import Released
-from daq.release_dating import date_release
+from daq.joined import date_release
 from daq.ringing import fit_free, motion_sign
 
 WN, ZETA = 11.0, 0.03
