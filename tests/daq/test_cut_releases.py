@@ -1,0 +1,33 @@
+"""A student's last release cut by the record's end before its ringing's third turn, by a
+student of another generator than the rig's own (`testkit.student_records`).
+
+The detector confirms a ringing at its third turn; the hand's hold or push fills the first
+half-period, so A-B (the hand's) never matches B-C (the free swing's) and the ringing waits for
+its next turn, which the record's end cut off: those releases were lost. At the end of the
+stream `ReleaseDetector.finish` judges the last turns on the swing B-C alone and dates them as
+any ringing (its hand and driven checks included).
+"""
+
+from __future__ import annotations
+
+import pytest
+
+from daq.detector import Released, ReleaseDetector
+from testkit.student_records import student_records
+
+
+# 9537: a held cart's flick 0.9 s before the end; 9532: a free pair's hold let go 0.86 s before
+# it; 9039: the same, 0.94 s before it
+@pytest.mark.parametrize(("seed", "rate_hz"), [(9537, 50.0), (9532, 50.0), (9039, 100.0)])
+def test_a_release_cut_before_its_third_turn_is_recorded_at_the_end(seed: int, rate_hz: float) -> None:
+    rec = student_records(seed, (rate_hz,))[rate_hz]
+    last = rec.releases[-1]
+    assert last.cut
+    detector = ReleaseDetector()
+    during = [e for t, (a, b) in zip(rec.t.tolist(), rec.y.tolist(), strict=True)
+              for e in detector.feed(t, (a, b)) if isinstance(e, Released)]
+    assert not any(abs(e.t_release_s - last.time_s) < 0.25 for e in during)
+    at_end = [e for e in detector.finish() if isinstance(e, Released)]
+    assert len(at_end) == 1 and abs(at_end[0].t_release_s - last.time_s) <= 1.0 / rate_hz, (at_end, last)
+    assert at_end[0].channel == last.pulled_cart - 1
+    assert detector.finish() == []
