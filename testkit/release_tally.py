@@ -75,22 +75,27 @@ class Tally:
     #: the releases whose instant is in the data (`Record.in_data`), and their errors when recorded
     in_data: int = 0
     errors_in_data_s: list[float] = field(default_factory=list)
+    #: per kind of release (as `add` is told), each release's error (s), None when missed
+    by_kind: dict[str, list[float | None]] = field(default_factory=dict)
 
     def add(self, truth: list[float], found: list[float], match_s: float, label: str,
-            in_data: list[bool] | None = None) -> None:
+            in_data: list[bool] | None = None, kinds: list[str] | None = None) -> None:
         left = list(found)
         for k, t_true in enumerate(truth):
             seen = in_data is not None and in_data[k]
+            errors = self.by_kind.setdefault(kinds[k], []) if kinds is not None else []
             self.releases += 1
             self.in_data += seen
             near = [f for f in left if abs(f - t_true) <= match_s]
             if not near:
                 self.misses.append(f"{label} at {t_true:.3f} s")
+                errors.append(None)
                 continue
             best = min(near, key=lambda f: abs(f - t_true))
             left.remove(best)
             self.recorded += 1
             self.errors_s.append(best - t_true)
+            errors.append(best - t_true)
             if seen:
                 self.errors_in_data_s.append(best - t_true)
         self.false_runs += len(left)

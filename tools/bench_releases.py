@@ -17,7 +17,8 @@ and how many of them were dated within one sample (a missed one counts against).
 
 `--generator testkit` scores the detector on another generator's students instead,
 `testkit.student_records` (the offline finder's benchmark, written apart from daq: softer
-rigs, 0.6-3.5 Hz, and both carts free in a fifth of the records), seeds from `--seed`.
+rigs, 0.6-3.5 Hz, and both carts free in a fifth of the records), seeds from `--seed`, and
+breaks each rate's releases down by kind (flick or hold, the other cart held or free).
 
     python tools/bench_releases.py                       # 200 records per rate, 600 s idle
     python tools/bench_releases.py --records 20 --idle-s 60 --rates 100
@@ -61,7 +62,8 @@ def _testkit_rate(rate: int, records: int, idle_s: float, match_s: float, seed0:
     for seed in range(seed0, seed0 + records):
         rec = student_records(seed, (float(rate),))[float(rate)]
         tally.add([r.time_s for r in rec.releases], detect(_stream(rec.t, rec.y)), match_s,
-                  f"seed={seed}{' both free' if rec.both_free else ''}", rec.in_data())
+                  f"seed={seed}{' both free' if rec.both_free else ''}", rec.in_data(),
+                  [f"{r.kind}, {'free pair' if rec.both_free else 'other cart held'}" for r in rec.releases])
     # in minutes, seeds as `tools/bench_ident_releases.py` draws them (both tools score the same)
     chunks = max(1, round(idle_s / 60.0)) if idle_s > 0 else 0
     idle = [handling_records(10_000 + k, (float(rate),), idle_s / chunks)[float(rate)] for k in range(chunks)]
@@ -95,6 +97,10 @@ def main(argv: list[str] | None = None) -> int:
         print(f"{rate:>8} {tally.releases:>9} {100.0 * tally.recorded / max(tally.releases, 1):>11.2f} "
               f"{within:>18.1f} {np.median(err):>13.2f} {np.percentile(err, 95):>8.2f} {np.max(err):>8.1f} "
               f"{tally.false_runs:>11} {idle_runs:>10} {tally.in_data:>12} {within_seen:>26.1f}", flush=True)
+        for kind, errors in sorted(tally.by_kind.items()):
+            found = [abs(e) for e in errors if e is not None]
+            print(f"   {kind}: {len(errors)} releases, recorded {len(found)}, within one sample "
+                  f"{sum(e <= 1.0 / rate for e in found)}")
         if args.show_misses:
             for miss in tally.misses:
                 print("   missed:", miss)
