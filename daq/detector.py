@@ -162,13 +162,14 @@ class ReleaseDetector:
             return []
         t_s = self._history[-1][0]
         if self._dating is None and self.state != "released":
-            self._dating = self._last_ringing(t_s)
+            found = self._last_ringing()
+            self._dating = (t_s, *found) if found is not None else None
         if self._dating is None:
             return []
         self._dating = (t_s, *self._dating[1:])
         return self._due(t_s)
 
-    def _last_ringing(self, t_s: float) -> tuple[float, int, Turn, Turn, Turn] | None:
+    def _last_ringing(self) -> tuple[int, Turn, Turn, Turn] | None:
         """A release cut by the stream's end before its ringing's next turn: a channel's last
         turns A, B, C, unjudged, that ring on the swing B-C alone, A taken as C a half-period
         B-C before B (A is where the hand held or pushed the cart: A-B carries the hold or the
@@ -181,7 +182,7 @@ class ReleaseDetector:
             a, b, t_c = turns[-3], turns[-2], turns[-1]
             a = Turn(b.t_s - (t_c.t_s - b.t_s), t_c.x_m)
             if is_ringing(a, b, t_c, self._limits):
-                return (t_s, c, a, b, t_c)
+                return c, a, b, t_c
         return None
 
     def arm_now(self, t_s: float, pos: Sequence[float]) -> list[Event]:

@@ -245,8 +245,7 @@ def date_ringing(s: Samples, t_now: float, channel: int, turns: tuple[Turn, Turn
     driven, alone = fits_across(t, y, signs, others, date.t0_s, half, date.free.t_ref, spring)
     # two free carts each drive the other: the hand let go where that stops holding
     pair = pair_release(t, y, signs, others, date.t0_s, half, spring, PAIR_FLOOR * s2, limit) if paired else None
-    start = pair[0] if pair is not None else None
-    if start == -math.inf:
+    if pair is not None and pair[0] == -math.inf:
         # driven back as far as it was searched: the cart of the pair the hand never touched,
         # and its partner the one it let go
         # (its release, confirmed by the other's ringing, may lie further back than this
@@ -254,8 +253,8 @@ def date_ringing(s: Samples, t_now: float, channel: int, turns: tuple[Turn, Turn
         reach = min(limit, max(float(t[0]), t_now - settings.first_release_confirm_s))
         partner = partner_release(s, t_now, channel, t_from, half, reach, first_t + too_early, settings)
         return partner or Rejected(t_now, 0.0, DRIVEN_BY_OTHER)
-    if pair is not None:
-        start = date_pair(t, y, signs, others, pair[0], half, pair[1]) if pair[0] - first_t >= too_early else None
+    start = (date_pair(t, y, signs, others, pair[0], half, pair[1])
+             if pair is not None and pair[0] - first_t >= too_early else None)
     driven_only = driven <= DRIVEN_FIT * ref and driven <= DRIVEN_EXPLAINS * alone
     if driven_only and start is None:
         return Rejected(t_now, 0.0, DRIVEN_BY_OTHER)
@@ -325,7 +324,8 @@ def date_ringing_release(s: Samples, t_now: float, channel: int, turns: tuple[Tu
     """Date a ringing: from a still hold by the onset fit unless the free response clearly began
     later (a hand that lets go gradually), or where the free response begins."""
     free = date_ringing(s, t_now, channel, turns, settings, first_t)
-    hold = date_hold_release(s, t_now, turns[0], settings, spring_of(turns))
+    spring = spring_of(turns)
+    hold = date_hold_release(s, t_now, turns[0], settings, spring)
     if hold is None:
         return free
     after = s.t >= hold.t_release_s
@@ -338,7 +338,7 @@ def date_ringing_release(s: Samples, t_now: float, channel: int, turns: tuple[Tu
     if isinstance(free, Released) and free.channel != hold.channel:
         # the free response's cart is the released one (a free pair's partner may leave the
         # hold further, driven: its onset is the push of a flick on the other cart)
-        hold = date_hold_release(s, t_now, turns[0], settings, spring_of(turns), free.channel)
+        hold = date_hold_release(s, t_now, turns[0], settings, spring, free.channel)
         if hold is None:
             return free
     if not isinstance(free, Released):
