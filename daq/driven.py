@@ -92,6 +92,27 @@ def fits_across(t: Array, y: Array, signs: Array, others: Array, t0_s: float, ha
     return (rms(u.shape[1]) if u.shape[1] else alone), alone
 
 
+def no_hand_before(t: Array, y: Array, signs: Array, others: Array, t0_s: float, half_s: float,
+                   spring: tuple[float, float], floor_m: float) -> bool:
+    """Whether a cart's free response driven by the other carts' motion (`others` (N, K)) holds
+    across `t0_s` (from a half-period before it to 1.5 after, `fits_across`) within `DRIVEN_FIT`
+    times its fit after t0 alone (at least `floor_m`): no hand held or moved the cart there. A
+    free pair whose record starts in motion (testkit student 9709) fitted across the date its
+    partner's slide-back gave (1.5 s after the start, where the long window's model of a cart
+    that sticks and slips broke) at 0.5 times its residual after it; the partners a hand let go
+    (testkit students 9000-9099 at 100 Hz, 26 releases) at 14-1400 times."""
+    after = (t >= t0_s) & (t <= t0_s + 1.5 * half_s)
+    if np.count_nonzero(after) < 12:
+        return False
+    tw = even_clock(t[after])
+    fitted = _driven_fit(tw, y[after], signs[after], others[after], float(tw[0]), spring, ALONE_SPREAD)
+    if fitted is None:
+        return False
+    own = max(float(np.sqrt(np.mean(fitted[0] ** 2))), floor_m)
+    across, _ = fits_across(t, y, signs, others, t0_s, half_s, t0_s, fitted[1])
+    return across <= DRIVEN_FIT * own
+
+
 def _driven_fit(tw: Array, yw: Array, vw: Array, u: Array, t_ref: float, start: tuple[float, float],
                 spread: tuple[float, float]) -> tuple[Array, tuple[float, float]] | None:
     """The residuals (n,) of the free response driven by the other carts' positions `u` (n, K)

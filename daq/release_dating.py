@@ -32,7 +32,8 @@ import numpy as np
 import numpy.typing as npt
 
 from daq.detector_events import DetectorSettings, Rejected, Released
-from daq.driven import DRIVEN_EXPLAINS, DRIVEN_FIT, PAIR_FLOOR, fits_across, pair_release, still_free
+from daq.driven import (DRIVEN_EXPLAINS, DRIVEN_FIT, PAIR_FLOOR, fits_across, no_hand_before, pair_release,
+                        still_free)
 from daq.held import moving_carts
 from daq.joined import ReleaseDate, date_pair, date_release
 from daq.onset import OnsetFit, fit_onset
@@ -316,6 +317,8 @@ def partner_release(s: Samples, t_now: float, channel: int, t0_s: float, half_s:
     free = (t >= start) & (t <= start + 2.0 * math.pi / pair[1][1])
     if not swings(t[swung], y[swung]) or not still_free(t[free], s.pos[free], [partner], spring, 0.0, True):
         return None
+    if no_hand_before(t, y, signs, others, start, half_s, pair[1], PAIR_FLOOR * span):
+        return None     # where the slide-back stopped, the pair's own model broke: no hand
     return released_at(s, start, partner, 0.0, t_now, settings.fire_m)
 
 
