@@ -14,7 +14,8 @@ Steps (arrays in, a `Diagnosis` out; no files, clocks or printing):
    backward elimination (`backward.settle`), and, when it took effects out, forward
    selection once more from the model it left (`_stepwise`);
 5. the report: every accepted effect ranked by its own gain, the headline (largest material
-   effect), the whole-window fit of the final model.
+   effect), the whole-window fit of the final model; a flick's release dated again on the
+   final model (`redate.redated_release`).
 
 A single-cart diagnosis of a record with a second, held cart (its swing under
 `HELD_FRACTION` of the free cart's) offers that cart's measured motion as an input
@@ -45,6 +46,7 @@ from ident.diagnose.held_fit import held_input
 from ident.diagnose.identifiable import identifiable_friction, identifiable_model, one_encoder, typical_scale
 from ident.diagnose.lattice import Lattice, find_lattice, find_noisy_lattice, lattice_candidates, lattice_worth_points
 from ident.diagnose.models import EFFECTS, effect_names
+from ident.diagnose.redate import redated_release
 from ident.diagnose.select import Judgement, Selection, Step, forward, is_material, threshold
 from ident.diagnose.stretch import check, check_input, moving, release_stretch
 from ident.diagnose.window import Window, hold_level
@@ -160,6 +162,9 @@ def diagnose(t: FloatArray, y: FloatArray, carts: int | None = None, step_m: flo
     if last is not None and steps:
         progress.stage("diagnosis: the final model on every sample")
         final = refit_fine(prob, ext, last, win, t_arr, y_arr, None if other is None else y_all[:, other], u_arr)
+    redated = redated_release(t_arr, y_arr, win, final[1])
+    if redated is not None:   # a flick's let-go joined on the fitted model's free response
+        win = dataclasses.replace(win, release_time_s=redated)
     effects = _ranked(prob, steps, y_arr, hold_level(y_arr)[2], final, base)
     cause = next((e.effect for e in effects if e.material), "none")
     report = _report(prob, win, t_arr, base, ext, first_round, effects, cause, ev, coherence, step_m,

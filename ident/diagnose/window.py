@@ -31,6 +31,7 @@ fitting (`MAX_WORK_SAMPLES`). No I/O here.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -65,7 +66,9 @@ class Window:
     `hold` (n_out,) held level before the motion; `hold_noise_m` its scatter;
     `release_time_s` the estimated release; `period_s` the dominant period; `tail_cut`: the
     window's still tail was cut (`stretch.still_tail_cut`), or a forced record's end
-    (`stretch.modes_resolved_cut`).
+    (`stretch.modes_resolved_cut`); `flick`: how a release the flick's join dated was found
+    (the motion's onset and the output it was dated on; `ident.diagnose.redate` dates it again
+    on the fitted model), None for any other release.
     """
 
     start: int
@@ -75,6 +78,16 @@ class Window:
     release_time_s: float
     period_s: float
     tail_cut: bool = False
+    flick: Flick | None = None
+
+
+@dataclass(frozen=True)
+class Flick:
+    """A flick's dating: the index of the motion's `onset` and the `output` (column) the hand
+    pushed, on which its release was dated (`_flick_any`)."""
+
+    onset: int
+    output: int
 
 
 def hold_level(y: FloatArray) -> tuple[FloatArray, float, int]:
@@ -146,14 +159,15 @@ def find_window(t: FloatArray, y: FloatArray, carts: int, released_at_start: boo
     tolerance = max(8.0 * noise, 0.05 * float(np.ptp(y[:, main])))
     release = _last_rest_before(t[start], fit, period, hold, tolerance)
     knot = _hold_release(t, y[:, main], hold[main], onset, period)
+    flick = None
     if knot is None:
         # let go while moving: the hand's path before, the free modes after (knot.flick_release)
-        knot = _flick_any(t, y, onset, start, period, fit)
+        knot, flick = _flick_any(t, y, onset, start, period, fit)
     if knot is not None:
         # the free response starts where the hand's force ended
         release = knot.time_s
         start = int(np.searchsorted(t, release))
-    return _from(t, start, period, hold, noise, max(release, float(t[0])))
+    return dataclasses.replace(_from(t, start, period, hold, noise, max(release, float(t[0]))), flick=flick)
 
 
 def _from(t: FloatArray, start: int, period: float, hold: FloatArray, noise: float, release: float) -> Window:
@@ -212,8 +226,10 @@ TURN_BACK = 0.2
 TURN_FLAT = 0.02
 
 
-def _flick_any(t: FloatArray, y: FloatArray, onset: int, start: int, period: float, fit: ModalFit) -> Knot | None:
-    """The flick's release dated on the cart the hand pushed: the output that moves first.
+def _flick_any(t: FloatArray, y: FloatArray, onset: int, start: int, period: float,
+               fit: ModalFit) -> tuple[Knot | None, Flick | None]:
+    """The flick's release dated on the cart the hand pushed: the output that moves first (and
+    how it was dated, None with the knot when no join could be fitted).
 
     The hand pushes one cart; only that cart's acceleration jumps when it lets go. A cart
     behind a spring is pulled by a force continuous at the release and starts to move only
@@ -222,7 +238,9 @@ def _flick_any(t: FloatArray, y: FloatArray, onset: int, start: int, period: flo
     and 974133204 at bench seed 12: the cart swinging most was the unpushed one, dated 52 and
     17 ms early, and the window's first samples held the hand's push, which a fast-decaying
     8 or 35 Hz "coupled mode" absorbed)."""
-    return _flick(t, y[:, _pushed(y, onset)], onset, start, period, fit)
+    pushed = _pushed(y, onset)
+    knot = _flick(t, y[:, pushed], onset, start, period, fit)
+    return knot, None if knot is None else Flick(onset, pushed)
 
 
 def _pushed(y: FloatArray, onset: int) -> int:

@@ -122,9 +122,10 @@ def _series_squared(a: FloatArray, s: int, order: int = 12) -> FloatArray:
 
 
 def substeps(dt: float, wn_max: float, h_wn: float = MAX_H_WN) -> int:
-    """Sub-steps per sample so that h ≤ MAX_SUBSTEP_S and h·wn_max ≤ `h_wn`."""
+    """Sub-steps per sample so that |h| ≤ MAX_SUBSTEP_S and |h|·wn_max ≤ `h_wn` (`dt` < 0: a
+    run backward in time)."""
     h_max = min(MAX_SUBSTEP_S, h_wn / max(wn_max, 1e-9))
-    return max(1, int(np.ceil(dt / h_max - 1e-9)))
+    return max(1, int(np.ceil(abs(dt) / h_max - 1e-9)))
 
 
 def _owned(a: FloatArray, shape: tuple[int, ...]) -> FloatArray:
@@ -232,7 +233,9 @@ def simulate_free(lin: FloatArray, z0: FloatArray, dt: float, n_samples: int, ca
 
     `lin` (P, 2 or 6) linear parameters (see `chain`), `z0` (P, 2c) deviation and velocity
     at τ = 0, `u` (N, m) inputs on the same grid (with `terms.input_gain`), linear between
-    samples, or held where `switch` (N, m) is finite (`switched_input`).
+    samples, or held where `switch` (N, m) is finite (`switched_input`). A `dt` < 0 runs the
+    carts backward in time from τ = 0 (the same equations: a reversal flips the friction as it
+    does forward; a cart that stuck before τ = 0 is not found stuck).
     """
     n_inputs = 0 if u is None else int(np.size(u) // n_samples)
     return run_maps(step_maps(lin, dt, carts, terms, n_inputs), z0, n_samples, u, switch)[0]
