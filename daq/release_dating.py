@@ -32,8 +32,7 @@ import numpy as np
 import numpy.typing as npt
 
 from daq.detector_events import DetectorSettings, Rejected, Released
-from daq.driven import (DRIVEN_EXPLAINS, DRIVEN_FIT, PAIR_FLOOR, fits_across, no_hand_before, pair_release,
-                        still_free)
+from daq.driven import DRIVEN_EXPLAINS, DRIVEN_FIT, PAIR_FLOOR, fits_across, no_hand_before, pair_release, still_free
 from daq.held import moving_carts
 from daq.joined import ReleaseDate, date_pair, date_release
 from daq.onset import OnsetFit, fit_onset

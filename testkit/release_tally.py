@@ -64,7 +64,10 @@ def detect(stream: Stream) -> list[float]:
 
 @dataclass
 class Tally:
-    """True releases matched to detected ones within `match_s`; the rest are false runs."""
+    """True releases matched to detected ones within `match_s`; the rest are false runs, but
+    for those within `match_s` of a catch (a ringing cart a nudge let go away from its rest:
+    `testkit.student_records.StudentRecord.catches_s`), counted apart: neither required nor
+    false."""
 
     releases: int = 0
     recorded: int = 0
@@ -77,9 +80,12 @@ class Tally:
     errors_in_data_s: list[float] = field(default_factory=list)
     #: per kind of release (as `add` is told), each release's error (s), None when missed
     by_kind: dict[str, list[float | None]] = field(default_factory=dict)
+    catches: int = 0
+    at_catches: list[str] = field(default_factory=list)
 
     def add(self, truth: list[float], found: list[float], match_s: float, label: str,
-            in_data: list[bool] | None = None, kinds: list[str] | None = None) -> None:
+            in_data: list[bool] | None = None, kinds: list[str] | None = None,
+            catches: tuple[float, ...] = ()) -> None:
         left = list(found)
         for k, t_true in enumerate(truth):
             seen = in_data is not None and in_data[k]
@@ -98,5 +104,9 @@ class Tally:
             errors.append(best - t_true)
             if seen:
                 self.errors_in_data_s.append(best - t_true)
+        self.catches += len(catches)
+        caught = [f for f in left if any(abs(f - c) <= match_s for c in catches)]
+        left = [f for f in left if f not in caught]
+        self.at_catches += [f"{label} at {f:.3f} s" for f in caught]
         self.false_runs += len(left)
         self.false += [f"{label} at {f:.3f} s" for f in left]

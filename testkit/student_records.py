@@ -15,7 +15,8 @@ loses 2–15 % of a 4 cm swing, static 1–1.3× kinetic):
   *pull-hold-release* (pulled to ±3–10 cm in 0.4–0.8 s, held still 0.3–1 s, let go);
   a release may come while the previous one still rings (back-to-back);
 - before a release, sometimes a *nudge*: the hand moves the cart 2–8 mm and back in
-  0.2–0.5 s and lets go where it took it (no ringing);
+  0.2–0.5 s and lets go where it took it (no ringing from rest; a cart taken while it rang is
+  let go away from its rest and rings: `StudentRecord.catches_s`);
 - after a release, sometimes a *touch*: 1.5–3 s later the hand moves the held cart 3–8 mm
   in 0.3–0.6 s (there and back or to a new place), which moves the pulled cart through the
   spring;
@@ -38,6 +39,10 @@ from testkit.effects.integrate import Phase, simulate
 from testkit.effects.rig import FloatArray, HandSpring, Rig, Trajectory, make_rig
 
 RATES_HZ = (50.0, 100.0, 200.0, 1000.0)
+# a nudge whose cart swings by this much or more on its own within `CATCH_WINDOW_S` after the
+# hand let go (before anything else the plan does) was a catch of a ringing cart
+CATCH_SWING_M = 0.005
+CATCH_WINDOW_S = 1.0
 
 
 @dataclass(frozen=True)
@@ -66,6 +71,10 @@ class StudentRecord:
     touches_s: tuple[float, ...] = field(default=())
     #: the readings' noise RMS (m): the Gaussian noise and the encoder's count, q²/12
     noise_m: float = float("nan")
+    #: where a nudge let go of a cart that then swung by `CATCH_SWING_M` or more on its own (the
+    #: hand took it while it rang and let it go away from its rest: a release the plan did not
+    #: make, physically one all the same): a run there is neither required nor false
+    catches_s: tuple[float, ...] = field(default=())
 
     def in_data(self, snr: float = 10.0) -> list[bool]:
         """Per release: whether its instant is in the data (`instants_in_data`)."""
@@ -243,6 +252,7 @@ def _simulate(rng: np.random.Generator, rig: Rig, wn: float, pulled: int,
         z[pulled] = float(rng.choice([-1, 1]) * rng.uniform(0.01, 0.04))
     clock = 0.0
     truth: list[TrueRelease] = []
+    nudged: list[tuple[float, float]] = []     # (let-go, the plan's next start)
 
     def advance(phase: Phase) -> None:
         nonlocal z, clock
@@ -263,17 +273,22 @@ def _simulate(rng: np.random.Generator, rig: Rig, wn: float, pulled: int,
         else:
             traj = _pull_hold(start, spec["pull"], spec["duration"] - spec["pull"], x0, spec["x1"])
         advance(Phase(start, start + spec["duration"], {pulled: traj}))
-        if kind != "nudge":
+        if kind == "nudge":
+            nudged.append((start + spec["duration"], next(s for _, s, _ in plan if s > start)))
+        else:
             let_go = start + spec["duration"]
             truth.append(TrueRelease(let_go, pulled + 1, kind, jump_m_s2=_let_go_jump(rig, traj, let_go, z, pulled)))
+    catches = tuple(let_go for let_go, until in nudged
+                    if np.ptp(x[(t >= let_go) & (t <= min(let_go + CATCH_WINDOW_S, until)), pulled]) >= CATCH_SWING_M)
     # the encoder's draws start from the same generator state for every rate (as in a record
     # generated at that rate alone)
     state = rng.bit_generator.state
     records = {}
     for rate_hz, t_r in grids.items():
         rng.bit_generator.state = state
-        records[rate_hz] = _sampled(rng, t_r, _on_grid(t, x, t_r), truth, end, pulled, touches,
-                                    both, rate_hz, events)
+        records[rate_hz] = dataclasses.replace(
+            _sampled(rng, t_r, _on_grid(t, x, t_r), truth, end, pulled, touches, both, rate_hz, events),
+            catches_s=catches)
     return records
 
 
