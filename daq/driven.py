@@ -100,7 +100,7 @@ def no_hand_before(t: Array, y: Array, signs: Array, others: Array, t0_s: float,
     free pair whose record starts in motion (testkit student 9709) fitted across the date its
     partner's slide-back gave (1.5 s after the start, where the long window's model of a cart
     that sticks and slips broke) at 0.5 times its residual after it; the partners a hand let go
-    (testkit students 9000-9099 at 100 Hz, 26 releases) at 14-1400 times."""
+    (testkit students 9000-9077 at 100 Hz, 26 releases) at 14-1400 times."""
     after = (t >= t0_s) & (t <= t0_s + 1.5 * half_s)
     if np.count_nonzero(after) < 12:
         return False

@@ -252,7 +252,7 @@ def _simulate(rng: np.random.Generator, rig: Rig, wn: float, pulled: int,
         z[pulled] = float(rng.choice([-1, 1]) * rng.uniform(0.01, 0.04))
     clock = 0.0
     truth: list[TrueRelease] = []
-    nudged: list[tuple[float, float]] = []     # (let-go, the plan's next start)
+    catches: list[float] = []
 
     def advance(phase: Phase) -> None:
         nonlocal z, clock
@@ -274,12 +274,11 @@ def _simulate(rng: np.random.Generator, rig: Rig, wn: float, pulled: int,
             traj = _pull_hold(start, spec["pull"], spec["duration"] - spec["pull"], x0, spec["x1"])
         advance(Phase(start, start + spec["duration"], {pulled: traj}))
         if kind == "nudge":
-            nudged.append((start + spec["duration"], next(s for _, s, _ in plan if s > start)))
+            if _rings_after(rig, z, pulled, start + spec["duration"], next(s for _, s, _ in plan if s > start)):
+                catches.append(start + spec["duration"])
         else:
             let_go = start + spec["duration"]
             truth.append(TrueRelease(let_go, pulled + 1, kind, jump_m_s2=_let_go_jump(rig, traj, let_go, z, pulled)))
-    catches = tuple(let_go for let_go, until in nudged
-                    if np.ptp(x[(t >= let_go) & (t <= min(let_go + CATCH_WINDOW_S, until)), pulled]) >= CATCH_SWING_M)
     # the encoder's draws start from the same generator state for every rate (as in a record
     # generated at that rate alone)
     state = rng.bit_generator.state
@@ -288,8 +287,18 @@ def _simulate(rng: np.random.Generator, rig: Rig, wn: float, pulled: int,
         rng.bit_generator.state = state
         records[rate_hz] = dataclasses.replace(
             _sampled(rng, t_r, _on_grid(t, x, t_r), truth, end, pulled, touches, both, rate_hz, events),
-            catches_s=catches)
+            catches_s=tuple(catches))
     return records
+
+
+def _rings_after(rig: Rig, z: FloatArray, cart: int, let_go: float, until: float) -> bool:
+    """Whether `cart`, let go at `let_go` in state `z`, swings by `CATCH_SWING_M` or more on its
+    own within `CATCH_WINDOW_S` (and before `until`, the plan's next step), on a 1 ms grid of its
+    own (the record's grid is the rates asked for: a swing near the bar would depend on them)."""
+    end = min(let_go + CATCH_WINDOW_S, until)
+    grid = let_go + np.arange(int((end - let_go) * 1000.0) + 1) / 1000.0
+    seg, _ = simulate(rig, [Phase(let_go, end)], grid, z)
+    return bool(np.ptp(seg[:, cart]) >= CATCH_SWING_M)
 
 
 def _sampled(rng: np.random.Generator, t: FloatArray, x: FloatArray, truth: list[TrueRelease],
