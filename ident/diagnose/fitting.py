@@ -361,10 +361,10 @@ def _std_through_lattice(spec: ModelSpec, theta: FloatArray, std: FloatArray, fr
     h = steps[kept]
     rows = np.repeat(theta[keep][None, :], cols.size + 1, axis=0)
     rows[np.arange(1, cols.size + 1), at] += h
-    with np.errstate(all="ignore"):
+    with np.errstate(all="ignore"):   # a diverging trial row is non-finite: `_finite` takes it
         pred = bare.predict(rows, dt, y.shape[0])[:, train, :].reshape(rows.shape[0], -1)
-    jac = _finite(((pred[1:] - pred[0]) / h[:, None]).T)
-    resid = _finite(pred[0] - y[train].ravel())
+        jac = _finite(((pred[1:] - pred[0]) / h[:, None]).T)
+        resid = _finite(pred[0] - y[train].ravel())
     if root is not None:   # the rest drift's penalty, on the kept parameters
         jac = np.concatenate([jac, root[:, kept]])
         resid = np.concatenate([resid, root[:, kept] @ theta[cols]])
