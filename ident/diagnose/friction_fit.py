@@ -13,6 +13,13 @@ from ident.diagnose.evidence import EvidenceResult
 from ident.diagnose.fitting import FitResult, fit
 from ident.diagnose.models import ModelSpec
 from ident.diagnose.problem import FloatArray, Problem, best_rows, cheapest, ranked_plateaus, ranked_rows
+from ident.diagnose.valley import (
+    VALLEY,
+    other_modes,
+    valley_chains,
+    valley_walk_rows,
+    with_modes,
+)
 from ident.physics.chain import modes
 from ident.simple_start import envelope_friction
 
@@ -111,39 +118,11 @@ def _fit_in_stages(spec: ModelSpec, prob: Problem, starts: list[FloatArray],
     return results[0]
 
 
-#: The valley walk's shares along the one-encoder family (`_walk_valley`), as logit(share) =
-#: ln(share / (1 - share)): ±0.35, ±1.05, ..., ±3.85 (shares 0.021-0.979, each end approached
-#: in equal ratios; 0.5 itself, where A = D leaves the dampings' split undefined, is left out).
-WALK_LOGITS = tuple(sign * (0.35 + 0.7 * k) for sign in (-1.0, 1.0) for k in range(6))
-#: And these steps in logit(share) about the fit's own share.
-WALK_STEPS = (-0.3, -0.1, 0.1, 0.3)
-
-
-def valley_walk_rows(spec: ModelSpec, theta: FloatArray, logits: tuple[float, ...] = WALK_LOGITS
-                     ) -> list[FloatArray]:
-    """The starts of `_walk_valley`: the one-encoder chain `theta` (a1, b1, b2, a2, g1, g2, ...)
-    moved across the family to every share of `logits` and the `WALK_STEPS` about its own share
-    s = (A - w1) / (w2 - w1) (A = a1 + b1, w1 < w2 the modes' wn²), cart 1's friction kept and
-    cart 2's scaled with b2 (F2 / b2 kept). Empty when the carts are not coupled (b2 <= 0)."""
-    low, high = _mode_squares(theta)
-    if not theta[2] > 0.0 or not high > low:
-        return []
-    own = float(np.clip((theta[0] + theta[1] - low) / (high - low), 1e-4, 1.0 - 1e-4))
-    at = np.log(own / (1.0 - own))
-    shares = tuple(float(1.0 / (1.0 + np.exp(-z))) for z in (*logits, *(at + d for d in WALK_STEPS)))
-    friction = spec.block("coulomb_friction").start
-    rows = []
-    for moved, _ in _valley_chains(theta, spec, shares):
-        moved[friction + 1] = theta[friction + 1] * moved[2] / theta[2]
-        rows.append(moved)
-    return rows
-
-
 def _walk_valley(spec: ModelSpec, prob: Problem, best: FitResult,
                  bounds: tuple[FloatArray, FloatArray, FloatArray], ev: EvidenceResult,
                  max_nfev: int) -> FitResult:
     """Two carts through one encoder: the staged fit `best` moved across the one-encoder family
-    (`_valley_chains`, its modes kept) to every `WALK_LOGITS` share and a few `WALK_STEPS` about
+    (`valley_chains`, its modes kept) to every `WALK_LOGITS` share and a few `WALK_STEPS` about
     its own, each move carrying its friction (cart 1's F1 as fitted, cart 2's F2 with F2 / b2,
     what cart 1's encoder fixes of it, `identifiable`, kept), all fitted again in stages; the
     cheaper of that and `best` returned.
@@ -168,9 +147,6 @@ def _walk_valley(spec: ModelSpec, prob: Problem, best: FitResult,
 #: 1 : 0.3 either way (the current chain read by both encoders takes the first three).
 FRICTION_SHARES = tuple(np.array(p) for p in ((1.0, 0.0), (0.0, 1.0), (1.0, 1.0), (1.0, 0.3), (0.3, 1.0)))
 
-#: Where a one-encoder chain's friction fit starts A = (k1+k2)/m1 between the squares of the
-#: modes' frequencies (0: the lower, 1: the upper), D = (k2+k3)/m2 = trace - A.
-VALLEY = (0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9)
 #: Starts fitted on to every sample (the best after the large-amplitude stage).
 FULL_FITS = 2
 
@@ -189,7 +165,7 @@ def _two_cart_friction_starts(spec: ModelSpec, prob: Problem, theta0: FloatArray
     own stiffness), but the linear fit lands anywhere in the family, and friction on the wrong
     cart then fits best. So the chain is also started across that family (`VALLEY`), each with
     cart 2's start as fitted or at rest (whichever row fits better), and with its modes moved
-    (`_other_modes`)."""
+    (`other_modes`)."""
     at = spec.block("coulomb_friction").start
     chain = theta0.copy()
     chain[4:6] = 0.25 * theta0[4:6]
@@ -202,7 +178,7 @@ def _two_cart_friction_starts(spec: ModelSpec, prob: Problem, theta0: FloatArray
     # and unequal shares (factor 2 apart, 0.3-2 between the carts)
     levels = [g * f_max * p for p in FRICTION_SHARES for g in (0.003, 0.006, 0.012, 0.025, 0.05, 0.1)]
     out += [best_rows(spec, prob, chain, slice(0, chain.size), _with_levels(spec, levels, [pair]))
-            for pair in _valley_chains(chain, spec)]
+            for pair in valley_chains(chain, spec)]
     # (half the levels and every other valley share: each start is a batch of simulations)
     return out + _other_mode_starts(spec, prob, chain, levels[1::2])
 
@@ -223,55 +199,11 @@ def _with_levels(spec: ModelSpec, levels: list[FloatArray], pairs: list[tuple[Fl
 def _other_mode_starts(spec: ModelSpec, prob: Problem, chain: FloatArray, levels: list[FloatArray]
                        ) -> list[FloatArray]:
     """A one-encoder chain's friction starts with one of its modes kept and the other moved
-    (`_other_modes`): the best row of each across every other valley share and the friction
+    (`other_modes`): the best row of each across every other valley share and the friction
     `levels`."""
     return [best_rows(spec, prob, chain, slice(0, chain.size),
-                      _with_levels(spec, levels, _valley_chains(_with_modes(chain, kept, other), spec, VALLEY[::2])))
-            for kept, other in _other_modes(chain)]
-
-
-#: A one-encoder chain's friction fit also starts with one of its modes kept and the other's wn²
-#: this many times the kept one's (the best row of each, across the valley and friction levels).
-SECOND_MODES = (0.125, 0.25, 0.5, 2.0, 4.0, 8.0)
-
-
-def _other_modes(chain: FloatArray) -> list[tuple[float, float]]:
-    """(kept, other) modes' wn² of the starts `SECOND_MODES` makes of `chain`: each of its two
-    modes kept (the lower only when they are within 20 %), the other moved; none within 20 % of
-    the chain's own pair.
-
-    Through one encoder the linear fit's modes need not be the chain's: a cart that friction
-    stops within a few cycles hardly shows its own mode, and the linear fit imitates friction's
-    straight decay by two close modes (generated seed 61607245: 8.05 and 8.76 rad/s for a true
-    8.45 and 17.4, cart 2 then pinned by a stiff wall spring, 0.38 points under the noise
-    floor), or the one seen is the upper (red team two_cart_coulomb_y1 1038: a light cart 1 at
-    44.6 rad/s on a heavy cart 2 at 13.5; 8.5 points under the floor)."""
-    low, high = _mode_squares(chain)
-    kept = (low,) if high < 1.44 * low else (low, high)
-    own = np.array([low, high])
-    return [(k, k * r) for k in kept for r in SECOND_MODES
-            if not np.all(np.abs(np.sort([k, k * r]) / own - 1.0) < 0.44)]
-
-
-def _mode_squares(chain: FloatArray) -> tuple[float, float]:
-    """The undamped modes' wn² (lower, upper) of a chain (a1, b1, b2, a2, ...): the eigenvalues
-    of [[a1 + b1, -b1], [-b2, b2 + a2]]."""
-    a1, b1, b2, a2 = chain[:4]
-    big_a, big_d = a1 + b1, b2 + a2
-    trace, det = big_a + big_d, big_a * big_d - b1 * b2
-    disc = np.sqrt(max(trace * trace - 4.0 * det, 0.0))
-    return float(0.5 * (trace - disc)), float(0.5 * (trace + disc))
-
-
-def _with_modes(chain: FloatArray, kept: float, other: float) -> FloatArray:
-    """`chain` with its modes' wn² `kept` and `other` (any chain with them: the valley then moves
-    it across)."""
-    new_a = 0.5 * (kept + other)
-    new_d = kept + other - new_a
-    b = float(np.sqrt(max(new_a * new_d - kept * other, 0.0)))
-    row = chain.copy()
-    row[:4] = [new_a - b, b, b, new_d - b]
-    return row
+                      _with_levels(spec, levels, valley_chains(with_modes(chain, kept, other), spec, VALLEY[::2])))
+            for kept, other in other_modes(chain)]
 
 
 def _other_chain_starts(spec: ModelSpec, prob: Problem, theta0: FloatArray) -> list[FloatArray]:
@@ -301,37 +233,6 @@ def _other_chain_starts(spec: ModelSpec, prob: Problem, theta0: FloatArray) -> l
             f_low = float(other[0]) ** 2 * prob.amplitude
             levels = [g * f_low * p for p in FRICTION_SHARES for g in (0.003, 0.01, 0.03, 0.1)]
             out.append(best_rows(spec, prob, row, slice(at, at + 2), levels))
-    return out
-
-
-def _valley_chains(chain: FloatArray, spec: ModelSpec, shares: tuple[float, ...] = VALLEY
-                   ) -> list[tuple[FloatArray, FloatArray]]:
-    """`chain` moved across the one-encoder family (see `_two_cart_friction_starts`) to each
-    `VALLEY` share: the modes' wn² kept (trace and A D - b1 b2), the dampings moved to keep
-    g1 + g2 and g1 D + g2 A, the gauge b1 inside the range where every spring is positive
-    (`identifiable`); each with cart 2's start as fitted, and at rest."""
-    a1, b1, b2, a2, g1, g2 = chain[:6]
-    big_a, big_d = a1 + b1, b2 + a2
-    trace, det = big_a + big_d, big_a * big_d - b1 * b2
-    w1, w2 = _mode_squares(chain)
-    g_sum, g_mix = g1 + g2, g1 * big_d + g2 * big_a
-    names = spec.names
-    x2, v2, r2 = names.index("x0_2_m"), names.index("v0_2_m_s"), names.index("rest_2_m")
-    out = []
-    for share in shares:
-        new_a = w1 + share * (w2 - w1)
-        new_d = trace - new_a
-        bc = new_a * new_d - det
-        if bc <= 0.0 or abs(new_d - new_a) < 1e-9 * trace:
-            continue
-        nb1 = float(np.sqrt(bc / new_d * new_a))     # inside (bc / D, A): both walls' springs > 0
-        nb2 = bc / nb1
-        ng1 = float(np.clip((g_mix - g_sum * new_a) / (new_d - new_a), 0.0, g_sum))
-        row = chain.copy()
-        row[:6] = [new_a - nb1, nb1, nb2, new_d - nb2, ng1, g_sum - ng1]
-        still = row.copy()
-        still[x2], still[v2] = still[r2], 0.0
-        out.append((row, still))
     return out
 
 
@@ -513,5 +414,4 @@ def _large_amplitude_samples(prob: Problem, ev: EvidenceResult, level: float = 0
     return int(min(n, max(np.searchsorted(prob.tau, last + quarter), 40)))
 
 
-__all__ = ["STATIC_GRID", "WALK_LOGITS", "WALK_STEPS", "fit_friction", "fit_static_friction", "static_rows",
-           "valley_walk_rows"]
+__all__ = ["STATIC_GRID", "fit_friction", "fit_static_friction", "static_rows"]

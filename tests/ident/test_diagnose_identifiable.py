@@ -14,10 +14,10 @@ import pytest
 
 from ident.diagnose import diagnose
 from ident.diagnose.fitting import evaluate
-from ident.diagnose.friction_fit import _valley_chains
 from ident.diagnose.identifiable import CART2_ACCEL, CART2_FRICTION, flat_direction, identifiable_friction
 from ident.diagnose.models import ModelSpec
 from ident.diagnose.problem import Problem
+from ident.diagnose.valley import valley_chains
 from testkit.effects import judge, make_case
 
 SPEC = ModelSpec(("coulomb_friction",), 2, {"rest_2_m": 0.0}, None, None, 1)
@@ -116,7 +116,7 @@ def test_the_friction_starts_span_what_one_encoder_cannot_tell_apart(seed: int) 
 
     kt = stiffness(theta)
     wn2 = np.sort(np.linalg.eigvals(kt).real)
-    pairs = _valley_chains(theta, SPEC)
+    pairs = valley_chains(theta, SPEC)
     assert len(pairs) >= 4
     big_a = []
     for row, still in pairs:

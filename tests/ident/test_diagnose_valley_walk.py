@@ -14,15 +14,15 @@ import numpy as np
 import pytest
 
 from ident.diagnose import diagnose
-from ident.diagnose.friction_fit import WALK_LOGITS, WALK_STEPS, _mode_squares, valley_walk_rows
 from ident.diagnose.models import ModelSpec
+from ident.diagnose.valley import WALK_LOGITS, WALK_STEPS, mode_squares, valley_walk_rows
 from testkit.effects import judge, make_case
 
 SPEC = ModelSpec(("coulomb_friction",), 2, {"rest_2_m": 0.0}, None, None, 1)
 
 
 def _share(theta: np.ndarray) -> float:
-    low, high = _mode_squares(theta)
+    low, high = mode_squares(theta)
     return float((theta[0] + theta[1] - low) / (high - low))
 
 
@@ -36,10 +36,10 @@ def test_the_walk_spans_the_valley_with_the_modes_and_the_identifiable_friction_
                       float(rng.uniform(0.0, 0.2)), float(rng.uniform(0.01, 0.2))])
     rows = valley_walk_rows(SPEC, theta)
     assert len(rows) == len(WALK_LOGITS) + len(WALK_STEPS)
-    modes = np.array(_mode_squares(theta))
+    modes = np.array(mode_squares(theta))
     shares = np.array([_share(r) for r in rows])
     for row in rows:
-        assert np.allclose(_mode_squares(row), modes, rtol=1e-9)
+        assert np.allclose(mode_squares(row), modes, rtol=1e-9)
         assert np.all(row[:4] > 0.0)                                   # every spring physical
         assert row[12] == theta[12]                                    # cart 1's friction
         assert row[13] / row[2] == pytest.approx(theta[13] / theta[2], rel=1e-12)   # f2 / k2
