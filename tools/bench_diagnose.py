@@ -38,7 +38,7 @@ from typing import Any
 
 import numpy as np
 
-from testkit.effects import FAMILIES, PAIRS, Case, judge, make_case
+from testkit.effects import FAMILIES, PAIRS, Case, judge, make_case, noise_floor_percent
 from testkit.effects.draw import CUBIC_R_MAX_FULL
 from testkit.effects.judge import parameter_sigmas
 
@@ -162,10 +162,7 @@ def run_one_encoder(n: int, seed: int, wide_carts: bool = False) -> list[dict[st
             print(f"  seed {case_seed}: ERROR {type(exc).__name__}: {exc}", flush=True)
             rows.append({"seed": case_seed, "error": str(exc)})
             continue
-        t = case.observed.t
-        window = t >= report.window_start_s
-        y, clean = case.observed.y[window], case.truth.clean[window]
-        floor = 100.0 * (1.0 - np.linalg.norm(y - clean) / np.linalg.norm(y - y.mean(axis=0)))
+        floor = noise_floor_percent(case, report.window_start_s)
         v = judge(case, report)
         release_samples = abs(report.release_time_s - case.truth.release_time_s) * case.truth.rate_hz
         row: dict[str, Any] = {"seed": case_seed, "fit": report.extended.fit_percent, "floor": float(floor),

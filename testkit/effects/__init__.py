@@ -8,7 +8,19 @@ user would pass (`case.observed`: t, y, carts) kept apart from what was hidden (
 
 from testkit.effects.case import Case, Observed, Truth, write_csv
 from testkit.effects.draw import FAMILIES, PAIRS, SINGLE, make_case
-from testkit.effects.judge import PARAMETER_TOL, Verdict, judge
+from testkit.effects.judge import PARAMETER_TOL, Verdict, judge, noise_floor_percent
 
-__all__ = ["FAMILIES", "PAIRS", "PARAMETER_TOL", "SINGLE", "Case", "Observed", "Truth", "Verdict", "judge",
-           "make_case", "write_csv"]
+__all__ = [
+           "FAMILIES",
+           "PAIRS",
+           "PARAMETER_TOL",
+           "SINGLE",
+           "Case",
+           "Observed",
+           "Truth",
+           "Verdict",
+           "judge",
+           "make_case",
+           "noise_floor_percent",
+           "write_csv",
+]

@@ -16,6 +16,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
+import numpy as np
+
 from testkit.effects.case import Case
 
 PARAMETER_TOL = 0.05
@@ -101,6 +103,14 @@ def parameter_errors(case: Case, report: Any) -> dict[str, float]:
             scale = case.truth.details["coulomb_cart1_per_coupling_m"]
         errors[name] = float("inf") if got is None else abs(got - value) / scale
     return errors
+
+
+def noise_floor_percent(case: Case, start_s: float) -> float:
+    """The fit % (MATLAB compare) the noise-free truth reaches on the observed readings from
+    `start_s` on: no model can do better than the noise leaves."""
+    window = case.observed.t >= start_s
+    y, clean = case.observed.y[window], case.truth.clean[window]
+    return float(100.0 * (1.0 - np.linalg.norm(y - clean) / np.linalg.norm(y - y.mean(axis=0))))
 
 
 def judge(case: Case, report: Any, tolerance: float = PARAMETER_TOL) -> Verdict:

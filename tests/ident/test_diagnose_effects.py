@@ -16,7 +16,7 @@ import pytest
 
 from ident.diagnose import diagnose
 from schemas.diagnosis import DiagnosisReport
-from testkit.effects import FAMILIES, PAIRS, Case, Verdict, judge, make_case
+from testkit.effects import FAMILIES, PAIRS, Case, Verdict, judge, make_case, noise_floor_percent
 
 SET_SEED = 20261124
 PER_FAMILY = 3
@@ -68,9 +68,7 @@ def test_two_carts_with_friction_through_one_encoder_reach_the_noise_floor(seeds
     for seed in seeds or _seeds("coulomb_friction", 2):
         case = make_case(seed, "coulomb_friction", carts=2, encoders=1)
         report = _run(case)
-        window = case.observed.t >= report.window_start_s
-        y, clean = case.observed.y[window], case.truth.clean[window]
-        floor = 100.0 * (1.0 - np.linalg.norm(y - clean) / np.linalg.norm(y - y.mean(axis=0)))
+        floor = noise_floor_percent(case, report.window_start_s)
         verdict = judge(case, report)
         release_samples = abs(report.release_time_s - case.truth.release_time_s) * case.truth.rate_hz
         if floor - report.extended.fit_percent > 0.3 or not verdict.parameters_ok or release_samples > 1.0:
@@ -97,9 +95,7 @@ ONE_ENCODER_SHORT = ((61607245, False), (2053547375, True))
 def test_one_encoder_friction_fits_that_stopped_short_reach_the_noise_floor(seed: int, wide: bool) -> None:
     case = make_case(seed, "coulomb_friction", carts=2, encoders=1, wide_carts=wide)
     report = _run(case)
-    window = case.observed.t >= report.window_start_s
-    y, clean = case.observed.y[window], case.truth.clean[window]
-    floor = 100.0 * (1.0 - np.linalg.norm(y - clean) / np.linalg.norm(y - y.mean(axis=0)))
+    floor = noise_floor_percent(case, report.window_start_s)
     verdict = judge(case, report)
     assert floor - report.extended.fit_percent <= 0.3, _describe(case, report, verdict)
     assert verdict.parameters_ok, _describe(case, report, verdict)

@@ -18,7 +18,7 @@ from ident.diagnose.identifiable import CART2_ACCEL, CART2_FRICTION, flat_direct
 from ident.diagnose.models import ModelSpec
 from ident.diagnose.problem import Problem
 from ident.diagnose.valley import valley_chains
-from testkit.effects import judge, make_case
+from testkit.effects import judge, make_case, noise_floor_percent
 
 SPEC = ModelSpec(("coulomb_friction",), 2, {"rest_2_m": 0.0}, None, None, 1)
 
@@ -160,8 +160,6 @@ def test_a_linear_fit_elsewhere_in_the_one_encoder_family_still_finds_the_fricti
     # of it on cart 2; started across the family it reaches the floor
     case = make_case(1950055679, "coulomb_friction", carts=2, encoders=1)
     report = diagnose(case.observed.t, case.observed.y, carts=2).report
-    window = case.observed.t >= report.window_start_s
-    y, clean = case.observed.y[window], case.truth.clean[window]
-    floor = 100.0 * (1.0 - np.linalg.norm(y - clean) / np.linalg.norm(y - y.mean(axis=0)))
+    floor = noise_floor_percent(case, report.window_start_s)
     assert report.extended.fit_percent > floor - 0.1
     assert judge(case, report).errors["coulomb_accel_m_s2"] < 0.1

@@ -14,11 +14,10 @@ f2 / k2.
 
 from __future__ import annotations
 
-import numpy as np
 import pytest
 
 from ident.diagnose import diagnose
-from testkit.effects import judge, make_case
+from testkit.effects import judge, make_case, noise_floor_percent
 
 
 @pytest.mark.parametrize("seed", [
@@ -33,7 +32,5 @@ def test_a_breakaway_through_one_encoder_is_not_taken_for_a_mode_or_a_cubic(seed
     errors = judge(case, report).errors
     assert set(errors) == {"coulomb_accel_m_s2", "coulomb_cart2_per_coupling_m"}
     assert max(errors.values()) <= 0.05, errors
-    window = case.observed.t >= report.window_start_s
-    y, clean = case.observed.y[window], case.truth.clean[window]
-    floor = 100.0 * (1.0 - np.linalg.norm(y - clean) / np.linalg.norm(y - y.mean(axis=0)))
+    floor = noise_floor_percent(case, report.window_start_s)
     assert floor - report.extended.fit_percent <= 0.3, (floor, report.extended.fit_percent)

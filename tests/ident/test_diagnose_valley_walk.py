@@ -16,7 +16,7 @@ import pytest
 from ident.diagnose import diagnose
 from ident.diagnose.models import ModelSpec
 from ident.diagnose.valley import WALK_LOGITS, WALK_STEPS, mode_squares, valley_walk_rows
-from testkit.effects import judge, make_case
+from testkit.effects import judge, make_case, noise_floor_percent
 
 SPEC = ModelSpec(("coulomb_friction",), 2, {"rest_2_m": 0.0}, None, None, 1)
 
@@ -61,8 +61,6 @@ def test_a_one_encoder_chain_ends_in_the_truths_basin(seed: int) -> None:
     errors = judge(case, report).errors
     assert set(errors) == {"coulomb_accel_m_s2", "coulomb_cart2_per_coupling_m"}
     assert max(errors.values()) <= 0.05, errors
-    window = case.observed.t >= report.window_start_s
-    y, clean = case.observed.y[window], case.truth.clean[window]
-    floor = 100.0 * (1.0 - np.linalg.norm(y - clean) / np.linalg.norm(y - y.mean(axis=0)))
+    floor = noise_floor_percent(case, report.window_start_s)
     assert floor - report.extended.fit_percent <= 0.3, (floor, report.extended.fit_percent)
     assert "coupled_mode" not in [e.effect for e in report.effects]
