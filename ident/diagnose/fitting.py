@@ -339,6 +339,16 @@ def _inside(x: FloatArray, lower: FloatArray, upper: FloatArray) -> FloatArray:
     return np.minimum(np.maximum(x, lower + margin), upper - margin)
 
 
+def without_lattice(spec: ModelSpec) -> tuple[ModelSpec, NDArray[np.bool_]]:
+    """`spec` reading the carts' positions themselves, without its encoder lattice's staircase,
+    and which of `spec`'s parameters it keeps (all but the lattice's)."""
+    lattice = set(spec.names_of("quantization"))
+    keep = np.array([name not in lattice for name in spec.names])
+    bare = dataclasses.replace(spec, effects=tuple(e for e in spec.effects if e != "quantization"),
+                               fixed={k: v for k, v in spec.fixed.items() if k not in lattice})
+    return bare, keep
+
+
 def _std_through_lattice(spec: ModelSpec, theta: FloatArray, std: FloatArray, free: NDArray[np.int_],
                          steps: FloatArray, dt: float, y: FloatArray, train: NDArray[np.bool_],
                          root: FloatArray | None) -> FloatArray:
@@ -351,10 +361,7 @@ def _std_through_lattice(spec: ModelSpec, theta: FloatArray, std: FloatArray, fr
     no residual: the Gauss-Newton σ came out absurdly small (a 25 Hz real release read
     through a 1 mm lattice: a cubic spring of -3538 ± 1.7e-6 /m²/s²). The lattice's own
     parameters keep theirs."""
-    lattice = set(spec.names_of("quantization"))
-    keep = np.array([name not in lattice for name in spec.names])
-    bare = dataclasses.replace(spec, effects=tuple(e for e in spec.effects if e != "quantization"),
-                               fixed={k: v for k, v in spec.fixed.items() if k not in lattice})
+    bare, keep = without_lattice(spec)
     kept = keep[free]
     cols = free[kept]
     at = (np.cumsum(keep) - 1)[cols]

@@ -22,13 +22,10 @@ later would have pushed inside it).
 
 from __future__ import annotations
 
-import dataclasses
-
 import numpy as np
 
-from ident.diagnose.fitting import FitResult
+from ident.diagnose.fitting import FitResult, without_lattice
 from ident.diagnose.knot import MIN_PRE, model_join
-from ident.diagnose.models import ModelSpec
 from ident.diagnose.problem import FloatArray
 from ident.diagnose.window import Window
 
@@ -49,7 +46,10 @@ def redated_release(t: FloatArray, y: FloatArray, win: Window, model: FitResult)
     if flick.output >= spec.observed or start - first < MIN_PRE or start + AHEAD >= t.size:
         return None
     dt = float(t[1] - t[0])
-    spec, theta = _unread(spec, model.theta)
+    # the carts' positions, not their reading: a spline through a lattice's steps has no
+    # velocity to join
+    spec, keep = without_lattice(spec)
+    theta = model.theta[keep]
     back = spec.predict(theta[None], -dt, start - first + 1)[0, ::-1, flick.output]   # samples first..start
     ahead = spec.predict(theta[None], dt, AHEAD + 1)[0, 1:, flick.output]
     free = np.concatenate([back, ahead])
@@ -58,18 +58,6 @@ def redated_release(t: FloatArray, y: FloatArray, win: Window, model: FitResult)
     stretch = slice(first, start + AHEAD + 1)
     knot = model_join(t[stretch], y[stretch, flick.output], free, MIN_PRE, start - first)
     return None if knot is None else knot.time_s
-
-
-def _unread(spec: ModelSpec, theta: FloatArray) -> tuple[ModelSpec, FloatArray]:
-    """The model's carts' positions, not their reading: without an encoder lattice's staircase
-    (a spline through its steps has no velocity to join)."""
-    if "quantization" not in spec.effects:
-        return spec, theta
-    keep = np.ones(theta.size, dtype=bool)
-    keep[spec.block("quantization")] = False
-    fixed = {k: v for k, v in spec.fixed.items() if k not in spec.names_of("quantization")}
-    effects = tuple(e for e in spec.effects if e != "quantization")
-    return dataclasses.replace(spec, effects=effects, fixed=fixed), theta[keep]
 
 
 __all__ = ["AHEAD", "redated_release"]
