@@ -36,7 +36,7 @@ from daq.driven import DRIVEN_EXPLAINS, DRIVEN_FIT, PAIR_FLOOR, fits_across, no_
 from daq.held import moving_carts
 from daq.joined import ReleaseDate, date_pair, date_release
 from daq.onset import OnsetFit, fit_onset
-from daq.ringing import Turn, fit_free, motion_sign, slide_back, swings
+from daq.ringing import FreeFit, Turn, fit_free, motion_sign, slide_back, swings
 
 Array = npt.NDArray[np.float64]
 # why a ringing that the other cart's measured motion drives is no release
@@ -199,6 +199,18 @@ def free_span(half_s: float, step_s: float) -> float:
     return max(1.5 * half_s, FREE_MIN_SAMPLES * step_s)
 
 
+def _free_after(t: Array, y: Array, signs: Array, t_from: float, span: float, sigma0: float,
+                half: float) -> tuple[FreeFit | None, Array]:
+    """The free response fitted on [t_from, t_from + span], with the dry friction of the motion's
+    `signs` unless it gains little, and the signs it was fitted with (zero without friction)."""
+    window = (t >= t_from) & (t <= t_from + span)
+    free = fit_free(t[window], y[window], signs[window], sigma0, math.pi / half)
+    linear = fit_free(t[window], y[window], 0.0 * signs[window], sigma0, math.pi / half)
+    if linear is not None and (free is None or free.rms_m > 0.7 * linear.rms_m):
+        return linear, 0.0 * signs     # no dry friction to speak of: keep the model lean
+    return free, signs
+
+
 def date_ringing(s: Samples, t_now: float, channel: int, turns: tuple[Turn, Turn, Turn],
                  settings: DetectorSettings, first_t: float) -> Released | Rejected:
     """Fit the free response after B, slide the fit back while it holds; date where it began."""
@@ -207,14 +219,21 @@ def date_ringing(s: Samples, t_now: float, channel: int, turns: tuple[Turn, Turn
     s2 = abs(c.x_m - b.x_m)
     sigma0 = spring_of(turns)[0]
     t, y = s.t, s.pos[:, channel]
-    t_from = b.t_s + 0.25 * half
     span = free_span(half, float(np.median(np.diff(t[-20:]))))
+    signs = motion_sign(t, y)
+    t_from = b.t_s + 0.25 * half
+    free, vs = _free_after(t, y, signs, t_from, span, sigma0, half)
+    # a window the stream's end cuts (a release cut by the record's end, dated as it ends) starts
+    # earlier, from as soon after A as it is free, so that it holds its span, when the free
+    # response fits it as the slide-back would (a free pair's two modes do not: kept from B
+    # then): a third of a period after B set ω 9 % off and a misfit yardstick a third of the
+    # whole window's, and the slide-back stopped at B, 0.4 s after the let-go
+    early = max(float(t[-1]) - span, a.t_s + 0.25 * half)
+    if early < t_from and free is not None:
+        whole, whole_vs = _free_after(t, y, signs, early, span, sigma0, half)
+        if whole is not None and whole.rms_m <= 1.5 * max(free.rms_m, 0.0003 * s2):
+            t_from, free, vs = early, whole, whole_vs
     window = (t >= t_from) & (t <= t_from + span)
-    signs = vs = motion_sign(t, y)
-    free = fit_free(t[window], y[window], vs[window], sigma0, math.pi / half)
-    linear = fit_free(t[window], y[window], 0.0 * vs[window], sigma0, math.pi / half)
-    if linear is not None and (free is None or free.rms_m > 0.7 * linear.rms_m):
-        free, vs = linear, 0.0 * vs     # no dry friction to speak of: keep the model lean
     if free is None:
         return Rejected(t_now, 0.0, "ringing: fit failed")
     if free.rms_m > settings.ring_fit_max_rel * s2:
@@ -255,6 +274,10 @@ def date_ringing(s: Samples, t_now: float, channel: int, turns: tuple[Turn, Turn
         return partner or Rejected(t_now, 0.0, DRIVEN_BY_OTHER)
     start = (date_pair(t, y, signs, others, pair[0], half, pair[1])
              if pair is not None and pair[0] - first_t >= too_early else None)
+    if start is not None and no_hand_before(t, y, signs, others, start, half, pair[1], PAIR_FLOOR * s2):
+        # where the slide-back stopped, the pair's own model broke (a cart that sticks and slips
+        # under dry friction), not a hand: the pair rang on across it
+        return Rejected(t_now, 0.0, "ringing: the pair's own motion holds across its slide-back's end (no hand)")
     driven_only = driven <= DRIVEN_FIT * ref and driven <= DRIVEN_EXPLAINS * alone
     if driven_only and start is None:
         return Rejected(t_now, 0.0, DRIVEN_BY_OTHER)
