@@ -272,9 +272,11 @@ def date_ringing(s: Samples, t_now: float, channel: int, turns: tuple[Turn, Turn
         reach = min(limit, max(float(t[0]), t_now - settings.first_release_confirm_s))
         partner = partner_release(s, t_now, channel, t_from, half, reach, first_t + too_early, settings)
         return partner or Rejected(t_now, 0.0, DRIVEN_BY_OTHER)
-    start = (date_pair(t, y, signs, others, pair[0], half, pair[1])
-             if pair is not None and pair[0] - first_t >= too_early else None)
-    if start is not None and no_hand_before(t, y, signs, others, start, half, pair[1], PAIR_FLOOR * s2):
+    start = None
+    if pair is not None and pair[0] - first_t >= too_early:
+        start = date_pair(t, y, signs, others, pair[0], half, pair[1])
+    if pair is not None and start is not None and no_hand_before(t, y, signs, others, start, half, pair[1],
+                                                                 PAIR_FLOOR * s2):
         # where the slide-back stopped, the pair's own model broke (a cart that sticks and slips
         # under dry friction), not a hand: the pair rang on across it
         return Rejected(t_now, 0.0, "ringing: the pair's own motion holds across its slide-back's end (no hand)")
