@@ -125,7 +125,7 @@ def _weakest(steps: list[Step], last: Trial, without: Without, carts: int) -> tu
     if not candidates:
         return None
     read = "quantization" in final.spec.effects
-    plain = dataclasses.replace(final, likelihood_gain=None)
+    plain = dataclasses.replace(final, likelihood_gain=None, level_gain=None)
     smooth, smooth_bounds = plain, last
     if read:
         smooth = without(dataclasses.replace(last, effect="quantization"), final, 2)

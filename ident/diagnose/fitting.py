@@ -56,6 +56,10 @@ class FitResult:
     #: for an effect whose readings are no Gaussian scatter (an encoder lattice: a mixture of
     #: levels); None: the gain is the SSE ratio
     likelihood_gain: tuple[float, float] | None = None
+    #: whole window, for an effect of the carts added to a model that reads through an encoder
+    #: lattice: twice the log-likelihood gain of the readings as the lattice's levels over the
+    #: model this one extends (`lattice.level_log_likelihood`); None: the gain is the SSE ratio
+    level_gain: float | None = None
 
     def parameters(self) -> dict[str, float]:
         return {n: float(v) for n, v in zip(self.spec.names, self.theta)}

@@ -109,8 +109,11 @@ def judge(effect: str, before: FitResult, after: FitResult, carts: int) -> Judge
     if after.likelihood_gain is not None:   # readings on a lattice: the mixture likelihood
         lr_fit, lr_cv = after.likelihood_gain
         return Judgement(effect, after, lr_fit, lr_cv, bar, lr_fit - extra * float(np.log(n)), lr_sse)
-    return Judgement(effect, after, lr_sse, likelihood_ratio(n, before.sse_val + floor, after.sse_val + floor),
-                     bar, bic(before, floor) - bic(after, floor))
+    lr_cv = likelihood_ratio(n, before.sse_val + floor, after.sse_val + floor)
+    if after.level_gain is not None:   # the carts' positions read through a lattice: as its levels
+        return Judgement(effect, after, after.level_gain, lr_cv, bar, after.level_gain - extra * float(np.log(n)),
+                         lr_sse)
+    return Judgement(effect, after, lr_sse, lr_cv, bar, bic(before, floor) - bic(after, floor))
 
 
 @dataclass(frozen=True)
