@@ -182,7 +182,7 @@ def block_edges(y: FloatArray, anchor: int = 0) -> NDArray[np.int_]:
     own: a slow drift of the rest shows there).
 
     A freely ringing cart's anchor needs only to fix the release state (x0, v0): about one
-    period of the main mode (`anchor`, `run._anchor`). A longer one hides what happens early
+    period of the main mode (`anchor`, `anchor.anchor_of`). A longer one hides what happens early
     from every held-out block: a second mode that has decayed by a few 1/s lives mostly in the
     first seconds, and a sixth of a 9 s window (1.5 s) had held 95 % of a 1/s mode's energy
     (coupled_mode seed 1958525349 at bench seed 12: whole-window ratio 226 against a bound of

@@ -36,6 +36,7 @@ from numpy.typing import NDArray
 from ident import progress, summary
 from ident.diagnose import candidates as cands
 from ident.diagnose import explain
+from ident.diagnose.anchor import anchor_of
 from ident.diagnose.backward import settle
 from ident.diagnose.candidates import Problem, fit_baseline
 from ident.diagnose.drift import drift_basis, drift_spacing, slow_residual
@@ -47,13 +48,13 @@ from ident.diagnose.identifiable import identifiable_friction, identifiable_mode
 from ident.diagnose.lattice import Lattice, find_lattice, find_noisy_lattice, lattice_candidates, lattice_worth_points
 from ident.diagnose.models import EFFECTS, effect_names
 from ident.diagnose.redate import redated_release
-from ident.diagnose.select import ALPHA, Judgement, Selection, Step, forward, is_material, threshold
+from ident.diagnose.select import Judgement, Selection, Step, forward, is_material, threshold
 from ident.diagnose.stretch import check, check_input, moving, release_stretch
 from ident.diagnose.window import Window, hold_level
 from ident.errors import IdentDimensionError, IdentValueError
 from ident.physics.chain import LINEAR_NAMES, modes
 from ident.physics.free import switched_input
-from ident.physics.measures import fit_percent, noise_std
+from ident.physics.measures import fit_percent
 from schemas.diagnosis import Candidate, DiagnosisReport, EffectFit, Evidence, ModelFit
 
 _T = TypeVar("_T")
@@ -132,7 +133,7 @@ def diagnose(t: FloatArray, y: FloatArray, carts: int | None = None, step_m: flo
     prob = Problem(t_arr[idx] - t_arr[win.start], y_arr[idx], float(t_arr[1] - t_arr[0]) * win.decimation,
                    np.ones(idx.size, dtype=bool), carts, float(np.max(np.ptp(y_arr[idx], axis=0))),
                    held, None if work_u is None else work_u[0],
-                   anchor=_anchor(win, float(t_arr[1] - t_arr[0]), y_arr[win.start:], y_arr[idx]),
+                   anchor=anchor_of(win, float(t_arr[1] - t_arr[0]), y_arr[win.start:], y_arr[idx]),
                    input_switch=None if work_u is None else work_u[1])
     fixed = _fixed_rest(win, carts, step_m)
     progress.stage("diagnosis: the linear baseline")
@@ -240,81 +241,6 @@ def _with_drift(prob: Problem, base: FitResult, wn: float) -> tuple[Problem, Fit
     prob = dataclasses.replace(prob, drift=basis, drift_spacing_s=spacing)
     spec = dataclasses.replace(base.spec, drift=basis, fixed={**base.spec.fixed, "drift_spacing_s": spacing})
     return prob, dataclasses.replace(base, spec=spec)
-
-
-#: Work samples the blocked cross-validation's anchoring stretch holds at least.
-MIN_ANCHOR = 10
-
-
-def _anchor(win: Window, dt: float, fine: FloatArray, y: FloatArray) -> int:
-    """The cross-validation's anchoring stretch (`fitting.block_edges`) for the work samples
-    `y` (N, c) (`fine` (M, c): every sample of the window, `dt` s apart): one period of the
-    window's main mode (`MIN_ANCHOR` samples at least), enough to fix the release state of
-    carts that ring freely; 0 (a sixth of the window) when the window has no period (a force
-    input's whole record) or its carts end stuck (still within the noise and not swinging at
-    the main period: `_rings_at_end`).
-
-    A cart that sticks has its release state fixed by the rest of the record only through a
-    chaotic extrapolation back across every stick: a held-out block right after one period
-    then judges how a refit without it extrapolates, not the effect (generated Coulomb runs with
-    a held cart, seeds 144445060 and 1568247562: the held cart's gain 6-30 % off with the short
-    anchor)."""
-    if not np.isfinite(win.period_s) or win.period_s <= 0:
-        return 0
-    period = max(round(win.period_s / (dt * win.decimation)), MIN_ANCHOR)
-    stuck = _ends_stuck(y, period) and not _rings_at_end(fine, max(round(win.period_s / dt), 1))
-    return 0 if stuck else period
-
-
-def _ends_stuck(y: FloatArray, period: int) -> bool:
-    """Whether every output's last `period` samples stay within 6 noise σ (second-difference
-    estimate, `noise_std`) plus the reading's step (the smallest nonzero change) of their
-    median: a cart held by dry friction, not one still ringing."""
-    tail = y[-period:]
-    if tail.shape[0] < 5:
-        return False
-    sigma = noise_std(y)
-    steps = np.abs(np.diff(tail, axis=0))
-    step = np.array([float(np.min(c[c > 0])) if np.any(c > 0) else 0.0 for c in steps.T])
-    return bool(np.all(np.max(np.abs(tail - np.median(tail, axis=0)), axis=0) <= 6.0 * sigma + step))
-
-
-#: Samples of the last period `_rings_at_end` needs for its F-test.
-MIN_RING_SAMPLES = 8
-
-
-def _rings_at_end(fine: FloatArray, period: int) -> bool:
-    """Whether some output of `fine` (M, c), every sample of the window, still swings at the
-    main period over its last `period` samples: the F-test of a cosine and sine of that period
-    beside a constant and a slope (a drifting rest), F = (ΔSS/2) / (SS/(m-4)) against
-    F_{2,m-4}(1 - ALPHA), the tail's own scatter (noise and encoder steps) as the noise.
-
-    A viscous ring decays exponentially and never stops: its last swings sink into the noise
-    but keep their period, where a cart held by dry friction reads one level plus noise.
-    `_ends_stuck` cannot tell them apart below 6 σ, and its σ, from the work samples'
-    second differences, includes the motion's curvature at a few samples per period (red
-    team `coupled_pinned` 2903, 279 Hz, one sample in 8: 1.0 mm for a noise of 0.23 mm): a
-    3.5 Hz cart still swinging 0.7 mm at the end of 15 s was taken as stuck, the anchor was a
-    sixth of the window (2.5 s), and the 6.5 Hz mode, decaying at 1.2 /s, lay in it (held-out
-    ratio 15.9 against a bound of 29.4; 189 with one period's anchor)."""
-    import scipy.stats  # deferred: keeps `import ident` fast
-
-    tail = fine[-period:]
-    m = tail.shape[0]
-    if m < MIN_RING_SAMPLES:
-        return False
-    phase = 2.0 * np.pi * np.arange(m) / period
-    slow = np.column_stack([np.ones(m), phase])
-    swing = np.column_stack([slow, np.cos(phase), np.sin(phase)])
-    bar = float(scipy.stats.f.ppf(1.0 - ALPHA, 2, m - 4))
-    for column in tail.T:
-        ss_slow = float(np.sum((column - slow @ np.linalg.lstsq(slow, column, rcond=None)[0]) ** 2))
-        ss_swing = float(np.sum((column - swing @ np.linalg.lstsq(swing, column, rcond=None)[0]) ** 2))
-        if ss_slow <= 0.0:   # one level throughout: still
-            continue
-        if (ss_slow - ss_swing) / 2.0 > bar * max(ss_swing, 1e-300) / (m - 4):
-            return True
-    return False
 
 
 def _staged(label: str, work: Callable[[], _T]) -> _T:

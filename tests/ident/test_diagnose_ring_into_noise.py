@@ -9,7 +9,7 @@ cart was taken as stuck by dry friction and the cross-validation's anchor was a 
 window, never held out, where a mode decaying at 1-1.5 /s has most of its energy. The held-out
 ratio fell under its bound and only the lattice was named (red team `coupled_pinned` 2903: 15.9
 against 29.4; 189 with one period's anchor). The cart's last period still swings at its period
-(`run._rings_at_end`): the anchor is one period.
+(`anchor.rings_at_end`): the anchor is one period.
 Cases: seeded draws, the second mode at 1.7-2.2 times the cart's frequency (as the red team's
 1.87), 2-3 % of the pull: 6/6 found, 1/6 before. (At 1.35-1.65 and 2.3-2.8 times, 2-3 of 6 draws
 miss it either way: the mode's start frequency, `bounds._mode_bounds`, is another matter.)
