@@ -50,7 +50,7 @@ PAIR_DRIFT = 0.05
 # ... until a step misses by this many times its limit (`pair_release`)
 PAIR_BREAK = 3.0
 # ... and it stays its driven free response within DRIVEN_FIT times this share of its swing
-# (RMS) until a hand takes a cart of the pair (`still_free`; as `date_ringing`'s floor)
+# (RMS) until a hand takes a cart of the pair (`still_free`; as `release_dating.RING_FLOOR`)
 PAIR_FLOOR = 0.0003
 
 

@@ -45,6 +45,10 @@ DRIVEN_BY_OTHER = "ringing: the other cart moved this one (no hand on it)"
 # date: a quarter of a 7-12 Hz tremor's cycle, over which a quadratic follows it
 HAND_LOOKBACK_S = 0.025
 FREE_MIN_SAMPLES = 16
+# a ringing's free response is judged against its own RMS misfit, taken at least this share of its
+# swing |C - B| (a few samples' RMS is a poor yardstick at low rates; `daq.driven.PAIR_FLOOR` is
+# a free pair's)
+RING_FLOOR = 0.0003
 # ω from a pull's start acceleration, refitted this many times (`spring_of_pull`; the second
 # pass moves a 40 rad/s cart's date by 0.1 ms at 1 kHz, a third by less than 0.02)
 PULL_SPRING_PASSES = 2
@@ -218,6 +222,7 @@ def date_ringing(s: Samples, t_now: float, channel: int, turns: tuple[Turn, Turn
     half = 0.5 * (c.t_s - a.t_s)
     s2 = abs(c.x_m - b.x_m)
     sigma0 = spring_of(turns)[0]
+    floor = RING_FLOOR * s2
     t, y = s.t, s.pos[:, channel]
     span = free_span(half, float(np.median(np.diff(t[-20:]))))
     signs = motion_sign(t, y)
@@ -231,7 +236,7 @@ def date_ringing(s: Samples, t_now: float, channel: int, turns: tuple[Turn, Turn
     early = max(float(t[-1]) - span, a.t_s + 0.25 * half)
     if early < t_from and free is not None:
         whole, whole_vs = _free_after(t, y, signs, early, span, sigma0, half)
-        if whole is not None and whole.rms_m <= 1.5 * max(free.rms_m, 0.0003 * s2):
+        if whole is not None and whole.rms_m <= 1.5 * max(free.rms_m, floor):
             t_from, free, vs = early, whole, whole_vs
     window = (t >= t_from) & (t <= t_from + span)
     if free is None:
@@ -245,7 +250,7 @@ def date_ringing(s: Samples, t_now: float, channel: int, turns: tuple[Turn, Turn
         # a hand in the window (a cart caught as it swung and moved on): judged when it is let go
         return Rejected(t_now, 0.0, "ringing: not a free response (a hand moved the cart in it)")
     limit = max(float(t[0]), a.t_s - 4.0 * half)
-    t_coarse, free = slide_back(t, y, vs, t_from, span, half, free, limit, 0.0003 * s2)
+    t_coarse, free = slide_back(t, y, vs, t_from, span, half, free, limit, floor)
     # a release shows the hand before it: within a half-period of the stream's start the data
     # cannot tell a release from a swing that was going on (a record that starts in motion);
     # judged on the slid-back start and again on the fine instant (it may lie before it)
@@ -258,7 +263,7 @@ def date_ringing(s: Samples, t_now: float, channel: int, turns: tuple[Turn, Turn
     if date is None or date.t0_s - first_t < too_early:
         return Rejected(t_now, 0.0, "ringing: in motion since the stream started (no release seen)"
                         if t[0] <= first_t else "ringing: no release in view (it rang before)")
-    ref = max(free.rms_m, 0.0003 * s2)
+    ref = max(free.rms_m, floor)
     others = np.delete(s.pos, channel, axis=1)
     spring = (date.free.sigma, date.free.omega)
     driven, alone = fits_across(t, y, signs, others, date.t0_s, half, date.free.t_ref, spring)
@@ -275,11 +280,10 @@ def date_ringing(s: Samples, t_now: float, channel: int, turns: tuple[Turn, Turn
     start = None
     if pair is not None and pair[0] - first_t >= too_early:
         start = date_pair(t, y, signs, others, pair[0], half, pair[1])
-    if pair is not None and start is not None and no_hand_before(t, y, signs, others, start, half, pair[1],
-                                                                 PAIR_FLOOR * s2):
-        # where the slide-back stopped, the pair's own model broke (a cart that sticks and slips
-        # under dry friction), not a hand: the pair rang on across it
-        return Rejected(t_now, 0.0, "ringing: the pair's own motion holds across its slide-back's end (no hand)")
+        if no_hand_before(t, y, signs, others, start, half, pair[1], PAIR_FLOOR * s2):
+            # where the slide-back stopped, the pair's own model broke (a cart that sticks and
+            # slips under dry friction), not a hand: the pair rang on across it
+            return Rejected(t_now, 0.0, "ringing: the pair's own motion holds across its slide-back's end (no hand)")
     driven_only = driven <= DRIVEN_FIT * ref and driven <= DRIVEN_EXPLAINS * alone
     if driven_only and start is None:
         return Rejected(t_now, 0.0, DRIVEN_BY_OTHER)
