@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 
 from ident.diagnose import diagnose
+from testkit.effects.rings import released_with_second_ring
 
 
 def _two_rings(rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray, float]:
@@ -30,13 +31,8 @@ def _two_rings(rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray, float]
     pull, t_r = rng.uniform(0.05, 0.15), rng.uniform(0.3, 1.0)
     a2 = rng.uniform(8.0, 20.0) * noise
     t = np.arange(0.0, t_r + 9.0, 1.0 / rate)
-    tau = np.maximum(t - t_r, 0.0)
-    sigma, wd = zeta * wn, wn * np.sqrt(1 - zeta**2)
-    main = -pull * np.exp(-sigma * tau) * (np.cos(wd * tau) + sigma / wd * np.sin(wd * tau))
-    # the second ring starts at the release from zero displacement (the held pair was at rest)
-    second = a2 * np.exp(-decay2 * tau) * np.sin(2 * np.pi * f2 * tau)
-    y = np.where(t < t_r, -pull, main + second) + rng.normal(0.0, noise, t.size)
-    return t, y, float(f2)
+    x = released_with_second_ring(t, t_r, pull, wn, zeta * wn, a2, f2, decay2)
+    return t, x + rng.normal(0.0, noise, t.size), float(f2)
 
 
 @pytest.mark.slow

@@ -21,6 +21,7 @@ import numpy as np
 import pytest
 
 from ident.diagnose import diagnose
+from testkit.effects.rings import released_with_second_ring
 
 
 def _ring_into_noise(rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray, float]:
@@ -36,12 +37,7 @@ def _ring_into_noise(rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray, 
     sigma = float(np.log(pull / (rng.uniform(2.0, 4.0) * noise))) / duration
     a2 = rng.uniform(0.02, 0.03) * pull
     t = np.arange(0.0, t_r + duration, 1.0 / rate)
-    tau = np.maximum(t - t_r, 0.0)
-    wd = np.sqrt(wn**2 - sigma**2)
-    main = -pull * np.exp(-sigma * tau) * (np.cos(wd * tau) + sigma / wd * np.sin(wd * tau))
-    # the second ring starts at the release from zero displacement (the held pair was at rest)
-    second = a2 * np.exp(-decay2 * tau) * np.sin(2 * np.pi * f2 * tau)
-    x = np.where(t < t_r, -pull, main + second) + rng.normal(0.0, noise, t.size)
+    x = released_with_second_ring(t, t_r, pull, wn, sigma, a2, f2, decay2) + rng.normal(0.0, noise, t.size)
     return t, q * np.round(x / q), float(f2)
 
 
