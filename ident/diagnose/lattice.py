@@ -215,7 +215,6 @@ def lattice_likelihood_gain(y: FloatArray, prediction: FloatArray, q: float, off
     quantum (w = min(1, |Δp|/q)): a resting cart's readings sit at one place relative to the
     lattice, one observation however many samples, and must not vote a lattice in.
     """
-    import scipy.special  # deferred: keeps `import ident` fast
 
     step = np.abs(np.diff(prediction, axis=0, prepend=prediction[:1]))
     w = np.minimum(step / q, 1.0).ravel()
@@ -232,12 +231,22 @@ def lattice_likelihood_gain(y: FloatArray, prediction: FloatArray, q: float, off
         reading = [(offset + q * (k + j), np.exp(-0.5 * ((yy - offset - q * (k + j)) / s) ** 2)
                     / (s * np.sqrt(2 * np.pi))) for j in (-1, 0, 1)]
         for sx in np.geomspace(0.05 * q, max(3.0 * np.sqrt(sigma2), 0.1 * q), 16):
-            mix = np.zeros(yy.size)
-            for level, density in reading:
-                prob = scipy.special.ndtr((level + q / 2 - p) / sx) - scipy.special.ndtr((level - q / 2 - p) / sx)
-                mix += prob * density
-            best = max(best, float(np.sum(w * np.log(np.maximum(mix, 1e-300)))))
+            best = max(best, float(np.sum(w * _level_log_density(p, reading, q, sx))))
     return 2.0 * (best - float(ell0))
+
+
+def _level_log_density(p: FloatArray, reading: list[tuple[FloatArray, FloatArray]], q: float,
+                       sx: float) -> FloatArray:
+    """Per reading, log of its density under the lattice model about the positions `p`: the
+    position x ~ N(p, sx²), the level that holds x (probability Φ((L + q/2 - p)/sx) -
+    Φ((L - q/2 - p)/sx)), times the reading's density about that level; `reading` pairs each
+    candidate level L (the nearest and its two neighbours) with that density."""
+    import scipy.special  # deferred: keeps `import ident` fast
+
+    mix = np.zeros(p.size)
+    for level, density in reading:
+        mix += (scipy.special.ndtr((level + q / 2 - p) / sx) - scipy.special.ndtr((level - q / 2 - p) / sx)) * density
+    return np.asarray(np.log(np.maximum(mix, 1e-300)), dtype=np.float64)
 
 
 #: Reading noises s a comparison of two models' positions on one lattice profiles, in quanta
@@ -260,7 +269,6 @@ def level_log_likelihood(y: FloatArray, position: FloatArray, q: float, offset: 
     2.11e-5 to 1.37e-5 m², ratio 45 against a bound of 29; as levels, 6.4.) On a lattice much
     finer than σ_x it is the Gaussian likelihood of the residual, σ_x profiled."""
     import scipy.optimize  # deferred: keeps `import ident` fast
-    import scipy.special
 
     yy, p = y.ravel(), position.ravel()
     k = np.round((yy - offset) / q)
@@ -269,13 +277,10 @@ def level_log_likelihood(y: FloatArray, position: FloatArray, q: float, offset: 
     bounds = (float(np.log(0.02 * q)), float(np.log(3.0 * max(rms, q))))
     best = -np.inf
     for s in (f * q for f in LEVEL_READING_NOISES):
-        density = [np.exp(-0.5 * ((yy - level) / s) ** 2) / (s * np.sqrt(2 * np.pi)) for level in levels]
+        reading = [(level, np.exp(-0.5 * ((yy - level) / s) ** 2) / (s * np.sqrt(2 * np.pi))) for level in levels]
 
-        def cost(log_sx: float, density: list[FloatArray] = density) -> float:
-            sx = float(np.exp(log_sx))
-            mix = sum((scipy.special.ndtr((level + q / 2 - p) / sx) - scipy.special.ndtr((level - q / 2 - p) / sx))
-                      * dens for level, dens in zip(levels, density))
-            return -float(np.sum(np.log(np.maximum(mix, 1e-300))))
+        def cost(log_sx: float, reading: list[tuple[FloatArray, FloatArray]] = reading) -> float:
+            return -float(np.sum(_level_log_density(p, reading, q, float(np.exp(log_sx)))))
 
         found = scipy.optimize.minimize_scalar(cost, bounds=bounds, method="bounded", options={"xatol": 1e-3})
         best = max(best, -float(found.fun), -cost(bounds[0]), -cost(bounds[1]))
