@@ -241,20 +241,31 @@ def date_ringing(s: Samples, t_now: float, channel: int, turns: tuple[Turn, Turn
     window = (t >= t_from) & (t <= t_from + span)
     if free is None:
         return Rejected(t_now, 0.0, "ringing: fit failed")
-    if free.rms_m > settings.ring_fit_max_rel * s2:
+    paired = others_swing(s, channel, t_from, settings.held_ratio)
+    lone_misfit = free.rms_m > settings.ring_fit_max_rel * s2
+    if lone_misfit and not paired:
         return Rejected(t_now, 0.0, f"ringing: not a free response (fit rms {free.rms_m:.2g} m "
                                     f"for a swing of {s2:.2g} m)")
-    paired = others_swing(s, channel, t_from, settings.held_ratio)
     # (the ringing swings by at least `ring_min_swing_m`: its window is judged whatever it spans)
     if not still_free(t[window], s.pos[window], [channel], (sigma0, math.pi / half), 0.0, paired):
         # a hand in the window (a cart caught as it swung and moved on): judged when it is let go
         return Rejected(t_now, 0.0, "ringing: not a free response (a hand moved the cart in it)")
     limit = max(float(t[0]), a.t_s - 4.0 * half)
+    too_early = max(half, 2.0 * settings.fit_post_s)
+    if lone_misfit:
+        # a free pair whose modes lie far apart (a stiff coupling) swings as no one damped
+        # sinusoid (testkit 11061: 8 % of the swing), but as its free response driven by the
+        # other cart's measured motion (`still_free` above): dated on that alone
+        start = _pair_start(s, t_now, channel, t_from, t_from, half, (sigma0, math.pi / half), PAIR_FLOOR * s2,
+                            limit, first_t + too_early, settings)
+        if start is None:
+            return Rejected(t_now, 0.0, f"ringing: not a free response (fit rms {free.rms_m:.2g} m for a "
+                                        f"swing of {s2:.2g} m, nor driven by the other cart from a release in view)")
+        return start if not isinstance(start, float) else released_at(s, start, channel, 0.0, t_now, settings.fire_m)
     t_coarse, free = slide_back(t, y, vs, t_from, span, half, free, limit, floor)
     # a release shows the hand before it: within a half-period of the stream's start the data
     # cannot tell a release from a swing that was going on (a record that starts in motion);
     # judged on the slid-back start and again on the fine instant (it may lie before it)
-    too_early = max(half, 2.0 * settings.fit_post_s)
     date = None
     if t_coarse - half / 8.0 >= limit and t_coarse - first_t >= too_early:
         date = date_release(t, y, vs, free, t_coarse, half)
@@ -268,22 +279,10 @@ def date_ringing(s: Samples, t_now: float, channel: int, turns: tuple[Turn, Turn
     spring = (date.free.sigma, date.free.omega)
     driven, alone = fits_across(t, y, signs, others, date.t0_s, half, date.free.t_ref, spring)
     # two free carts each drive the other: the hand let go where that stops holding
-    pair = pair_release(t, y, signs, others, date.t0_s, half, spring, PAIR_FLOOR * s2, limit) if paired else None
-    if pair is not None and pair[0] == -math.inf:
-        # driven back as far as it was searched: the cart of the pair the hand never touched,
-        # and its partner the one it let go
-        # (its release, confirmed by the other's ringing, may lie further back than this
-        # ringing's search: as far as a release may be confirmed after it)
-        reach = min(limit, max(float(t[0]), t_now - settings.first_release_confirm_s))
-        partner = partner_release(s, t_now, channel, t_from, half, reach, first_t + too_early, settings)
-        return partner or Rejected(t_now, 0.0, DRIVEN_BY_OTHER)
-    start = None
-    if pair is not None and pair[0] - first_t >= too_early:
-        start = date_pair(t, y, signs, others, pair[0], half, pair[1])
-        if no_hand_before(t, y, signs, others, start, half, pair[1], PAIR_FLOOR * s2):
-            # where the slide-back stopped, the pair's own model broke (a cart that sticks and
-            # slips under dry friction), not a hand: the pair rang on across it
-            return Rejected(t_now, 0.0, "ringing: the pair's own motion holds across its slide-back's end (no hand)")
+    start = (_pair_start(s, t_now, channel, date.t0_s, t_from, half, spring, PAIR_FLOOR * s2, limit,
+                         first_t + too_early, settings) if paired else None)
+    if isinstance(start, (Released, Rejected)):
+        return start
     driven_only = driven <= DRIVEN_FIT * ref and driven <= DRIVEN_EXPLAINS * alone
     if driven_only and start is None:
         return Rejected(t_now, 0.0, DRIVEN_BY_OTHER)
@@ -300,6 +299,38 @@ def date_ringing(s: Samples, t_now: float, channel: int, turns: tuple[Turn, Turn
         # no hand in the half-period before t0, and nothing of the stream before that half-period
         return Rejected(t_now, 0.0, "ringing: in motion since the stream started (no hand seen)")
     return released_at(s, date.t0_s, channel, date.accel_m_s2, t_now, settings.fire_m)
+
+
+def _pair_start(s: Samples, t_now: float, channel: int, t0_s: float, t_from: float, half: float,
+                spring: tuple[float, float], floor_m: float, limit: float, t_first: float,
+                settings: DetectorSettings) -> float | Released | Rejected | None:
+    """The release of `channel`, a cart of a free pair, where its free response driven by the
+    other's measured motion, slid back from `t0_s` (`pair_release`), stops holding: finely dated
+    (`date_pair`). When the slide reaches `limit`, the partner's release (`partner_release`) or a
+    rejection; a rejection when the pair's own model holds across that date (no hand); None when
+    the driven fit fails or the date lies before `t_first`."""
+    t, y = s.t, s.pos[:, channel]
+    others = np.delete(s.pos, channel, axis=1)
+    signs = motion_sign(t, y)
+    pair = pair_release(t, y, signs, others, t0_s, half, spring, floor_m, limit)
+    if pair is None:
+        return None
+    if pair[0] == -math.inf:
+        # driven back as far as it was searched: the cart of the pair the hand never touched,
+        # and its partner the one it let go
+        # (its release, confirmed by the other's ringing, may lie further back than this
+        # ringing's search: as far as a release may be confirmed after it)
+        reach = min(limit, max(float(t[0]), t_now - settings.first_release_confirm_s))
+        partner = partner_release(s, t_now, channel, t_from, half, reach, t_first, settings)
+        return partner or Rejected(t_now, 0.0, DRIVEN_BY_OTHER)
+    if pair[0] < t_first:
+        return None
+    start = date_pair(t, y, signs, others, pair[0], half, pair[1])
+    if no_hand_before(t, y, signs, others, start, half, pair[1], floor_m):
+        # where the slide-back stopped, the pair's own model broke (a cart that sticks and
+        # slips under dry friction), not a hand: the pair rang on across it
+        return Rejected(t_now, 0.0, "ringing: the pair's own motion holds across its slide-back's end (no hand)")
+    return start
 
 
 def released_at(s: Samples, t0_s: float, channel: int, accel_m_s2: float, t_now: float, fire_m: float) -> Released:

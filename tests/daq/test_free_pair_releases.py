@@ -45,8 +45,11 @@ def _released(seed: int) -> tuple[list[float], list[tuple[float, str, bool]]]:
 # the second release: lost); 9709: a record that starts in motion, a free pair beating with dry
 # friction on one cart, whose untouched cart's ringing handed over to the other, its driven
 # slide-back broken 1.5 s after the start where the long window's model of a cart that sticks
-# and slips broke (recorded as a release with no hand before it)
-@pytest.mark.parametrize("seed", [6019, 6021, 6018, 6035, 6036, 9039, 9212, 9218, 9009, 9428, 9433, 9709])
+# and slips broke (recorded as a release with no hand before it); 11061: a stiffly coupled pair
+# flicked from rest, whose modes lie so far apart that its cart misfit one damped sinusoid by
+# 8 % of its swing (turned down as "not a free response", though it swung as its response
+# driven by the other's: lost)
+@pytest.mark.parametrize("seed", [6019, 6021, 6018, 6035, 6036, 9039, 9212, 9218, 9009, 9428, 9433, 9709, 11061])
 def test_a_free_pair_releases_are_recorded_and_its_hands_end_the_runs(seed: int) -> None:
     found, truth = _released(seed)
     for t_true, kind, cut in truth:
