@@ -2,15 +2,20 @@
 after it, t0 by least squares. Pure.
 
     t >= t0:  x = f(t)
-    t <  t0:  x = f(t) + F_r d1(t - t0) + S d2(t - t0)
+    t <  t0:  x = f(t) + F_r d1(t - t0) + S d2(t - t0) + Q d3(t - t0)
 
 is the free motion (`daq.ringing.FreeFit`: a damped sinusoid about a drifting centre with dry
 friction; for a cart of a free pair also driven by the other carts' measured motion) plus the
-cart's response to a hand force `F_r + S (t0 - t)` that ends at t0 (linear over the
-`HAND_WINDOW` of a half-period before it; `hand_response`, ≈ F_r τ²/2 + S τ³/6); linear in the
-free coefficients and (F_r, S) for a given t0, t0 by a grid an eighth of a sample apart, then
-finer. A quartic hand (an earlier model) also follows the first free samples and dated real
-flicks 8-29 ms late. `daq.release_dating` finds the coarse instant this refines.
+cart's response to a hand force `F_r + S (t0 - t) + Q (t0 - t)²` that ends at t0 (over the
+`HAND_WINDOW` of a half-period before it; `hand_response`, ≈ F_r τ²/2 + S τ³/6 + Q τ⁴/12);
+linear in the free coefficients and the hand's for a given t0, t0 by a grid an eighth of a
+sample apart, then finer. The hand's force is curved: a hand that carries the cart along its
+path and lets go near the path's end pushes with what keeps the cart on the path, which bends
+over the last tenth of a second (a straight force dated such flicks 1-3 samples early: red team
+issue-10 records 3000-3039, 42 -> 50 of 57 flicks within one sample with the curve). A cart
+of a free pair keeps the straight force (`PAIR_HAND_TERMS`). A quartic position (an earlier
+model, no spring) also followed the first free samples and dated real flicks 8-29 ms late.
+`daq.release_dating` finds the coarse instant this refines.
 """
 
 from __future__ import annotations
@@ -24,10 +29,25 @@ from daq.ringing import FreeFit, basis, even_clock, forced_response, friction_re
 
 Array = npt.NDArray[np.float64]
 
-# the hand's force is fitted as linear in time over this fraction of a half-period before the
-# release: a force is linear only after its peak (real flicks: 30-100 ms before let-go, 0.15-0.5
-# half-period); over 0.3 the peak entered the window and dated flicks up to 25 ms early
+# the hand's force is fitted over this fraction of a half-period before the release, after its
+# peak (real flicks: 30-100 ms before let-go, 0.15-0.5 half-period); over 0.3 the peak entered
+# the window and dated flicks up to 25 ms early
 HAND_WINDOW = 0.2
+# ... as a polynomial in time of this many terms (constant, slope, curve: `hand_response`) ...
+HAND_TERMS = 3
+# ... the curve taken only where the straight force (these many terms) leaves the positions
+# worse: an F statistic of the curve's gain against the curved fit's residual variance above
+# this (about where the curve's term pays for itself by Akaike's criterion). A curve fitted
+# where the force is straight costs precision: on a straight force ending at once
+# (tests/daq/test_release_dating.py) it dated a 50 Hz release 1.7 samples late, at F = 0.01;
+# at 11 (α ≈ 0.001) flicks along a hand's path at 200 Hz, F 3.3-5.7, kept the straight force
+# and dates up to 1.7 samples early
+STRAIGHT_TERMS = 2
+CURVE_F = 2.0
+# ... and, for a cart of a free pair (`date_pair`), a straight line: there the other cart's
+# forced response, fitted beside it, trades with the curve (testkit 11216: a free pair's
+# partner "released" 0.1 s later, where a hand took the cart, 2.26 s)
+PAIR_HAND_TERMS = 2
 # a free pair's cart is dated (`date_pair`) on a free response fitted this many half-periods past
 # the hand's window after the coarse date (the lone one's 0.5 left the coupling's coefficient free
 # to trade with the hand's: a free pair's flicks dated 10-20 ms early at 1 kHz), t0 sought this
@@ -56,7 +76,8 @@ def date_pair(t: Array, y: Array, signs: Array, others: Array, t_coarse: float, 
     search, within a sample of it (no let-go the joined model finds: a cart that stuck and
     slipped under dry friction after its let-go was dated 0.18 s later there)."""
     free = FreeFit(t_coarse, spring[0], spring[1], (0.0, 0.0, 0.0, 0.0, 0.0), 0.0)
-    date = date_release(t, y, signs, free, t_coarse, half_s, drive=others, after=PAIR_AFTER, search=PAIR_SEARCH)
+    date = date_release(t, y, signs, free, t_coarse, half_s, drive=others, after=PAIR_AFTER, search=PAIR_SEARCH,
+                        hand_terms=PAIR_HAND_TERMS)
     if date is None:
         return t_coarse
     step, back = _hand_window(t, half_s)
@@ -72,13 +93,14 @@ def _hand_window(t: Array, half_s: float) -> tuple[float, float]:
 
 def date_release(t: Array, y: Array, vs: Array, free: FreeFit, t_coarse: float, half_s: float,
                  drive: Array | None = None, after: float = 0.5,
-                 search: tuple[float, float] = (0.5, 0.75)) -> ReleaseDate | None:
+                 search: tuple[float, float] = (0.5, 0.75), hand_terms: int = HAND_TERMS) -> ReleaseDate | None:
     """Fine release instant near `t_coarse`: a linear hand force ending at t0 joined to the free
     response (module docstring); shapes (N,). Fitted over [t_coarse - w, t_coarse + w + `after`
     half-periods], w the hand's window, t0 sought over [t_coarse - `search[0]` w, t_coarse +
     `search[1]` w]. With `drive` (N, K), the other carts' measured
     positions, the free response is driven by them through the coupling spring (a free pair's
-    cart, `daq.driven`): their forced responses join the free columns."""
+    cart, `daq.driven`): their forced responses join the free columns. `hand_terms` (1-3) of
+    the hand's force (`hand_response`) are fitted."""
     step, back = _hand_window(t, half_s)
     lo, hi = t_coarse - back, t_coarse + back + after * half_s
     keep = (t >= lo) & (t <= hi)
@@ -93,9 +115,20 @@ def date_release(t: Array, y: Array, vs: Array, free: FreeFit, t_coarse: float, 
     candidates = candidates[(candidates > tw[2]) & (candidates < tw[-4])]
     if candidates.size == 0:
         return None
-    best = _best_joint(tw, yw, vw, free, candidates, forced)
-    best = _best_joint(tw, yw, vw, free, np.linspace(best - step / 8.0, best + step / 8.0, 25), forced)
-    coef, _ = _joint_solve(tw, yw, vw, free, best, forced=forced)
+    def least(terms: int) -> tuple[float, float]:
+        """(t0, RSS) of the joined model with `terms` of the hand's force."""
+        best = _best_joint(tw, yw, vw, free, candidates, forced, terms)
+        best = _best_joint(tw, yw, vw, free, np.linspace(best - step / 8.0, best + step / 8.0, 25), forced, terms)
+        return best, _joint_solve(tw, yw, vw, free, best, None, forced, terms)[1]
+
+    terms = min(hand_terms, STRAIGHT_TERMS)
+    best, rss = least(terms)
+    if hand_terms > terms:
+        curved, rss_curved = least(hand_terms)
+        dof = tw.size - 5 - hand_terms - (0 if forced is None else forced.shape[1])
+        if rss - rss_curved > CURVE_F * (hand_terms - terms) * rss_curved / max(dof, 1):
+            best, terms = curved, hand_terms
+    coef, _ = _joint_solve(tw, yw, vw, free, best, None, forced, terms)
     g1, g2, d1, d2 = basis(np.array([best]), free.t_ref, free.sigma, free.omega)
     # the spring's acceleration at t0, from the ODE x'' = -2σ x' - (σ² + ω²)(x - c)
     x_rel = coef[3] * g1[0] + coef[4] * g2[0]
@@ -106,15 +139,16 @@ def date_release(t: Array, y: Array, vs: Array, free: FreeFit, t_coarse: float, 
     return ReleaseDate(float(best), abs(float(accel)), refit)
 
 
-def hand_response(s: Array, sigma: float, omega: float) -> tuple[Array, Array]:
+def hand_response(s: Array, sigma: float, omega: float) -> tuple[Array, Array, Array]:
     """What a hand force that ends at s = 0 adds to the free motion before it, s = t - t0 ≤ 0 (N,).
 
     d'' + 2σ d' + (σ² + ω²) d = h(s), d(0) = d'(0) = 0 (the hand lets go: position and velocity
-    are continuous), for h = 1 and h = -s (m/s² per unit, a force growing back in time):
+    are continuous), for h = 1, -s and s² (m/s² per unit; Ω² = σ² + ω²): d = P + e^{-σs} (A cos
+    ωs + B sin ωs), P the polynomial that solves the equation, A = -P(0), B = (σA - P'(0))/ω:
 
-        d1 = (1 - e^{-σs} (cos ωs + σ/ω sin ωs)) / Ω²                       ≈ s²/2
-        d2 = -s/Ω² + 2σ/Ω⁴ + e^{-σs} (A cos ωs + B sin ωs),
-             A = -2σ/Ω⁴,  B = (1/Ω² - 2σ²/Ω⁴)/ω,  Ω² = σ² + ω²          ≈ -s³/6
+        h = 1:    P = 1/Ω²                                       d1 ≈ s²/2
+        h = -s:   P = -s/Ω² + 2σ/Ω⁴                              d2 ≈ -s³/6
+        h = s²:   P = s²/Ω² - 4σs/Ω⁴ + (8σ² - 2Ω²)/Ω⁶            d3 ≈ s⁴/12
 
     The spring acts on the hand's push too: over the 0.2-0.3 half-period the hand is fitted, ω²s²
     reaches ~1, and the bare polynomials α s² + β s³ would date the release ~1 ms early.
@@ -122,18 +156,24 @@ def hand_response(s: Array, sigma: float, omega: float) -> tuple[Array, Array]:
     om2 = sigma ** 2 + omega ** 2
     env = np.exp(-sigma * s)
     cos, sin = np.cos(omega * s), np.sin(omega * s)
-    d1: Array = (1.0 - env * (cos + sigma / omega * sin)) / om2
-    a = -2.0 * sigma / om2 ** 2
-    b = (1.0 / om2 - 2.0 * sigma ** 2 / om2 ** 2) / omega
-    d2: Array = -s / om2 + 2.0 * sigma / om2 ** 2 + env * (a * cos + b * sin)
-    return d1, d2
+
+    def joined(p: Array, p0: float, dp0: float) -> Array:
+        a = -p0
+        out: Array = p + env * (a * cos + (sigma * a - dp0) / omega * sin)
+        return out
+
+    d1 = joined(np.full_like(s, 1.0 / om2), 1.0 / om2, 0.0)
+    d2 = joined(-s / om2 + 2.0 * sigma / om2 ** 2, 2.0 * sigma / om2 ** 2, -1.0 / om2)
+    c3 = (8.0 * sigma ** 2 - 2.0 * om2) / om2 ** 3
+    d3 = joined(s ** 2 / om2 - 4.0 * sigma * s / om2 ** 2 + c3, c3, -4.0 * sigma / om2 ** 2)
+    return d1, d2, d3
 
 
-def _joint_solve(t: Array, y: Array, vs: Array, free: FreeFit, t0: float,
-                 friction: dict[int, Array] | None = None, forced: Array | None = None) -> tuple[Array, float]:
-    """Coefficients (c, d, f, A, B, F_r, S, then one per `forced` column) (the hand's scaled)
-    and RSS of the joined model for one `t0`; `friction` caches the friction column by the
-    first sample at or after t0 (it depends on nothing else)."""
+def _joint_solve(t: Array, y: Array, vs: Array, free: FreeFit, t0: float, friction: dict[int, Array] | None = None,
+                 forced: Array | None = None, hand_terms: int = HAND_TERMS) -> tuple[Array, float]:
+    """Coefficients (c, d, f, A, B, then the hand's `hand_terms` (scaled), then one per `forced`
+    column) and RSS of the joined model for one `t0`; `friction` caches the friction column by
+    the first sample at or after t0 (it depends on nothing else)."""
     g1, g2, _, _ = basis(t, free.t_ref, free.sigma, free.omega)
     k0 = min(int(np.searchsorted(t, t0)), t.size - 1)
     col_f = friction.get(k0) if friction is not None else None
@@ -144,10 +184,9 @@ def _joint_solve(t: Array, y: Array, vs: Array, free: FreeFit, t0: float,
         col_f = friction_response(t, np.where(np.arange(t.size) < k0, before, vs), free.sigma, free.omega)
         if friction is not None:
             friction[k0] = col_f
-    h1, h2 = hand_response(np.minimum(t - t0, 0.0), free.sigma, free.omega)
-    h1 /= max(float(np.max(np.abs(h1))), 1e-300)       # for conditioning
-    h2 /= max(float(np.max(np.abs(h2))), 1e-300)
-    design = np.stack([np.ones_like(t), t - free.t_ref, col_f, g1, g2, h1, h2], axis=1)
+    hands = [h / max(float(np.max(np.abs(h))), 1e-300)      # scaled for conditioning
+             for h in hand_response(np.minimum(t - t0, 0.0), free.sigma, free.omega)[:hand_terms]]
+    design = np.stack([np.ones_like(t), t - free.t_ref, col_f, g1, g2, *hands], axis=1)
     if forced is not None:
         design = np.concatenate([design, forced], axis=1)
     coef = np.asarray(np.linalg.lstsq(design, y, rcond=None)[0], dtype=np.float64)
@@ -155,7 +194,8 @@ def _joint_solve(t: Array, y: Array, vs: Array, free: FreeFit, t0: float,
     return coef, float(residual @ residual)
 
 
-def _best_joint(t: Array, y: Array, vs: Array, free: FreeFit, candidates: Array, forced: Array | None) -> float:
+def _best_joint(t: Array, y: Array, vs: Array, free: FreeFit, candidates: Array, forced: Array | None,
+                hand_terms: int) -> float:
     friction: dict[int, Array] = {}
-    rss = [_joint_solve(t, y, vs, free, float(c), friction, forced)[1] for c in candidates]
+    rss = [_joint_solve(t, y, vs, free, float(c), friction, forced, hand_terms)[1] for c in candidates]
     return float(candidates[int(np.argmin(rss))])
