@@ -34,7 +34,7 @@ import numpy.typing as npt
 from daq.detector_events import DetectorSettings, Rejected, Released
 from daq.driven import DRIVEN_EXPLAINS, DRIVEN_FIT, PAIR_FLOOR, fits_across, no_hand_before, pair_release, still_free
 from daq.held import moving_carts
-from daq.joined import ReleaseDate, date_pair, date_release
+from daq.joined import HAND_TERMS, PAIR_HAND_TERMS, ReleaseDate, date_pair, date_release
 from daq.onset import OnsetFit, fit_onset
 from daq.ringing import FreeFit, Turn, fit_free, motion_sign, slide_back, swings
 
@@ -268,7 +268,10 @@ def date_ringing(s: Samples, t_now: float, channel: int, turns: tuple[Turn, Turn
     # judged on the slid-back start and again on the fine instant (it may lie before it)
     date = None
     if t_coarse - half / 8.0 >= limit and t_coarse - first_t >= too_early:
-        date = date_release(t, y, vs, free, t_coarse, half)
+        # a cart of a free pair: the straight hand force, as its own date's (`date_pair`); the
+        # curve moved a cut free pair's date where its driven fit held across (testkit 11333 at
+        # 50 Hz, lost as "driven by the other")
+        date = date_release(t, y, vs, free, t_coarse, half, hand_terms=PAIR_HAND_TERMS if paired else HAND_TERMS)
         if date is None:
             return Rejected(t_now, 0.0, "ringing: release fit failed")
     if date is None or date.t0_s - first_t < too_early:
