@@ -29,7 +29,7 @@ import numpy as np
 from ident.diagnose.candidates import Trial
 from ident.diagnose.drift import drift_basis
 from ident.diagnose.fitting import FitResult, fit
-from ident.diagnose.held_fit import held_input
+from ident.diagnose.held_fit import work_grid
 from ident.diagnose.problem import FloatArray, Problem
 from ident.diagnose.window import Window
 from ident.physics.free import switched_input
@@ -49,22 +49,22 @@ def fine_decimation(decimation: int, n_samples: int) -> int:
 
 
 def refit_fine(prob: Problem, final: FitResult, bounds: Trial, win: Window, t: FloatArray, y: FloatArray,
-               held_reading: FloatArray | None, u: FloatArray | None) -> tuple[Problem, FitResult]:
+               held: FloatArray | None, u: FloatArray | None) -> tuple[Problem, FitResult]:
     """(the problem on the finer grid, the final model fitted on it) or (`prob`, `final`) when
     the work grid keeps every sample already. `bounds`: the trial whose bounds and typical
     magnitudes cover the final model's parameters (its last effect's, `backward.Elimination`).
     `t` (N,) s and `y` (N, observed) m the record the work grid samples from `win.start` on
-    every `win.decimation`-th sample, `held_reading` (N,) the held cart's reading or None, `u`
-    (N, m) the force input or None."""
+    every `win.decimation`-th sample, `held` the held cart's estimated motion from `win.start` on
+    (`held_fit.held_motion`, every sample) or None, `u` (N, m) the force input or None."""
     last = win.start + (prob.tau.size - 1) * win.decimation     # the work grid's last sample
     d = fine_decimation(win.decimation, last - win.start + 1)
     if d >= win.decimation:
         return prob, final
     idx = np.arange(win.start, last + 1, d)
     tau = t[idx] - t[win.start]
-    held = None
-    if prob.held is not None and held_reading is not None:
-        held = held_input(held_reading[win.start:], d)[:idx.size]    # filtered as the work grid's
+    fine_held = None
+    if prob.held is not None and held is not None:
+        fine_held = work_grid(held, d)[:idx.size]    # the work grid's estimate, every d-th sample
     inputs = switch = None
     if prob.inputs is not None and u is not None:
         values, switches = switched_input(u[win.start:], d)
@@ -75,14 +75,14 @@ def refit_fine(prob: Problem, final: FitResult, bounds: Trial, win: Window, t: F
         if drift is None or drift.shape[1] != prob.drift.shape[1]:
             return prob, final
     fine = dataclasses.replace(prob, tau=tau, y=y[idx], dt=prob.dt * d / win.decimation,
-                               train=np.ones(idx.size, dtype=bool), held=held, inputs=inputs, drift=drift,
+                               train=np.ones(idx.size, dtype=bool), held=fine_held, inputs=inputs, drift=drift,
                                input_switch=switch, anchor=0)
     # kept as found: an encoder lattice is the sensor's, judged on the work grid by its
     # readings' likelihood (refitted, its blur went to its bound on resampled real readings); a
     # breakaway ratio is chosen on a grid, as no finite difference moves a stick decision
     sensor = tuple(n for e in KEPT if e in final.spec.effects for n in final.spec.names_of(e))
     fixed = {**final.spec.fixed, **{n: float(final.theta[final.spec.names.index(n)]) for n in sensor}}
-    spec = dataclasses.replace(final.spec, fixed=fixed, held=held, inputs=inputs, input_switch=switch, drift=drift)
+    spec = dataclasses.replace(final.spec, fixed=fixed, held=fine_held, inputs=inputs, input_switch=switch, drift=drift)
     result = fit(spec, final.theta, bounds.lower, bounds.upper, bounds.typical, fine.dt, fine.y, fine.train,
                  max_nfev=FINE_NFEV)
     std = result.std.copy()

@@ -43,7 +43,8 @@ from ident.diagnose.drift import drift_basis, drift_spacing, slow_residual
 from ident.diagnose.evidence import EvidenceResult, collect
 from ident.diagnose.fine import refit_fine
 from ident.diagnose.fitting import FitResult
-from ident.diagnose.held_fit import held_input
+from ident.diagnose.held_error import read_held, with_input_error
+from ident.diagnose.held_fit import work_grid
 from ident.diagnose.identifiable import identifiable_friction, identifiable_model, one_encoder, typical_scale
 from ident.diagnose.lattice import Lattice, find_lattice, find_noisy_lattice, lattice_candidates, lattice_worth_points
 from ident.diagnose.models import EFFECTS, effect_names
@@ -148,8 +149,12 @@ def diagnose(t: FloatArray, y: FloatArray, carts: int | None = None, step_m: flo
     n_lin = len(LINEAR_NAMES[carts])
     wn_modes = np.array([w for w, _ in modes(base.theta[None, :n_lin], carts)])
     prob, base = _with_drift(prob, base, float(wn_modes[0]))
+    held = None
     if other is not None:   # the held cart's reading as an input: its noise filtered away
-        smooth = held_input(y_all[win.start:, other], win.decimation)
+        found = lattice if lattice is not None else read
+        held = read_held(y_all[win.start:, other], y_arr[win.start:, 0], float(t_arr[1] - t_arr[0]),
+                         float(wn_modes[0]), 0.0 if found is None else found.quantum_m)
+        smooth = work_grid(held.motion, win.decimation)
         prob = dataclasses.replace(prob, held=smooth)
         base = dataclasses.replace(base, spec=dataclasses.replace(base.spec, held=smooth))
     rest = base.theta[n_lin + 2 * carts:n_lin + 3 * carts]
@@ -162,7 +167,10 @@ def diagnose(t: FloatArray, y: FloatArray, carts: int | None = None, step_m: flo
     final = (prob, ext)
     if last is not None and steps:
         progress.stage("diagnosis: the final model on every sample")
-        final = refit_fine(prob, ext, last, win, t_arr, y_arr, None if other is None else y_all[:, other], u_arr)
+        final = refit_fine(prob, ext, last, win, t_arr, y_arr, None if held is None else held.motion, u_arr)
+    if held is not None:   # the held reading's error in the parameters' σ (errors in variables)
+        steps_per_work = max(1, round(final[0].dt / float(t_arr[1] - t_arr[0])))
+        final = (final[0], with_input_error(final[1], final[0].dt, final[0].y, held, steps_per_work))
     redated = redated_release(t_arr, y_arr, win, final[1])
     if redated is not None:   # a flick's let-go joined on the fitted model's free response
         win = dataclasses.replace(win, release_time_s=redated)
@@ -384,6 +392,6 @@ def _report(prob: Problem, win: Window, t: FloatArray, base: FitResult, ext: Fit
         corrected_linear=corrected, evidence=evidence,
         validation=explain.validation_text(win.decimation, prob.train.size, prob.inputs is not None,
                                            win.tail_cut, (float(t[0]), float(t[-1])) if stretch else None,
-                                           fine_prob.tau.size if fine is not ext else None),
+                                           fine_prob.tau.size if fine_prob is not prob else None),
         explanation="", elapsed_s=elapsed)
     return report.model_copy(update={"explanation": explain.explanation(report, base.theta[:n_lin])})
