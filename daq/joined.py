@@ -11,9 +11,9 @@ cart's response to a hand force `F_r + S (t0 - t) + Q (t0 - t)²` that ends at t
 linear in the free coefficients and the hand's for a given t0, t0 by a grid an eighth of a
 sample apart, then finer. The hand's force is curved: a hand that carries the cart along its
 path and lets go near the path's end pushes with what keeps the cart on the path, which bends
-over the last tenth of a second (a straight force dated such flicks 1-3 samples early: red team
-issue-10 records 3000-3039, 42 -> 50 of 57 flicks within one sample with the curve). A cart
-of a free pair keeps the straight force (`PAIR_HAND_TERMS`). A quartic position (an earlier
+over the last tenth of a second (a straight force dated such flicks 1-3 samples early): the
+curve is taken where the positions clearly ask for it (`CURVE_F`). A cart of a free pair keeps
+the straight force (`PAIR_HAND_TERMS`). A quartic position (an earlier
 model, no spring) also followed the first free samples and dated real flicks 8-29 ms late.
 `daq.release_dating` finds the coarse instant this refines.
 """
@@ -36,14 +36,17 @@ HAND_WINDOW = 0.2
 # ... as a polynomial in time of this many terms (constant, slope, curve: `hand_response`) ...
 HAND_TERMS = 3
 # ... the curve taken only where the straight force (these many terms) leaves the positions
-# worse: an F statistic of the curve's gain against the curved fit's residual variance above
-# this (about where the curve's term pays for itself by Akaike's criterion). A curve fitted
-# where the force is straight costs precision: on a straight force ending at once
-# (tests/daq/test_release_dating.py) it dated a 50 Hz release 1.7 samples late, at F = 0.01;
-# at 11 (α ≈ 0.001) flicks along a hand's path at 200 Hz, F 3.3-5.7, kept the straight force
-# and dates up to 1.7 samples early
+# clearly worse: an F statistic of the curve's gain against the curved fit's residual variance
+# above this (α ≈ 0.001 for one term). A curve taken on weaker evidence follows a force that
+# fades towards the let-go and places t0 late: at F > 2 the daq's own simulated students at
+# 100 Hz (their hand lets go at 0.5-2.5 m/s²) went from 100 to 96.2 % of the releases in the
+# data within one sample (+1.3 to +2.2 samples, F 2.3-13.7), here 99.6 %; the red team's flicks
+# along a hand's path, where the line dates 1-3 samples early, show F 10-190 (50 of 57 within one
+# sample at F > 2, 48 here, 42 with the line). On a straight force ending at once
+# (tests/daq/test_release_dating.py) the curve, fitted always, dated a 50 Hz release 1.7
+# samples late at F = 0.01
 STRAIGHT_TERMS = 2
-CURVE_F = 2.0
+CURVE_F = 11.0
 # ... and, for a cart of a free pair (`date_pair`), a straight line: there the other cart's
 # forced response, fitted beside it, trades with the curve (testkit 11216: a free pair's
 # partner "released" 0.1 s later, where a hand took the cart, 2.26 s)
