@@ -97,13 +97,13 @@ def _hand_window(t: Array, half_s: float) -> tuple[float, float]:
 def date_release(t: Array, y: Array, vs: Array, free: FreeFit, t_coarse: float, half_s: float,
                  drive: Array | None = None, after: float = 0.5,
                  search: tuple[float, float] = (0.5, 0.75), hand_terms: int = HAND_TERMS) -> ReleaseDate | None:
-    """Fine release instant near `t_coarse`: a linear hand force ending at t0 joined to the free
-    response (module docstring); shapes (N,). Fitted over [t_coarse - w, t_coarse + w + `after`
-    half-periods], w the hand's window, t0 sought over [t_coarse - `search[0]` w, t_coarse +
-    `search[1]` w]. With `drive` (N, K), the other carts' measured
-    positions, the free response is driven by them through the coupling spring (a free pair's
-    cart, `daq.driven`): their forced responses join the free columns. `hand_terms` (1-3) of
-    the hand's force (`hand_response`) are fitted."""
+    """Fine release instant near `t_coarse`: a hand force ending at t0 (a line, or a curve where
+    it gains F > `CURVE_F`) joined to the free response (module docstring); shapes (N,). Fitted
+    over [t_coarse - w, t_coarse + w + `after` half-periods], w the hand's window, t0 sought over
+    [t_coarse - `search[0]` w, t_coarse + `search[1]` w]. With `drive` (N, K), the other carts'
+    measured positions, the free response is driven by them through the coupling spring (a free
+    pair's cart, `daq.driven`): their forced responses join the free columns. At most
+    `hand_terms` (1-3) of the hand's force (`hand_response`) are fitted."""
     step, back = _hand_window(t, half_s)
     lo, hi = t_coarse - back, t_coarse + back + after * half_s
     keep = (t >= lo) & (t <= hi)

@@ -256,8 +256,8 @@ def date_ringing(s: Samples, t_now: float, channel: int, turns: tuple[Turn, Turn
         # a free pair whose modes lie far apart (a stiff coupling) swings as no one damped
         # sinusoid (testkit 11061: 8 % of the swing), but as its free response driven by the
         # other cart's measured motion (`still_free` above): dated on that alone
-        start = _pair_start(s, t_now, channel, t_from, t_from, half, (sigma0, math.pi / half), PAIR_FLOOR * s2,
-                            limit, first_t + too_early, settings)
+        start = _pair_start(s, t_now, channel, signs, t_from, t_from, half, (sigma0, math.pi / half),
+                            PAIR_FLOOR * s2, limit, first_t + too_early, settings)
         if start is None:
             return Rejected(t_now, 0.0, f"ringing: not a free response (fit rms {free.rms_m:.2g} m for a "
                                         f"swing of {s2:.2g} m, nor driven by the other cart from a release in view)")
@@ -282,7 +282,7 @@ def date_ringing(s: Samples, t_now: float, channel: int, turns: tuple[Turn, Turn
     spring = (date.free.sigma, date.free.omega)
     driven, alone = fits_across(t, y, signs, others, date.t0_s, half, date.free.t_ref, spring)
     # two free carts each drive the other: the hand let go where that stops holding
-    start = (_pair_start(s, t_now, channel, date.t0_s, t_from, half, spring, PAIR_FLOOR * s2, limit,
+    start = (_pair_start(s, t_now, channel, signs, date.t0_s, t_from, half, spring, PAIR_FLOOR * s2, limit,
                          first_t + too_early, settings) if paired else None)
     if isinstance(start, (Released, Rejected)):
         return start
@@ -304,17 +304,17 @@ def date_ringing(s: Samples, t_now: float, channel: int, turns: tuple[Turn, Turn
     return released_at(s, date.t0_s, channel, date.accel_m_s2, t_now, settings.fire_m)
 
 
-def _pair_start(s: Samples, t_now: float, channel: int, t0_s: float, t_from: float, half: float,
+def _pair_start(s: Samples, t_now: float, channel: int, signs: Array, t0_s: float, t_from: float, half: float,
                 spring: tuple[float, float], floor_m: float, limit: float, t_first: float,
                 settings: DetectorSettings) -> float | Released | Rejected | None:
-    """The release of `channel`, a cart of a free pair, where its free response driven by the
-    other's measured motion, slid back from `t0_s` (`pair_release`), stops holding: finely dated
-    (`date_pair`). When the slide reaches `limit`, the partner's release (`partner_release`) or a
-    rejection; a rejection when the pair's own model holds across that date (no hand); None when
-    the driven fit fails or the date lies before `t_first`."""
+    """The release of `channel`, a cart of a free pair (its motion's `signs`, `motion_sign`),
+    where its free response driven by the other's measured motion, slid back from `t0_s`
+    (`pair_release`), stops holding: finely dated (`date_pair`). When the slide reaches
+    `limit`, the partner's release (`partner_release`) or a rejection; a rejection when the
+    pair's own model holds across that date (no hand); None when the driven fit fails or the
+    date lies before `t_first`."""
     t, y = s.t, s.pos[:, channel]
     others = np.delete(s.pos, channel, axis=1)
-    signs = motion_sign(t, y)
     pair = pair_release(t, y, signs, others, t0_s, half, spring, floor_m, limit)
     if pair is None:
         return None
