@@ -1,6 +1,8 @@
 """The release detector: a pure state machine fed with (t_s, positions) samples.
 
     idle --(every cart within ±still_band_m of an anchor for still_s)--> armed
+    idle --(one cart so, while another moves)--> armed on that cart alone (its hold is watched;
+            a cart that comes to a hold later joins it, with another `Armed`)
     armed --(a cart leaves its hold by > fire_m)--> candidate (collecting the fit window, and
             waiting until the cart is confirm_m from its hold or came back: a nudge is not a release)
     candidate --(initial-parabola fit says: sudden acceleration ≥ min_accel)--> released
@@ -39,6 +41,12 @@ Ringing that was going on when the stream began has no release in the data and i
 down ("in motion since the stream started"); each ringing is judged once (a hold or a new
 handling lets it be judged again). Springs slower than `ring_max_half_s` per half-period are
 not confirmed by ringing.
+
+A cart held still while the other swings (a free pair's partner rings on, or a loosely held
+cart beats about its hold) arms alone: the carts were never still together, so only the ringing
+could record such a hold's release, and a pair's beating often never rang as one swing. Its
+rest, until it settles after a run, is where it was first still (`Armed.watched` tells the
+pipeline to zero that cart alone).
 
 Settling is judged on the moving carts only (`daq.held.moving_carts`, the rule the run's
 metadata states): a held cart that wanders (its span below `held_ratio` times the pulled
@@ -109,6 +117,8 @@ class ReleaseDetector:
         self._anchor_t = 0.0
         self._rest: tuple[float, ...] | None = None
         self._hold: tuple[float, ...] = ()
+        self._watched: tuple[int, ...] = ()     # the channels an armed hold watches (its still carts)
+        self._alone: list[tuple[float, float]] = []   # each cart's own still anchor (x m, since s)
         self._trigger_t: float | None = None
         self._trigger_channel = 0
         self._post_samples = 0
@@ -192,6 +202,7 @@ class ReleaseDetector:
         self.state = "armed"
         self._trigger_t = None
         self._hold = tuple(pos)
+        self._watched = tuple(range(len(pos)))
         return [Armed(t_s, self._hold)]
 
     def hole(self, span_s: float) -> list[Event]:
@@ -210,6 +221,7 @@ class ReleaseDetector:
             return []
         self._trigger_t = None
         self._dating = None
+        self._alone = []
         for zigzag in self._zigzags:
             zigzag.clear()
         if self.state in ("armed", "settled"):
@@ -248,14 +260,59 @@ class ReleaseDetector:
         self._anchor_t = t_s
 
     def _feed_idle(self, t_s: float, sample: tuple[float, ...]) -> list[Event]:
-        if not self._still(t_s, sample, self.settings.still_band_m, self.settings.still_s):
+        still_alone = self._still_alone(t_s, sample)
+        if self._still(t_s, sample, self.settings.still_band_m, self.settings.still_s):
+            self._hold = self._mean_since(self._anchor_t)
+            self._watched = tuple(range(len(sample)))
+            self._alone = []
+            self._first_rest(self._watched)
+            self._unmute()   # still: any ringing before is over
+        elif still_alone:
+            # a cart held still while the other swings (a free pair's partner rings on, or beats
+            # about its hold by a few mm): its hold is armed alone, and only its own departure fires
+            # (the carts were never still together: a free pair's holds were caught by their
+            # ringing alone, and lost where the pair's beating never rang as one swing)
+            self._hold = sample
+            self._watched = ()
+            self._watch(still_alone)
+        else:
             return []
-        self._hold = self._mean_since(self._anchor_t)
-        if self._rest is None:
-            self._rest = self._hold
-        self._unmute()   # still: any ringing before is over
         self.state = "armed"
-        return [Armed(t_s, self._hold)]
+        return [self._armed(t_s)]
+
+    def _armed(self, t_s: float) -> Armed:
+        return Armed(t_s, self._hold, None if len(self._watched) == len(self._hold) else self._watched)
+
+    def _watch(self, channels: list[int]) -> None:
+        """Arm the hold of `channels` too, each still alone since its own anchor (`_still_alone`)."""
+        hold = list(self._hold)
+        for c in channels:
+            hold[c] = self._mean_since(self._alone[c][1])[c]
+            self._muted[c] = False
+        self._hold = tuple(hold)
+        self._watched = tuple(sorted({*self._watched, *channels}))
+        self._first_rest(channels)
+
+    def _first_rest(self, channels: Sequence[int]) -> None:
+        """A cart's rest, until it settles after a run, is where it was first still: its hold."""
+        n = len(self._hold)
+        rest = list(self._rest) if self._rest is not None and len(self._rest) == n else [math.nan] * n
+        for c in channels:
+            if math.isnan(rest[c]):
+                rest[c] = self._hold[c]
+        self._rest = tuple(rest)
+
+    def _still_alone(self, t_s: float, sample: tuple[float, ...]) -> list[int]:
+        """The channels each still within ±still_band_m of its own anchor for still_s."""
+        if len(self._alone) != len(sample):
+            self._alone = [(x, t_s) for x in sample]
+        band, still = self.settings.still_band_m, []
+        for c, x in enumerate(sample):
+            if abs(x - self._alone[c][0]) > band:
+                self._alone[c] = (x, t_s)
+            elif t_s - self._alone[c][1] >= self.settings.still_s:
+                still.append(c)
+        return still
 
     def _mean_since(self, t0_s: float) -> tuple[float, ...]:
         """Mean position of the samples of the history from `t0_s` on (the still window)."""
@@ -264,13 +321,19 @@ class ReleaseDetector:
 
     def _feed_armed(self, t_s: float, sample: tuple[float, ...]) -> list[Event]:
         if self._trigger_t is None:
-            fire_m = self.settings.fire_m
-            for x, h in zip(sample, self._hold):   # the common case, every sample of a hold: still
-                if x - h > fire_m or h - x > fire_m:
+            if len(self._watched) < len(sample):   # a cart that comes to a hold later is armed too
+                newly = [c for c in self._still_alone(t_s, sample) if c not in self._watched]
+                if newly:
+                    self._watch(newly)
+                    return [self._armed(t_s)]
+            fire_m, hold = self.settings.fire_m, self._hold
+            for c in self._watched:   # the common case, every sample of a hold: still
+                if sample[c] - hold[c] > fire_m or hold[c] - sample[c] > fire_m:
                     break
             else:
                 return []
             self._trigger_t = t_s
+            self._alone = []    # each cart's stillness is judged afresh after the decision
             self._trigger_channel = self._channel_moved_most(sample)
             self._post_samples = 0
             return []
@@ -281,7 +344,7 @@ class ReleaseDetector:
         # a nudge by hand goes out a few mm and comes back: wait until the cart has gone confirm_m
         # from its hold (a released cart is at least rest_margin_m from its rest and goes there),
         # or came back, or the wait is as long as a slow spring's half-period
-        moved = max(abs(x - h) for x, h in zip(sample, self._hold))
+        moved = max(abs(sample[c] - self._hold[c]) for c in self._watched)
         if settings.fire_m < moved < settings.confirm_m and t_s - self._trigger_t < settings.ring_max_half_s:
             return []
         return [self._decide(t_s, sample)]
@@ -322,6 +385,7 @@ class ReleaseDetector:
         self._dating = None
         self._release_t = release.t_release_s
         self._anchor = None
+        self._alone = []
         self._run_channel = release.channel
         # a ringing confirms its release a period or more after it: a hand may take the cart
         # again between its turns (testkit 9433: a free pair's cart flicked again 0.2 s after
@@ -341,7 +405,7 @@ class ReleaseDetector:
 
         A released cart moves toward its rest; a cart that leaves its rest, or moves away
         from it, is pulled by a hand, however fast. The rest is where the carts settled after
-        the last run (at start-up: where they were first still).
+        the last run (at start-up: where each was first still).
         """
         rest = self._rest
         if rest is None or len(rest) != len(self._hold):
@@ -423,8 +487,8 @@ class ReleaseDetector:
         return hand_took(since, channels, turns, self._limits.min_swing_m, self.settings.held_ratio)
 
     def _channel_moved_most(self, sample: tuple[float, ...]) -> int:
-        moved = [abs(x - h) for x, h in zip(sample, self._hold)]
-        return max(range(len(moved)), key=moved.__getitem__)
+        """The watched channel furthest from its hold."""
+        return max(self._watched, key=lambda c: abs(sample[c] - self._hold[c]))
 
     # --- ringing --------------------------------------------------------------------------------
     def _push_turns(self, t_s: float, sample: tuple[float, ...]) -> list[int]:

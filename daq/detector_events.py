@@ -63,6 +63,8 @@ class DetectorSettings:
 class Armed:
     t_s: float
     hold_pos: tuple[float, ...]
+    #: the channels held still (a cart held while the other swings is armed alone); None: every one
+    watched: tuple[int, ...] | None = None
 
 
 @dataclass(frozen=True, slots=True)

@@ -294,8 +294,12 @@ class Acquisition:
     def _events(self, events: list[Event], t_ns: int) -> None:
         for event in events:
             if isinstance(event, Armed):
-                if self.config.auto_zero:
-                    self.calibration = self.calibration.zeroed_at(self.calibration.raw_of_unzeroed(event.hold_pos))
+                if self.config.auto_zero:   # the carts held still read 0 (a swinging one keeps its zero)
+                    raw = self.calibration.raw_of_unzeroed(event.hold_pos)
+                    zeros = self.calibration.zero_offsets_raw
+                    self.calibration = self.calibration.zeroed_at(
+                        [r if event.watched is None or c in event.watched else z
+                         for c, (r, z) in enumerate(zip(raw, zeros, strict=True))])
                 self._set_state("armed", t_ns)
             elif isinstance(event, Released):
                 self._start_run(event)

@@ -48,8 +48,12 @@ def _released(seed: int) -> tuple[list[float], list[tuple[float, str, bool]]]:
 # and slips broke (recorded as a release with no hand before it); 11061: a stiffly coupled pair
 # flicked from rest, whose modes lie so far apart that its cart misfit one damped sinusoid by
 # 8 % of its swing (turned down as "not a free response", though it swung as its response
-# driven by the other's: lost)
-@pytest.mark.parametrize("seed", [6019, 6021, 6018, 6035, 6036, 9039, 9212, 9218, 9009, 9428, 9433, 9709, 11061])
+# driven by the other's: lost); 11303, 11406: a cart held still while the other swung (11303) or
+# beat about its hold by a few mm (11406), let go: the carts were never still together, so no
+# hold was armed, and the pair's beating and the cart's sticking never rang as one swing before
+# a hand took the cart again (lost at 100 Hz, 11303 at every rate)
+@pytest.mark.parametrize("seed", [6019, 6021, 6018, 6035, 6036, 9039, 9212, 9218, 9009, 9428, 9433, 9709, 11061,
+                                  11303, 11406])
 def test_a_free_pair_releases_are_recorded_and_its_hands_end_the_runs(seed: int) -> None:
     found, truth = _released(seed)
     for t_true, kind, cut in truth:
@@ -62,20 +66,21 @@ def test_a_free_pair_releases_are_recorded_and_its_hands_end_the_runs(seed: int)
     assert all(any(abs(f - t) < 0.25 for t, _, _ in truth) for f in found), (found, truth)
 
 
-def test_a_release_the_record_cuts_before_its_ringing_is_dated_is_recorded_at_the_end() -> None:
-    """Seed 6019's last release (a hold let go 0.84 s before the record ends): its ringing is
-    confirmed, but the free window it is dated on runs past the end; `finish` dates it on the
-    samples there are (before, it was lost, and the dating's driven fit hung on that short
-    window: scipy's `trf` line search on a rank-deficient matrix)."""
+def test_a_release_the_record_cuts_is_recorded_once() -> None:
+    """Seed 6019's last release (a hold let go 0.84 s before the record ends), while the other
+    cart swings. Its ringing is confirmed, but the free window it is dated on runs past the end:
+    it was lost, and the dating's driven fit hung on that short window (scipy's `trf` line search
+    on a rank-deficient matrix); then `finish` dated it on the samples there are; now its hold is
+    armed on that cart alone and the let-go recorded as it happens. Either way: once, within 20 ms."""
     rec = student_records(6019, (RATE_HZ,))[RATE_HZ]
     last = rec.releases[-1]
     assert last.cut
     detector = ReleaseDetector()
     found = [e.t_release_s for t, (a, b) in zip(rec.t.tolist(), rec.y.tolist(), strict=True)
              for e in detector.feed(t, (a, b)) if isinstance(e, Released)]
-    assert not any(abs(f - last.time_s) < 0.25 for f in found)
-    at_end = [e for e in detector.finish() if isinstance(e, Released)]
-    assert len(at_end) == 1 and abs(at_end[0].t_release_s - last.time_s) < 0.02, (at_end, last)
+    found += [e.t_release_s for e in detector.finish() if isinstance(e, Released)]
+    near = [f for f in found if abs(f - last.time_s) < 0.25]
+    assert len(near) == 1 and abs(near[0] - last.time_s) < 0.02, (near, last)
     assert detector.finish() == []
 
 

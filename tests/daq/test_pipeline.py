@@ -147,8 +147,8 @@ def test_lost_lines_all_day_keep_the_live_gap_list_bounded_and_each_run_its_own_
 def test_a_release_the_stream_cuts_before_it_is_dated_is_recorded_as_an_aborted_run() -> None:
     """A student's last release cut by the record's end (`testkit.student_records` seed 6019, a
     free pair's hold let go 0.84 s before the end): its ringing was confirmed but not dated when
-    the stream ended, and no run was written. At the end of the stream it starts its run, which
-    ends with the stream."""
+    the stream ended, and no run was written. Its run (started at the end of the stream by the
+    ringing, or at once by the hold armed on that cart alone) ends with the stream."""
     rec = student_records(6019, (100.0,))[100.0]
     counts_per_m = 56000.0
     trace = Trace(rec.t - rec.t[0], np.round(rec.y * counts_per_m), counts_per_m, None)
@@ -159,3 +159,25 @@ def test_a_release_the_stream_cuts_before_it_is_dated_is_recorded_as_an_aborted_
     release_s = (meta.release_t_ns - t_ns_of_first(out)) / 1e9 + rec.t[0]
     assert abs(release_s - rec.releases[-1].time_s) < 0.02
     assert meta.release_time_s is not None and 0.5 <= meta.release_time_s < 0.5 + 1 / 100
+
+
+def test_a_cart_held_while_the_other_swings_is_zeroed_alone() -> None:
+    """A free pair's cart held pulled while the other swings (`testkit.student_records` seed
+    11303: cart 1 held 96 mm out from 1.3 s, let go at 2.04 s, cart 2 swinging ±30 mm): the hold
+    is armed on cart 1 alone, which reads 0 there; cart 2 keeps the zero it had where both carts
+    were first still (its rest), not a point of its swing."""
+    rec = student_records(11303, (100.0,))[100.0]
+    counts_per_m = 56000.0
+    trace = Trace(rec.t - rec.t[0], np.round(rec.y * counts_per_m), counts_per_m, None)
+    out = _acquire(_stream(trace))
+    first = out.started[0]
+    assert first.release_t_ns is not None
+    release_s = (first.release_t_ns - t_ns_of_first(out)) / 1e9 + rec.t[0]
+    assert abs(release_s - rec.releases[0].time_s) < 0.01
+    batches = [b for b in out.run_batches if b.run_id == first.run_id]
+    t_ns = np.array([t for b in batches for t in b.t_ns])
+    pos = np.array([(p, q) for b in batches for p, q in zip(b.pos1_m, b.pos2_m, strict=True)])
+    before = np.flatnonzero(t_ns < first.release_t_ns)[-1]
+    assert abs(pos[before, 0]) < 1e-3
+    k = int(np.searchsorted(trace.t_s, (t_ns[before] - t_ns_of_first(out)) / 1e9 - 1e-6))
+    assert pos[before, 1] == pytest.approx(rec.y[k, 1] - rec.y[0, 1], abs=1e-3)
