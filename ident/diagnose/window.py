@@ -54,6 +54,8 @@ MIN_RELEASE_SAMPLES = 25
 SCAN_STEPS = 17
 #: periods of the dominant mode in each window the scan fits
 SCAN_PERIODS = 2.5
+#: ... and never fewer samples than each of its modal fits needs
+MIN_FIT_SAMPLES = 20
 #: a hold level this fraction of the swing away from the middle of the swings is a pull-hold
 HOLD_AWAY = 0.3
 
@@ -130,8 +132,10 @@ def find_window(t: FloatArray, y: FloatArray, carts: int, released_at_start: boo
     period = 2 * np.pi / float(peaks[0])
     if released_at_start:
         return _from(t, 0, period, hold, noise, float(t[0]))
-    span = round(SCAN_PERIODS * period / dt)
     head = max(2, round(0.25 * period / dt))
+    # a few periods, but never fewer samples than a modal fit needs (a 10.8 Hz mode read at
+    # 54 Hz has five samples a period: 2.5 periods left no fit, and no window)
+    span = max(round(SCAN_PERIODS * period / dt), head + MIN_FIT_SAMPLES)
     step = max(1, round(period / 24 / dt))
     dec = max(1, int(np.ceil(span / 150)))
     scores: list[float] = []
@@ -140,7 +144,7 @@ def find_window(t: FloatArray, y: FloatArray, carts: int, released_at_start: boo
     for j in range(SCAN_STEPS):
         a = onset + j * step
         b = min(a + span, t.shape[0])
-        if (b - a - head) // dec < 20:   # too few samples left for a modal fit
+        if (b - a - head) // dec < MIN_FIT_SAMPLES:   # too few samples left for a modal fit
             break
         fit = fit_modes(t[a + head:b:dec] - t[a], y[a + head:b:dec], peaks)
         rms_fit = float(np.sqrt(fit.sse / fit.residual.size))
