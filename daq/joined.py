@@ -33,6 +33,17 @@ Array = npt.NDArray[np.float64]
 # peak (real flicks: 30-100 ms before let-go, 0.15-0.5 half-period); over 0.3 the peak entered
 # the window and dated flicks up to 25 ms early
 HAND_WINDOW = 0.2
+# ... and over at least this many samples (the line's, the free response's and the noise's) ...
+HAND_MIN_SAMPLES = 5
+# ... or, where those samples reach back across the push's peak, over this many: a 50 Hz flick
+# pushes for 5-10 samples (red team 3302: three flicks slid back to within a sample of the
+# let-go, then dated 1.1-2.1 samples early by the joined fit over 5). The shorter window is
+# taken when dropping the samples before it gains in an F test at this level (α): 50 Hz flicks
+# along a hand's path (tests/daq/test_release_dating.py's draw), within one sample 81 -> 84 / 85
+# and 80 -> 84 / 87 of 96 in two sets at α = 0.001 / 0.01; none changed at 100 Hz. Taken always,
+# it dated the daq's own 50 Hz students no better (91 -> 90 of 96 within one sample; at 0.01, 91)
+HAND_SHORT_SAMPLES = 3
+HAND_SHORT_ALPHA = 0.01
 # ... as a polynomial in time of this many terms (constant, slope, curve: `hand_response`) ...
 HAND_TERMS = 3
 # ... the curve taken only where the straight force (these many terms) leaves the positions
@@ -91,7 +102,7 @@ def date_pair(t: Array, y: Array, signs: Array, others: Array, t_coarse: float, 
 def _hand_window(t: Array, half_s: float) -> tuple[float, float]:
     """(the sample period, how long before the release the hand's force is fitted) (s)."""
     step = float(np.median(np.diff(t)))
-    return step, max(HAND_WINDOW * half_s, 5 * step)
+    return step, max(HAND_WINDOW * half_s, HAND_MIN_SAMPLES * step)
 
 
 def date_release(t: Array, y: Array, vs: Array, free: FreeFit, t_coarse: float, half_s: float,
@@ -105,32 +116,18 @@ def date_release(t: Array, y: Array, vs: Array, free: FreeFit, t_coarse: float, 
     pair's cart, `daq.driven`): their forced responses join the free columns. At most
     `hand_terms` (1-3) of the hand's force (`hand_response`) are fitted."""
     step, back = _hand_window(t, half_s)
-    lo, hi = t_coarse - back, t_coarse + back + after * half_s
-    keep = (t >= lo) & (t <= hi)
-    tw, yw, vw = even_clock(t[keep]), y[keep], vs[keep]
-    if tw.size < 10:
+    hi = t_coarse + back + after * half_s
+    fitted = _joined_fit(t, y, vs, free, t_coarse, (back, hi), step, drive, search, hand_terms)
+    if fitted is not None and HAND_WINDOW * half_s < HAND_MIN_SAMPLES * step:
+        # the window the sample minimum set may hold the push's peak: without the samples
+        # before the last `HAND_SHORT_SAMPLES`, does the hand's force fit significantly better?
+        short = _joined_fit(t, y, vs, free, t_coarse, (HAND_SHORT_SAMPLES * step, hi), step, drive, search,
+                            hand_terms, search_from=t_coarse - search[0] * back)
+        if short is not None and short.fits_better_than(fitted, HAND_SHORT_ALPHA):
+            fitted = short
+    if fitted is None:
         return None
-    forced = (np.stack([forced_response(tw, u, free.sigma, free.omega) for u in drive[keep].T], axis=1)
-              if drive is not None and drive.shape[1] else None)
-    # the RSS has a local minimum between every two samples: the coarse grid must be finer
-    # than the sample spacing, or it lands in the wrong interval
-    candidates = np.arange(t_coarse - search[0] * back, t_coarse + search[1] * back, step / 8.0)
-    candidates = candidates[(candidates > tw[2]) & (candidates < tw[-4])]
-    if candidates.size == 0:
-        return None
-    def least(terms: int) -> tuple[float, float]:
-        """(t0, RSS) of the joined model with `terms` of the hand's force."""
-        best = _best_joint(tw, yw, vw, free, candidates, forced, terms)
-        best = _best_joint(tw, yw, vw, free, np.linspace(best - step / 8.0, best + step / 8.0, 25), forced, terms)
-        return best, _joint_solve(tw, yw, vw, free, best, None, forced, terms)[1]
-
-    terms = min(hand_terms, STRAIGHT_TERMS)
-    best, rss = least(terms)
-    if hand_terms > terms:
-        curved, rss_curved = least(hand_terms)
-        dof = tw.size - 5 - hand_terms - (0 if forced is None else forced.shape[1])
-        if rss - rss_curved > CURVE_F * (hand_terms - terms) * rss_curved / max(dof, 1):
-            best, terms = curved, hand_terms
+    tw, yw, vw, forced, best, terms = fitted.tw, fitted.yw, fitted.vw, fitted.forced, fitted.t0_s, fitted.terms
     coef, _ = _joint_solve(tw, yw, vw, free, best, None, forced, terms)
     g1, g2, d1, d2 = basis(np.array([best]), free.t_ref, free.sigma, free.omega)
     # the spring's acceleration at t0, from the ODE x'' = -2σ x' - (σ² + ω²)(x - c)
@@ -140,6 +137,71 @@ def date_release(t: Array, y: Array, vs: Array, free: FreeFit, t_coarse: float, 
     refit = FreeFit(free.t_ref, free.sigma, free.omega,
                     (float(coef[0]), float(coef[1]), float(coef[2]), float(coef[3]), float(coef[4])), free.rms_m)
     return ReleaseDate(float(best), abs(float(accel)), refit)
+
+
+@dataclass(frozen=True)
+class _Joined:
+    """The joined model's best t0 over one window: the window's samples (even clock), the
+    forced columns, t0, the hand's terms, the RSS and the parameters fitted."""
+
+    tw: Array
+    yw: Array
+    vw: Array
+    forced: Array | None
+    t0_s: float
+    terms: int
+    rss: float
+    params: int
+
+    def fits_better_than(self, longer: _Joined, alpha: float) -> bool:
+        """Whether the samples `longer` has before this window's first cost it significantly:
+        F = ((RSS_long - RSS) / m) / (RSS / dof) against F(m, dof) at level `alpha` (freeing
+        the m samples leaves this window's fit)."""
+        import scipy.stats  # deferred: keeps `import daq` fast
+        m = longer.tw.size - self.tw.size
+        dof = self.tw.size - self.params
+        if m <= 0 or dof <= 0 or self.rss <= 0.0:
+            return False
+        f = ((longer.rss - self.rss) / m) / (self.rss / dof)
+        return bool(f > float(scipy.stats.f.ppf(1.0 - alpha, m, dof)))
+
+
+def _joined_fit(t: Array, y: Array, vs: Array, free: FreeFit, t_coarse: float, window: tuple[float, float],
+                step: float, drive: Array | None, search: tuple[float, float], hand_terms: int,
+                search_from: float | None = None) -> _Joined | None:
+    """`date_release`'s fit over [t_coarse - back, hi] (`window` = (back, hi)), t0 sought from
+    `search_from` (default t_coarse - `search[0]` back) to t_coarse + `search[1]` back; None
+    when the window is too short or holds no candidate."""
+    back, hi = window
+    keep = (t >= t_coarse - back) & (t <= hi)
+    tw, yw, vw = even_clock(t[keep]), y[keep], vs[keep]
+    if tw.size < 10:
+        return None
+    forced = (np.stack([forced_response(tw, u, free.sigma, free.omega) for u in drive[keep].T], axis=1)
+              if drive is not None and drive.shape[1] else None)
+    # the RSS has a local minimum between every two samples: the coarse grid must be finer
+    # than the sample spacing, or it lands in the wrong interval
+    first = t_coarse - search[0] * back if search_from is None else search_from
+    candidates = np.arange(first, t_coarse + search[1] * back, step / 8.0)
+    candidates = candidates[(candidates > tw[2]) & (candidates < tw[-4])]
+    if candidates.size == 0:
+        return None
+
+    def least(terms: int) -> tuple[float, float]:
+        """(t0, RSS) of the joined model with `terms` of the hand's force."""
+        best = _best_joint(tw, yw, vw, free, candidates, forced, terms)
+        best = _best_joint(tw, yw, vw, free, np.linspace(best - step / 8.0, best + step / 8.0, 25), forced, terms)
+        return best, _joint_solve(tw, yw, vw, free, best, None, forced, terms)[1]
+
+    columns = 5 + (0 if forced is None else forced.shape[1])
+    terms = min(hand_terms, STRAIGHT_TERMS)
+    best, rss = least(terms)
+    if hand_terms > terms:
+        curved, rss_curved = least(hand_terms)
+        dof = tw.size - columns - hand_terms
+        if rss - rss_curved > CURVE_F * (hand_terms - terms) * rss_curved / max(dof, 1):
+            best, terms, rss = curved, hand_terms, rss_curved
+    return _Joined(tw, yw, vw, forced, best, terms, rss, columns + terms + 1)
 
 
 def hand_response(s: Array, sigma: float, omega: float) -> tuple[Array, Array, Array]:
