@@ -90,16 +90,12 @@ def _flick_along_a_path(wn: float, zeta: float, amp: float, dur: float, t0: floa
     return t, np.round(x / 5e-5) * 5e-5
 
 
-@pytest.mark.parametrize("rate_hz", [50, 100, 1000])
-def test_a_flick_along_a_hands_path_is_dated_within_a_sample(rate_hz: int) -> None:
-    # a straight hand force (the model before) dated these 1.0 and 1.0 samples RMS off at 50 and
-    # 100 Hz, and 2.5 samples early at the median at 1 kHz (where no let-go of these moves the
-    # cart by more than the 50 µm lattice within a sample: the median, not each). Not at 200 Hz:
-    # there the curve's evidence through this lattice (F 3-6) stays under `daq.joined.CURVE_F`,
-    # and those flicks are dated as by the line, 1.2 samples RMS (a known limit)
-    rng = np.random.default_rng(100 + rate_hz)
+def _flicks_dated(rng: np.random.Generator, n: int, rate_hz: float) -> list[float]:
+    """`n` flicks along a hand's path drawn from `rng` (ω 8-25 rad/s, ζ 0.005-0.05, 3-5 cm in
+    0.10-0.20 s, let go at 0.8-1.0 of the path), each dated from a coarse instant up to three
+    samples off: the errors in samples."""
     errors = []
-    for _ in range(12):
+    for _ in range(n):
         wn, zeta = rng.uniform(8.0, 25.0), rng.uniform(0.005, 0.05)
         amp, dur = rng.uniform(0.03, 0.05) * rng.choice([-1.0, 1.0]), rng.uniform(0.10, 0.20)
         t0 = 1.0 + rng.uniform(0.0, 1.0 / rate_hz)
@@ -113,6 +109,17 @@ def test_a_flick_along_a_hands_path_is_dated_within_a_sample(rate_hz: int) -> No
         date = date_release(t, y, 0.0 * vs, free, t_r + rng.uniform(-3.0, 3.0) / rate_hz, half)
         assert date is not None
         errors.append((date.t0_s - t_r) * rate_hz)
+    return errors
+
+
+@pytest.mark.parametrize("rate_hz", [50, 100, 1000])
+def test_a_flick_along_a_hands_path_is_dated_within_a_sample(rate_hz: int) -> None:
+    # a straight hand force (the model before) dated these 1.0 and 1.0 samples RMS off at 50 and
+    # 100 Hz, and 2.5 samples early at the median at 1 kHz (where no let-go of these moves the
+    # cart by more than the 50 µm lattice within a sample: the median, not each). Not at 200 Hz:
+    # there the curve's evidence through this lattice (F 3-6) stays under `daq.joined.CURVE_F`,
+    # and those flicks are dated as by the line, 1.2 samples RMS (a known limit)
+    errors = _flicks_dated(np.random.default_rng(100 + rate_hz), 12, rate_hz)
     if rate_hz < 1000:
         assert float(np.sqrt(np.mean(np.square(errors)))) <= 0.75, errors
     else:
@@ -186,23 +193,7 @@ def test_a_short_50_hz_flick_is_dated_on_the_samples_after_its_push_peak() -> No
     three last samples are taken instead when dropping the others gains in an F test
     (`daq.joined.HAND_SHORT_SAMPLES`). Before: 80 of these 96 flicks within one sample, RMS
     0.87 samples; after: 87, 0.64."""
-    rate_hz = 50.0
-    rng = np.random.default_rng(3050)
-    errors = []
-    for _ in range(96):
-        wn, zeta = rng.uniform(8.0, 25.0), rng.uniform(0.005, 0.05)
-        amp, dur = rng.uniform(0.03, 0.05) * rng.choice([-1.0, 1.0]), rng.uniform(0.10, 0.20)
-        t0 = 1.0 + rng.uniform(0.0, 1.0 / rate_hz)
-        t_r = t0 + rng.uniform(0.8, 1.0) * dur
-        t, y = _flick_along_a_path(wn, zeta, amp, dur, t0, t_r, rate_hz)
-        half = math.pi / wn
-        vs = motion_sign(t, y)
-        window = (t >= t_r + 0.3) & (t <= t_r + 0.3 + 1.5 * half)
-        free = fit_free(t[window], y[window], 0.0 * vs[window], 0.0, wn)
-        assert free is not None
-        date = date_release(t, y, 0.0 * vs, free, t_r + rng.uniform(-3.0, 3.0) / rate_hz, half)
-        assert date is not None
-        errors.append((date.t0_s - t_r) * rate_hz)
+    errors = _flicks_dated(np.random.default_rng(3050), 96, 50.0)
     within = int(np.sum(np.abs(errors) <= 1.0))
     rms = float(np.sqrt(np.mean(np.square(errors))))
     assert within >= 84 and rms <= 0.8, (within, rms, np.round(errors, 2))
