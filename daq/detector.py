@@ -48,9 +48,10 @@ could record such a hold's release, and a pair's beating often never rang as one
 rest, until it settles after a run, is where it was first still (`Armed.watched` tells the
 pipeline to zero that cart alone).
 
-Settling is judged on the moving carts only (`daq.held.moving_carts`, the rule the run's
-metadata states): a held cart that wanders (its span below `held_ratio` times the pulled
-cart's, or below 2 mm) does not keep a run open.
+Settling is judged on the moving carts only (`daq.held.moving_carts` on the carts' spans): a
+held cart that wanders (its span below `held_ratio` times the pulled cart's, or below 2 mm)
+does not keep a run open. The run's metadata states held or free by the same rule on the
+carts' swings (`run_swings_m`), which a hand's move of the held cart does not make free.
 
 Positions may be zeroed or not: only motion relative to the hold matters. Pure: no clocks,
 no I/O; time comes with the samples (float seconds, continuous).
@@ -73,7 +74,7 @@ from daq.detector_events import (
     Released,
     Settled,
 )
-from daq.held import moving_carts
+from daq.held import Swings, moving_carts, swings_of
 from daq.onset import OnsetFit, fit_onset
 from daq.release_dating import (
     Samples,
@@ -130,8 +131,7 @@ class ReleaseDetector:
         self._run_channel = 0
         self._run_turns = 0                 # turns of the run's channel since its release
         self._judge_from = 0.0              # a hand on the run's carts is looked for from here (s)
-        self._run_low: list[float] = []
-        self._run_high: list[float] = []
+        self._run_swings: list[Swings] = []   # each cart's swings in the first SPAN_S of the run
         self._limits = RingingLimits(s.ring_min_swing_m, 0.03, s.ring_max_half_s, s.ring_half_ratio,
                                      s.ring_grow, s.still_band_m)
 
@@ -396,8 +396,7 @@ class ReleaseDetector:
         # swings before are the largest (spanned from the confirmation, a pulled cart's 70 mm
         # swing counted 41 mm, and a held cart moved 6 mm by hand made the run two free carts)
         since = [x for t, x in self._history if t >= release.t_release_s] or [self._history[-1][1]]
-        self._run_low = [min(column) for column in zip(*since)]
-        self._run_high = [max(column) for column in zip(*since)]
+        self._run_swings = swings_of(zip(*since))
         return release
 
     def _away_from_rest(self, channel: int, direction: float) -> str:
@@ -423,9 +422,8 @@ class ReleaseDetector:
             self.state = "settled"
             return [Settled(t_s, "max_run")]
         if t_s - self._release_t <= SPAN_S:   # free carts swing most at first; later a hand may move one
-            for c, x in enumerate(sample):
-                self._run_low[c] = min(self._run_low[c], x)
-                self._run_high[c] = max(self._run_high[c], x)
+            for swings, x in zip(self._run_swings, sample, strict=True):
+                swings.push(x)
         handled = self._handled_again(turned) if turned else None
         if handled:
             self.state = "settled"
@@ -443,16 +441,21 @@ class ReleaseDetector:
         return []
 
     def run_spans_m(self) -> list[float] | None:
-        """Each cart's span (m) from the last release to `SPAN_S` after it (`daq.held` tells held
-        or free from them: the detector settles on them, the run's metadata states them); None
-        before the first release."""
-        if not self._run_low:
-            return None
-        return [hi - lo for lo, hi in zip(self._run_low, self._run_high)]
+        """Each cart's span (m) from the last release to `SPAN_S` after it; None before the first
+        release. The detector settles on the carts that spanned like the pulled one (a cart moved
+        by hand after the release keeps the run open until it is still too); the run's metadata
+        states held or free from these spans and `run_swings_m` (`daq.held.moving_carts`)."""
+        return [s.span_m for s in self._run_swings] if self._run_swings else None
+
+    def run_swings_m(self) -> list[float] | None:
+        """Each cart's swing (m, `daq.held.Swings.second_m`) over the spans' samples; None before
+        the first release."""
+        return [s.second_m for s in self._run_swings] if self._run_swings else None
 
     def _moving_channels(self) -> list[int]:
-        """The run's channel and every channel that swung like it (not a held cart's wander), as
-        the run's metadata will say (`daq.held.moving_carts`)."""
+        """The run's channel and every channel that spanned like it (not a held cart's wander;
+        `daq.held.moving_carts` on the spans alone: a free pair's partner has swung once or twice
+        when the run starts, too few swings to tell it from a hand's move)."""
         moving = moving_carts(self._run_channel + 1, self.run_spans_m() or [], self.settings.held_ratio)
         return [c - 1 for c in moving] if moving is not None else [self._run_channel]
 

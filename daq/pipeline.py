@@ -366,11 +366,12 @@ class Acquisition:
         assert run is not None
         self._flush_run(run)
         counters = _delta(self.counters(), run.counters_at_start, run.gaps)
-        pulled, spans, ratio = run.metadata.pulled_cart, self.detector.run_spans_m(), self.config.detector.held_ratio
+        pulled, ratio = run.metadata.pulled_cart, self.config.detector.held_ratio
+        spans, swings = self.detector.run_spans_m(), self.detector.run_swings_m()
         meta = run.metadata.model_copy(update={
             "counters": counters, "ended_utc": self._wall_clock().isoformat(timespec="milliseconds"),
-            "lab_case": self.config.lab_case or (lab_case(pulled, spans, ratio) if spans else None),
-            "moving_carts": moving_carts(pulled, spans, ratio) if spans else None})
+            "lab_case": self.config.lab_case or (lab_case(pulled, spans, ratio, swings) if spans else None),
+            "moving_carts": moving_carts(pulled, spans, ratio, swings) if spans else None})
         finished = RunFinished(
             bench=meta.bench, run_id=meta.run_id, status="complete" if status == "complete" else "aborted",
             file=f"{meta.run_id}.mcap", n_samples=run.n_samples, release_time_s=meta.release_time_s,

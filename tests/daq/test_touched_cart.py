@@ -26,6 +26,8 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
+from daq.detector import Released, ReleaseDetector
+from daq.held import moving_carts
 from testkit.release_tally import detect
 
 Q_M = 5e-5
@@ -42,17 +44,19 @@ def _min_jerk_at(u: float) -> float:
     return u * u * u * (10.0 - 15.0 * u + 6.0 * u * u)
 
 
-def _record(rng: np.random.Generator, rate_hz: float,
-            dry: bool = False) -> tuple[np.ndarray, np.ndarray, float]:
+def _record(rng: np.random.Generator, rate_hz: float, dry: bool = False,
+            touch_after_s: tuple[float, float] = (1.5, 5.0), touch_mm: tuple[float, float] = (3.0, 10.0)
+            ) -> tuple[np.ndarray, np.ndarray, float]:
     """(t (N,), positions (N, 2), the release instant): cart 0 pulled, held, released; cart 1 held
-    and moved by hand later. `dry`: with Coulomb friction and stick on cart 0."""
+    and moved by hand `touch_mm` `touch_after_s` after the release. `dry`: with Coulomb
+    friction and stick on cart 0."""
     wn = rng.uniform(9.0, 16.0)
     share = rng.uniform(0.3, 0.6)                 # k_c / (k_c + k_w): the coupling's share
     zeta = rng.uniform(0.005, 0.03)
     pull = rng.uniform(0.02, 0.05) * rng.choice([-1.0, 1.0])
     t_release = rng.uniform(1.5, 2.5)
-    t_touch = t_release + rng.uniform(1.5, 5.0)
-    touch_m = rng.uniform(0.003, 0.010) * rng.choice([-1.0, 1.0])
+    t_touch = t_release + rng.uniform(*touch_after_s)
+    touch_m = rng.uniform(*touch_mm) * 1e-3 * rng.choice([-1.0, 1.0])
     touch_s = rng.uniform(0.2, 0.8)
     wander = [(rng.uniform(0.5e-4, 2e-4), 2 * math.pi * rng.uniform(0.2, 1.5), rng.uniform(0, 2 * math.pi))
               for _ in range(3)]
@@ -116,3 +120,22 @@ def test_moving_the_held_cart_while_the_other_rings_makes_no_second_run(rate_hz:
         assert any(abs(f - t_release) < 0.02 for f in found), (k, found, t_release)
         extra += [(k, round(f, 3)) for f in found if abs(f - t_release) >= 0.02]
     assert not extra, extra
+
+
+@pytest.mark.parametrize("rate_hz", [50, 200, 1000])
+def test_a_held_cart_moved_just_after_the_release_is_still_held(rate_hz: int) -> None:
+    # a student moves the held cart 3-12 mm (the red team's range) 0.2-1.3 s after the release,
+    # within the detector's first `SPAN_S`: one long swing of that cart, not a free one's swings
+    rng = np.random.default_rng(7300 + rate_hz)
+    wrong = []
+    for k in range(12):
+        t, pos, t_release = _record(rng, rate_hz, dry=bool(k % 2), touch_after_s=(0.2, 1.3), touch_mm=(3.0, 12.0))
+        detector = ReleaseDetector()
+        found = [e.t_release_s for i in range(t.size) for e in detector.feed(float(t[i]), tuple(pos[i]))
+                 if isinstance(e, Released)]
+        assert [f for f in found if abs(f - t_release) < 0.02], (k, found, t_release)
+        # the last run is this release's (a ringing the move turned into a run would be extra)
+        moving = moving_carts(1, detector.run_spans_m() or [], swings_m=detector.run_swings_m())
+        if moving != [1]:
+            wrong.append((k, moving, [round(v * 1e3, 1) for v in detector.run_spans_m() or []]))
+    assert not wrong, wrong
