@@ -10,7 +10,9 @@ A cart's swing is its second-largest swing between turning points (`Swings`), no
 free cart swings back and forth, while the hand that holds a cart moves it one way at a time
 (its wander, or a move of 3-12 mm a student makes just after a release) and makes one long
 swing. Spanned, such a move made a held cart free (15 mm moved 0.5 s after a flick of 77 mm).
-The pulled cart's span is the reference.
+The pulled cart's span is the reference. The run's metadata states this verdict; the detector
+settles a run on the spans alone (`moving_carts` without `swings_m`), since a free pair's
+partner has swung only once or twice when its run starts.
 """
 
 from __future__ import annotations
