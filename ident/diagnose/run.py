@@ -46,8 +46,16 @@ from ident.diagnose.fitting import FitResult
 from ident.diagnose.held_error import read_held, with_input_error
 from ident.diagnose.held_fit import work_grid
 from ident.diagnose.identifiable import identifiable_friction, identifiable_model, one_encoder, typical_scale
-from ident.diagnose.lattice import Lattice, find_lattice, find_noisy_lattice, lattice_candidates, lattice_worth_points
+from ident.diagnose.lattice import (
+    Lattice,
+    find_lattice,
+    find_noisy_lattice,
+    lattice_candidates,
+    lattice_worth_points,
+    reading_noise,
+)
 from ident.diagnose.models import EFFECTS, effect_names
+from ident.diagnose.reading_error import with_reading_error
 from ident.diagnose.redate import redated_release
 from ident.diagnose.select import Judgement, Selection, Step, forward, is_material, threshold
 from ident.diagnose.stretch import check, check_input, moving, release_stretch
@@ -168,6 +176,11 @@ def diagnose(t: FloatArray, y: FloatArray, carts: int | None = None, step_m: flo
     if last is not None and steps:
         progress.stage("diagnosis: the final model on every sample")
         final = refit_fine(prob, ext, last, win, t_arr, y_arr, None if held is None else held.motion, u_arr)
+    # the σ of a residual that is not white, and of the carts' reading on their lattice (a stuck
+    # cart's level: one error for the whole stuck stretch)
+    after = 0.0 if lattice is None or lattice.levels > 0 else reading_noise(lattice)
+    final = (final[0], with_reading_error(final[1], final[0].dt, final[0].y,
+                                          0.0 if lattice is None else lattice.quantum_m, after))
     if held is not None:   # the held reading's error in the parameters' σ (errors in variables)
         steps_per_work = max(1, round(final[0].dt / float(t_arr[1] - t_arr[0])))
         final = (final[0], with_input_error(final[1], final[0].dt, final[0].y, held, steps_per_work))
