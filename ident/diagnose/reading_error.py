@@ -32,9 +32,12 @@ drift's penalty root (`drift.drift_penalty`) if the model has one:
   draw's error e_k = read_k - x̂ moves the parameters by G e_k, and Σ_k (G e_k)² / K is their
   variance. Where the carts cross many levels it is the Gauss-Newton one; where a cart sticks
   it carries the one shared error;
-- `spectral_variance`: diag(G Σ Gᵀ), Σ the residual's covariance as a stationary series per
-  cart, its spectrum the periodogram averaged over `SMOOTH_BINS` bins (Daniell; a white
-  residual gives the Gauss-Newton variance back).
+- `spectral_variance`: diag(G Σ Gᵀ), Σ the covariance of the residual of the model as it
+  reads (through its lattice, when it has one: a staircase's error is the lattice's, not a
+  misfit) as a stationary series per cart, its spectrum the periodogram averaged over
+  `SMOOTH_BINS` bins (Daniell; a white residual gives the Gauss-Newton variance back). Taken
+  from the continuous positions' residual instead, a 1.4 mm lattice's slow staircase error made
+  the σ of β ten times the Gauss-Newton one (`tests/ident/test_diagnose_held_lattice.py` seed 1).
 
 Each carts' parameter's variance is the largest of the Gauss-Newton one and these two (they
 count the same white noise, each with what the other does not see: the residual cannot show a
@@ -91,7 +94,13 @@ def with_reading_error(result: FitResult, dt: float, y: FloatArray, quantum: flo
     if root is not None:
         normal = normal + root.T @ root
     gain = np.linalg.pinv(normal) @ jac.T
-    variance = spectral_variance(gain, resid, scatter)
+    # what the model misses beyond its own lattice: the residual of the model as it reads (a
+    # staircase's error is the lattice's, counted by its draws, not a misfit)
+    with np.errstate(all="ignore"):
+        missed = y - spec.predict(result.theta[None, :], dt, n)[0] if "quantization" in spec.effects else resid
+    if not np.all(np.isfinite(missed)):
+        missed = resid
+    variance = spectral_variance(gain, missed, float(np.sum(missed ** 2)) / max(m - p, 1))
     if quantum > 0:
         before = float(np.sqrt(max(scatter - quantum * quantum / 12.0 - after * after, 0.0)))
         variance = np.maximum(variance, lattice_variance(gain, position, quantum, before, after))
