@@ -18,7 +18,8 @@ hand, so it forgets the hold (`reset()`); a run in progress is always left alone
 Release instant (`daq.release_dating`). The threshold crossing comes 10-40 ms late, so t0 is
 back-dated by the onset fit of `daq.onset` on the samples around the crossing (only the
 channel that moved most).
-Settings and events live in `daq.detector_events`.
+Settings and events live in `daq.detector_events`; stillness and the carts' rest are kept by
+`daq.stillness`, every channel's turns and the pending dating of a ringing by `daq.ringing_watch`.
 
 A release is told from slow hand motion by the fitted initial acceleration `a = 2 c_2`
 (a spring released from 0.15 m starts at several m/s², a hand pulling over ≳ 1 s below
@@ -76,17 +77,10 @@ from daq.detector_events import (
 )
 from daq.held import Swings, moving_carts, swings_of
 from daq.onset import OnsetFit, fit_onset
-from daq.release_dating import (
-    Samples,
-    centre_of,
-    date_ringing_release,
-    fit_onset_at,
-    free_span,
-    hand_took,
-    redate_hold,
-    spring_of_pull,
-)
-from daq.ringing import RingingLimits, Turn, Zigzag, is_broken, is_ringing
+from daq.release_dating import Samples, centre_of, date_ringing_release, fit_onset_at, redate_hold, spring_of_pull
+from daq.ringing import RingingLimits, Turn, is_broken
+from daq.ringing_watch import RingingWatch
+from daq.stillness import Stillness, first_rest, mean_since, pulled_from_rest, ringing_rest
 
 log = logging.getLogger(__name__)
 #: What the numerical dating may raise on a record nobody foresaw: it turns the candidate down
@@ -99,11 +93,6 @@ __all__ = ["METHOD", "SPAN_S", "Armed", "DetectorSettings", "Disarmed", "Event",
 State = Literal["idle", "armed", "released", "settled"]
 METHOD = "piecewise-polynomial-onset-fit"
 SPAN_S = 1.5    # held or free is judged on the carts' spans in the first 1.5 s after the release
-#: turns kept after a hand took a ringing cart: a swing that grew ends where the hand's push did,
-#: and starts what comes next; a cart that stopped moving as its free response may still be in
-#: the hand (caught and held: a ringing judged from there was fitted across the hand), and what
-#: comes next starts at the turn where that was seen
-_AFTER_HAND = {"grew": 2, "taken": 1}
 
 
 class ReleaseDetector:
@@ -114,26 +103,22 @@ class ReleaseDetector:
         self.state: State = "idle"
         self._keep_s = s.pre_trigger_s + s.first_release_confirm_s + 1.0
         self._history: deque[tuple[float, tuple[float, ...]]] = deque()
-        self._anchor: tuple[float, ...] | None = None
-        self._anchor_t = 0.0
+        self._stillness = Stillness(s.still_band_m, s.still_s)
         self._rest: tuple[float, ...] | None = None
         self._hold: tuple[float, ...] = ()
         self._watched: tuple[int, ...] = ()     # the channels an armed hold watches (its still carts)
-        self._alone: list[tuple[float, float]] = []   # each cart's own still anchor (x m, since s)
         self._trigger_t: float | None = None
         self._trigger_channel = 0
         self._post_samples = 0
         self._release_t = -math.inf        # the last run's release instant
         self._first_t: float | None = None
-        self._zigzags: list[Zigzag] = []
-        self._muted: list[bool] = []        # ringing already judged (and turned down) on this channel
-        self._dating: tuple[float, int, Turn, Turn, Turn] | None = None   # (due time, channel, turns)
         self._run_channel = 0
         self._run_turns = 0                 # turns of the run's channel since its release
         self._judge_from = 0.0              # a hand on the run's carts is looked for from here (s)
         self._run_swings: list[Swings] = []   # each cart's swings in the first SPAN_S of the run
-        self._limits = RingingLimits(s.ring_min_swing_m, 0.03, s.ring_max_half_s, s.ring_half_ratio,
-                                     s.ring_grow, s.still_band_m)
+        limits = RingingLimits(s.ring_min_swing_m, 0.03, s.ring_max_half_s, s.ring_half_ratio, s.ring_grow,
+                               s.still_band_m)
+        self._ringing = RingingWatch(limits, s.still_band_m, s.held_ratio)
 
     # --- public -----------------------------------------------------------------------------
     def feed(self, t_s: float, pos: Sequence[float]) -> list[Event]:
@@ -146,16 +131,16 @@ class ReleaseDetector:
             history.popleft()
         if self._first_t is None:
             self._first_t = t_s
-        turned = self._push_turns(t_s, sample)
+        turned = self._ringing.push(t_s, sample)
         if self.state == "released":
             return self._feed_released(t_s, sample, turned)
         if self.state == "settled":
             self.state = "idle"  # settled lasts one sample
-            self._restart_anchor(t_s, sample)
+            self._stillness.restart(t_s, sample)
             return []
         if turned:
-            self._check_ringing(t_s, turned)
-        if self._dating is not None:
+            self._ringing.check(history, turned)
+        if self._ringing.dating is not None:
             dated = self._due(t_s)
             if dated:
                 return dated
@@ -167,33 +152,18 @@ class ReleaseDetector:
         """The stream ended: a ringing confirmed but not yet dated (the end cut its free window
         short) is dated on the samples there are, so a release cut by the record's end is still
         recorded (a student's last release often is). With none, a channel's last three turns
-        are judged as a ringing on their last half-period alone (`_last_ringing`)."""
+        are judged as a ringing on their last half-period alone (`RingingWatch.last_ringing`)."""
         if not self._history:
             return []
         t_s = self._history[-1][0]
-        if self._dating is None and self.state != "released":
-            found = self._last_ringing()
-            self._dating = (t_s, *found) if found is not None else None
-        if self._dating is None:
+        ringing = self._ringing
+        if ringing.dating is None and self.state != "released":
+            found = ringing.last_ringing(self._release_t)
+            ringing.dating = (t_s, *found) if found is not None else None
+        if ringing.dating is None:
             return []
-        self._dating = (t_s, *self._dating[1:])
+        ringing.dating = (t_s, *ringing.dating[1:])
         return self._due(t_s)
-
-    def _last_ringing(self) -> tuple[int, Turn, Turn, Turn] | None:
-        """A release cut by the stream's end before its ringing's next turn: a channel's last
-        turns A, B, C, unjudged, that ring on the swing B-C alone, A taken as C a half-period
-        B-C before B (A is where the hand held or pushed the cart: A-B carries the hold or the
-        push, longer than B-C and smaller: testkit students' last releases 0.8-1.5 s before the
-        end were lost), dated as a confirmed ringing is (`_check_ringing`)."""
-        for c, zigzag in enumerate(self._zigzags):
-            turns = zigzag.turns
-            if self._muted[c] or len(turns) < 3 or turns[-3].t_s < self._release_t:
-                continue
-            a, b, t_c = turns[-3], turns[-2], turns[-1]
-            a = Turn(b.t_s - (t_c.t_s - b.t_s), t_c.x_m)
-            if is_ringing(a, b, t_c, self._limits):
-                return c, a, b, t_c
-        return None
 
     def arm_now(self, t_s: float, pos: Sequence[float]) -> list[Event]:
         """Arm at `pos` at once (a command), unless a run is in progress."""
@@ -220,15 +190,14 @@ class ReleaseDetector:
             self.forget_turns()
             return []
         self._trigger_t = None
-        self._dating = None
-        self._alone = []
-        for zigzag in self._zigzags:
-            zigzag.clear()
+        self._ringing.dating = None
+        self._stillness.alone = []
+        self._ringing.clear()
         if self.state in ("armed", "settled"):
             self.state = "idle"
-            self._anchor = None
+            self._stillness.anchor = None
             return [Disarmed(self._history[-1][0] if self._history else 0.0)]
-        self._anchor = None
+        self._stillness.anchor = None
         return []
 
     def forget_turns(self) -> None:
@@ -237,36 +206,19 @@ class ReleaseDetector:
         The first turn after the hole is where the samples resumed, not an extreme, so it is not
         counted: three true turns are needed again before a swing can be judged.
         """
-        for zigzag in self._zigzags:
-            zigzag.clear()
+        self._ringing.clear()
         self._run_turns = -1
 
     # --- states -----------------------------------------------------------------------------
-    def _still(self, t_s: float, sample: tuple[float, ...], band: float, duration_s: float,
-               channels: Sequence[int] | None = None) -> bool:
-        """True once every channel (of `channels`) stayed within ±band of the anchor for `duration_s`."""
-        anchor = self._anchor
-        if anchor is None or len(anchor) != len(sample):
-            self._restart_anchor(t_s, sample)
-            return False
-        for c in channels if channels is not None else range(len(sample)):
-            if abs(sample[c] - anchor[c]) > band:
-                self._restart_anchor(t_s, sample)
-                return False
-        return t_s - self._anchor_t >= duration_s
-
-    def _restart_anchor(self, t_s: float, sample: tuple[float, ...]) -> None:
-        self._anchor = sample
-        self._anchor_t = t_s
-
     def _feed_idle(self, t_s: float, sample: tuple[float, ...]) -> list[Event]:
-        still_alone = self._still_alone(t_s, sample)
-        if self._still(t_s, sample, self.settings.still_band_m, self.settings.still_s):
-            self._hold = self._mean_since(self._anchor_t)
+        stillness = self._stillness
+        still_alone = stillness.still_alone(t_s, sample)
+        if stillness.still(t_s, sample, self.settings.still_band_m, self.settings.still_s):
+            self._hold = mean_since(self._history, stillness.anchor_t)
             self._watched = tuple(range(len(sample)))
-            self._alone = []
-            self._first_rest(self._watched)
-            self._unmute()   # still: any ringing before is over
+            stillness.alone = []
+            self._rest = first_rest(self._rest, self._hold, self._watched)
+            self._ringing.unmute()   # still: any ringing before is over
         elif still_alone:
             # a cart held still while the other swings (a free pair's partner rings on, or beats
             # about its hold by a few mm): its hold is armed alone, and only its own departure fires
@@ -284,45 +236,19 @@ class ReleaseDetector:
         return Armed(t_s, self._hold, None if len(self._watched) == len(self._hold) else self._watched)
 
     def _watch(self, channels: list[int]) -> None:
-        """Arm the hold of `channels` too, each still alone since its own anchor (`_still_alone`)."""
+        """Arm the hold of `channels` too, each still alone since its own anchor (`Stillness.still_alone`)."""
         hold = list(self._hold)
         for c in channels:
-            hold[c] = self._mean_since(self._alone[c][1])[c]
-            self._muted[c] = False
+            hold[c] = mean_since(self._history, self._stillness.alone[c][1])[c]
+        self._ringing.unmute(channels)
         self._hold = tuple(hold)
         self._watched = tuple(sorted({*self._watched, *channels}))
-        self._first_rest(channels)
-
-    def _first_rest(self, channels: Sequence[int]) -> None:
-        """A cart's rest, until it settles after a run, is where it was first still: its hold."""
-        n = len(self._hold)
-        rest = list(self._rest) if self._rest is not None and len(self._rest) == n else [math.nan] * n
-        for c in channels:
-            if math.isnan(rest[c]):
-                rest[c] = self._hold[c]
-        self._rest = tuple(rest)
-
-    def _still_alone(self, t_s: float, sample: tuple[float, ...]) -> list[int]:
-        """The channels each still within ±still_band_m of its own anchor for still_s."""
-        if len(self._alone) != len(sample):
-            self._alone = [(x, t_s) for x in sample]
-        band, still = self.settings.still_band_m, []
-        for c, x in enumerate(sample):
-            if abs(x - self._alone[c][0]) > band:
-                self._alone[c] = (x, t_s)
-            elif t_s - self._alone[c][1] >= self.settings.still_s:
-                still.append(c)
-        return still
-
-    def _mean_since(self, t0_s: float) -> tuple[float, ...]:
-        """Mean position of the samples of the history from `t0_s` on (the still window)."""
-        window = [h[1] for h in self._history if h[0] >= t0_s]
-        return tuple(sum(column) / len(window) for column in zip(*window))
+        self._rest = first_rest(self._rest, self._hold, channels)
 
     def _feed_armed(self, t_s: float, sample: tuple[float, ...]) -> list[Event]:
         if self._trigger_t is None:
             if len(self._watched) < len(sample):   # a cart that comes to a hold later is armed too
-                newly = [c for c in self._still_alone(t_s, sample) if c not in self._watched]
+                newly = [c for c in self._stillness.still_alone(t_s, sample) if c not in self._watched]
                 if newly:
                     self._watch(newly)
                     return [self._armed(t_s)]
@@ -333,7 +259,7 @@ class ReleaseDetector:
             else:
                 return []
             self._trigger_t = t_s
-            self._alone = []    # each cart's stillness is judged afresh after the decision
+            self._stillness.alone = []    # each cart's stillness is judged afresh after the decision
             self._trigger_channel = self._channel_moved_most(sample)
             self._post_samples = 0
             return []
@@ -354,7 +280,7 @@ class ReleaseDetector:
         assert trigger_t is not None
         self._trigger_t = None
         channel = self._channel_moved_most(sample)
-        hold = self._hold
+        hold, rest = self._hold, self._rest
         still_away = abs(sample[channel] - hold[channel]) > self.settings.fire_m
         samples = Samples.of(list(self._history))
         fit = fit_onset_at(samples, channel, hold, trigger_t, self.settings)
@@ -362,14 +288,13 @@ class ReleaseDetector:
         accel = fit.accel_m_s2 * direction if fit is not None else 0.0
         reason = ("fit failed" if fit is None else "came back" if not still_away
                   else "slow motion" if accel < self.settings.min_accel_m_s2
-                  else self._away_from_rest(channel, direction))
+                  else pulled_from_rest(rest, hold, channel, direction, self.settings.rest_margin_m))
         if reason:
             # a flick or a release from a hold taken for the rest is still caught by its ringing
             self.state = "idle"
-            self._restart_anchor(t_s, sample)
+            self._stillness.restart(t_s, sample)
             return Rejected(t_s, accel, reason)
         assert fit is not None
-        rest = self._rest
         pull = hold[channel] - rest[channel] if rest is not None and len(rest) == len(hold) else 0.0
         fit, spring = spring_of_pull(samples, channel, hold, trigger_t, fit, pull, self.settings)
         t0 = redate_hold(samples, channel, hold, trigger_t, fit, self.settings, spring)
@@ -382,39 +307,22 @@ class ReleaseDetector:
         0.3-0.9 s after a real motor pulse on a free pair, whose cart misfit its driven free
         response by 0.7 % of its span there)."""
         self.state = "released"
-        self._dating = None
+        self._ringing.dating = None
         self._release_t = release.t_release_s
-        self._anchor = None
-        self._alone = []
+        self._stillness.anchor = None
+        self._stillness.alone = []
         self._run_channel = release.channel
         # a ringing confirms its release a period or more after it: a hand may take the cart
         # again between its turns (testkit 9433: a free pair's cart flicked again 0.2 s after
         # the confirmation, never judged, its run rang on through the second release)
         self._judge_from = max(release.t_release_s, judged_to)
-        self._run_turns = sum(turn.t_s >= self._judge_from for turn in self._zigzags[release.channel].turns)
+        self._run_turns = sum(turn.t_s >= self._judge_from for turn in self._ringing.turns(release.channel))
         # the spans from the release on: a ringing is confirmed about a period after it, and the
         # swings before are the largest (spanned from the confirmation, a pulled cart's 70 mm
         # swing counted 41 mm, and a held cart moved 6 mm by hand made the run two free carts)
         since = [x for t, x in self._history if t >= release.t_release_s] or [self._history[-1][1]]
         self._run_swings = swings_of(zip(*since))
         return release
-
-    def _away_from_rest(self, channel: int, direction: float) -> str:
-        """Why a fast departure cannot be a release, judged against the rest position, or ''.
-
-        A released cart moves toward its rest; a cart that leaves its rest, or moves away
-        from it, is pulled by a hand, however fast. The rest is where the carts settled after
-        the last run (at start-up: where each was first still).
-        """
-        rest = self._rest
-        if rest is None or len(rest) != len(self._hold):
-            return ""
-        offset = rest[channel] - self._hold[channel]
-        if abs(offset) <= self.settings.rest_margin_m:
-            return "pulled from rest"
-        if offset * direction < 0:
-            return "pulled away from rest"
-        return ""
 
     def _feed_released(self, t_s: float, sample: tuple[float, ...], turned: list[int]) -> list[Event]:
         settings = self.settings
@@ -427,16 +335,14 @@ class ReleaseDetector:
         handled = self._handled_again(turned) if turned else None
         if handled:
             self.state = "settled"
-            self._unmute()
-            for zigzag in self._zigzags:
-                zigzag.keep_last(_AFTER_HAND[handled])
+            self._ringing.unmute()
+            self._ringing.after_hand(handled)
             return [Settled(t_s, "handled")]
-        if self._still(t_s, sample, settings.settle_band_m, settings.settle_s, self._moving_channels()):
+        if self._stillness.still(t_s, sample, settings.settle_band_m, settings.settle_s, self._moving_channels()):
             self.state = "settled"
-            self._rest = self._mean_since(self._anchor_t)
-            for zigzag in self._zigzags:
-                zigzag.clear()
-            self._unmute()
+            self._rest = mean_since(self._history, self._stillness.anchor_t)
+            self._ringing.clear()
+            self._ringing.unmute()
             return [Settled(t_s, "still")]
         return []
 
@@ -473,73 +379,28 @@ class ReleaseDetector:
             channel = next((c for c in turned if c in moving), -1)
             if len(moving) < 2 or channel < 0:
                 return None
-        turns = self._zigzags[channel].turns
+        turns = self._ringing.turns(channel)
         if self._run_turns < 3 or len(turns) < 3 or turns[-3].t_s < self._judge_from:
             return None
         a, b, c = turns[-3], turns[-2], turns[-1]
         # (two free carts beat: their swings grow and shrink by themselves, and only a cart that
         # stops moving as its free response driven by the other's tells a hand)
-        limits = self._limits
+        limits = self._ringing.limits
         if len(moving) < 2 and abs(c.x_m - b.x_m) >= limits.min_swing_m and is_broken(a, b, c, limits):
             return "grew"
-        return "taken" if self._taken(moving, (a, b, c)) else None
-
-    def _taken(self, channels: list[int], turns: tuple[Turn, Turn, Turn]) -> bool:
-        """Whether a hand took one of `channels` since turn A (`daq.release_dating.hand_took`)."""
-        since = Samples.of([h for h in self._history if h[0] >= turns[0].t_s])
-        return hand_took(since, channels, turns, self._limits.min_swing_m, self.settings.held_ratio)
+        return "taken" if self._ringing.taken(self._history, moving, (a, b, c)) else None
 
     def _channel_moved_most(self, sample: tuple[float, ...]) -> int:
         """The watched channel furthest from its hold."""
         return max(self._watched, key=lambda c: abs(sample[c] - self._hold[c]))
 
     # --- ringing --------------------------------------------------------------------------------
-    def _push_turns(self, t_s: float, sample: tuple[float, ...]) -> list[int]:
-        """Feed every channel's turning points; the channels that completed a turn."""
-        if len(self._zigzags) != len(sample):
-            self._zigzags = [Zigzag(self.settings.still_band_m) for _ in sample]
-            self._muted = [False] * len(sample)
-        return [c for c, (zigzag, x) in enumerate(zip(self._zigzags, sample)) if zigzag.push(t_s, x)]
-
-    def _unmute(self) -> None:
-        self._muted = [False] * len(self._muted)
-
-    def _check_ringing(self, t_s: float, channels: list[int]) -> None:
-        """A channel that rings freely: date it once enough of its free response is in (see `_due`)."""
-        for c in channels:
-            turns = self._zigzags[c].turns
-            if len(turns) < 3:
-                continue
-            a, b, t_c = turns[-3], turns[-2], turns[-1]
-            if self._muted[c]:   # judged before: over when a hand took the cart
-                grew = is_broken(a, b, t_c, self._limits)
-                if grew or self._taken([c], (a, b, t_c)):
-                    self._muted[c] = False
-                    self._zigzags[c].keep_last(_AFTER_HAND["grew" if grew else "taken"])
-                continue
-            if not is_ringing(a, b, t_c, self._limits):
-                continue
-            half = 0.5 * (t_c.t_s - a.t_s)
-            # the free response is fitted from a quarter half-period after B (after any release
-            # near B) over three quarters of a period (at least 16 samples: `free_span`)
-            step = (self._history[-1][0] - self._history[0][0]) / max(len(self._history) - 1, 1)
-            due = (b.t_s + 0.25 * half + free_span(half, step), c, a, b, t_c)
-            if self._dating is None or due[0] < self._dating[0]:
-                # judged once (stillness or a new handling unmutes); a ringing that waits behind
-                # another channel's is judged at a later turn (muted unjudged, the pulled cart of
-                # a free pair went unrecorded while the other cart's ringing was turned down)
-                if self._dating is not None:
-                    self._muted[self._dating[1]] = False
-                self._muted[c] = True
-                self._dating = due
-            return
-
     def _due(self, t_s: float) -> list[Event]:
         """The dating of a confirmed ringing, once its time has come."""
-        dating = self._dating
+        dating = self._ringing.dating
         if dating is None or t_s < dating[0]:
             return []
-        self._dating = None
+        self._ringing.dating = None
         self._trigger_t = None
         _, channel, a, b, c = dating
         event = self._date(t_s, channel, a, b, c)
@@ -564,14 +425,5 @@ class ReleaseDetector:
             return Rejected(t_s, 0.0, "ringing: dated at the last run's release (recorded)")
         if isinstance(event, Released):
             self._hold = event.hold_pos
-            self._rest_of_ringing(channel, event.hold_pos, a, b, c)
+            self._rest = ringing_rest(self._rest, event.hold_pos, channel, centre_of((a, b, c)))
         return event
-
-    def _rest_of_ringing(self, channel: int, hold: tuple[float, ...], a: Turn, b: Turn, c: Turn) -> None:
-        """A free ringing swings about the cart's rest (`centre_of` its three turning points). It
-        replaces the rest taken at start-up where the carts were first still, which
-        may have been a cart held pulled (a later release from a hold near the true rest was then
-        taken for a release "toward the rest"; a hand's swing from there was dated at its start)."""
-        rest = list(self._rest if self._rest is not None and len(self._rest) == len(hold) else hold)
-        rest[channel] = centre_of((a, b, c))
-        self._rest = tuple(rest)
