@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import functools
 import math
+from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
@@ -43,12 +44,15 @@ HIDDEN_SEARCH_SAMPLES = 2000
 #: frequency, fitting its pull and late ringing and not its first cycles: dated 21 samples late.)
 HIDDEN_KEEP = 0.6
 HIDDEN_TRIMS = 4
+#: A cart that rests (or is held) for at least this share of a period, then moves as long,
+#: lets the unread mass go from wherever it was (`motion_starts`, `let_go_modes`).
+LET_GO_REST = 0.25
 
 
 def hidden_mode(m: Motion, column: int, wn: float, zeta: float,
-                moving: NDArray[np.bool_] | None = None) -> FloatArray:
-    """The regressors (N, 2) of an unread mass that cart `column` pulls through a spring: its
-    position, which with this cart held rings at `wn` (rad/s) with damping `zeta`, driven by
+                moving: NDArray[np.bool_] | None = None, let_go: FloatArray | None = None) -> FloatArray:
+    """The regressors (N, 2), or (N, 2 + 2·s), of an unread mass that cart `column` pulls
+    through a spring: its position, which with this cart held rings at `wn` (rad/s) with damping `zeta`, driven by
     this cart's position (a hand on this cart moves it only through the spring),
 
         z = G·x_j,  G = wn² / (s² + 2·zeta·wn·s + wn²),
@@ -58,8 +62,12 @@ def hidden_mode(m: Motion, column: int, wn: float, zeta: float,
     which friction stops, and its sign would drive G at resonance), both from rest at their
     first values (a record starts with the carts at rest; one that
     starts in motion fits worse, and the free model stays without them). The spring's force
-    on this cart is a combination of the two. `moving`: `moving_samples` of the cart's
-    velocity, when the caller has them."""
+    on this cart is a combination of them. `moving`: `moving_samples` of the cart's velocity,
+    when the caller has them. With `let_go` (N,) m, the mass's own motion in z's units as a
+    fit has it (zeros before one), that motion is taken into ż's sign, and its free motion
+    from wherever it was at each of the s `motion_starts` enters too (`let_go_modes`, from
+    half a smoothing window before: the smoothed velocity rises that much early;
+    `hand.let_go_refit`)."""
     from scipy.signal import lfilter, lfilter_zi  # deferred: keeps `import ident` fast
     b, a = _oscillator_foh(wn, zeta, m.dt)
     zi = lfilter_zi(b, a)
@@ -68,10 +76,53 @@ def hidden_mode(m: Motion, column: int, wn: float, zeta: float,
         return np.asarray(lfilter(b, a, u, zi=zi * u[0])[0], dtype=np.float64)
 
     z = response(m.x[:, column])
-    dz = np.gradient(z, m.dt)
+    dz = np.gradient(z if let_go is None else z + let_go, m.dt)
     if moving is None:
         moving = moving_samples(m.v[:, column])
-    return np.column_stack([z, response(-np.tanh(dz / max(0.01 * float(np.ptp(dz)), 1e-12)) * moving)])
+    cols = [z, response(-np.tanh(dz / max(0.01 * float(np.ptp(dz)), 1e-12)) * moving)]
+    if let_go is not None:
+        for start in motion_starts(m, moving):
+            cols += list(let_go_modes(m.n_samples, max(0, start - m.window // 2), wn, zeta, m.dt).T)
+    return np.column_stack(cols)
+
+
+def motion_starts(m: Motion, moving: NDArray[np.bool_]) -> list[int]:
+    """The samples where a cart of `moving` (N,) samples begins to move after resting or being
+    held (the record's start included) for at least `LET_GO_REST` of a period, and then moves
+    for as long (not a reversal's slow samples, nor a stuck cart's creep)."""
+    span = m.samples(LET_GO_REST * m.period_s)
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], moving.astype(np.int8), [0]])))
+    starts, rest_from = [], 0
+    for first, stop in edges.reshape(-1, 2):   # [first, stop) of each moving run
+        if first - rest_from >= span and stop - first >= span:
+            starts.append(int(first))
+        rest_from = int(stop)
+    return starts
+
+
+def let_go_modes(n: int, start: int, wn: float, zeta: float, dt: float) -> FloatArray:
+    """The regressors (n, 2) of the mass of `hidden_mode` let go at sample `start` from a
+    position and velocity the model does not know, while the cart it hangs on rests: zero
+    before `start`, then the oscillator's step and impulse responses (zeta < 1, τ = (k -
+    start)·dt, wd = wn·√(1 - zeta²)),
+
+        S(τ) = 1 - e^(-zeta·wn·τ)·(cos wd·τ + zeta/√(1 - zeta²)·sin wd·τ),
+        I(τ) = e^(-zeta·wn·τ)·sin wd·τ,
+
+    both continuous at `start`. The mass from (z0, v0) towards u is z = z0 - (z0 - u)·S +
+    (v0/wd)·I: the constant is the free model's offset, and a held mass's pull, z0 - G·x_j, is
+    in the hand's force until the let-go. `G·x_j` from rest took the mass to have followed the
+    cart: a hand that holds it at its own rest while it holds the cart off its rest (a hold of
+    two carts read through one encoder, let go together) left the first swing misfit by 5-13 %
+    of the hold's force, and the release was dated up to 16 samples late (red team
+    `two_cart_coulomb_y1` 3702 and 3831)."""
+    on = np.arange(n) >= start
+    tau = np.maximum(np.arange(n) - start, 0) * dt
+    env = np.exp(-zeta * wn * tau) * on
+    root = math.sqrt(max(1.0 - zeta * zeta, 1e-12))
+    wd = wn * root
+    return np.column_stack([on - env * (np.cos(wd * tau) + zeta / root * np.sin(wd * tau)),
+                            env * np.sin(wd * tau)])
 
 
 def _oscillator_foh(wn: float, zeta: float, dt: float) -> tuple[FloatArray, FloatArray]:
@@ -100,8 +151,18 @@ def coupling_holds(kappa: float, own: float) -> bool:
     return 0.0 < kappa < own
 
 
-def mass_candidates(m: Motion, column: int, base: FloatArray) -> list[FloatArray]:
-    """The `hidden_mode` regressors (N, 2) whose fit beside the free model's leaves the least
+@dataclass(frozen=True)
+class MassCandidate:
+    """An unread mass's `hidden_mode` `regressors` (N, 2) at its frequency `wn` (rad/s,
+    with this cart held) and damping `zeta`."""
+
+    regressors: FloatArray
+    wn: float
+    zeta: float
+
+
+def mass_candidates(m: Motion, column: int, base: FloatArray, let_go: bool = False) -> list[MassCandidate]:
+    """The `hidden_mode` candidates whose fit beside the free model's leaves the least
     median |residual| over the moving samples (at most `HIDDEN_SEARCH_SAMPLES` of them), by
     a least-squares fit and by a least-trimmed-squares one on the `HIDDEN_KEEP` share it fits
     best (the hand's phase drags the plain fit, and its valley lies elsewhere): per
@@ -109,8 +170,9 @@ def mass_candidates(m: Motion, column: int, base: FloatArray) -> list[FloatArray
     (at the middle damping, every `HIDDEN_COARSE_STEP`-th ratio, then every ratio around the
     best `HIDDEN_VALLEYS` minima), then the damping on `HIDDEN_DAMPING`, then the frequency
     refined between its grid neighbours. `base` (N, p): the free model's regressors of cart
-    `column` (`hand.regressors`), its stiffness first. One or two candidates; none on a short
-    record."""
+    `column` (`hand.regressors`), its stiffness first. `let_go`: with the mass let go from
+    wherever it was at each start of motion (`hidden_mode`'s let-go modes). One or two
+    candidates; none on a short record."""
     from scipy.optimize import minimize_scalar  # deferred: keeps `import ident` fast
     moving = moving_samples(m.v[:, column])
     if np.count_nonzero(moving) < HIDDEN_MIN_MOVING:
@@ -119,6 +181,7 @@ def mass_candidates(m: Motion, column: int, base: FloatArray) -> list[FloatArray
     rows = rows[::math.ceil(rows.size / HIDDEN_SEARCH_SAMPLES)]
     free = base[rows]
     target = m.a[rows, column]
+    still = np.zeros(m.n_samples) if let_go else None
     wn = 2.0 * np.pi / m.period_s
     ratios = [r for r in HIDDEN_RATIOS if r * wn <= 0.5 * np.pi / m.dt]
     if not ratios:
@@ -128,7 +191,7 @@ def mass_candidates(m: Motion, column: int, base: FloatArray) -> list[FloatArray
     def spreads(ratio: float, zeta: float) -> tuple[float, float]:
         """(plain, trimmed): median |residual| of each fit (1e300 where the coupling fails:
         finite, as the bounded search needs); each (ratio, damping) fitted once."""
-        basis = np.column_stack([free, hidden_mode(m, column, ratio * wn, zeta, moving)[rows]])
+        basis = np.column_stack([free, hidden_mode(m, column, ratio * wn, zeta, moving, still)[rows]])
         keep = np.ones(target.size, dtype=bool)
         out = []
         for _ in range(1 + HIDDEN_TRIMS):
@@ -164,4 +227,5 @@ def mass_candidates(m: Motion, column: int, base: FloatArray) -> list[FloatArray
         return float(best.x), zeta
 
     found = dict.fromkeys(refined(k) for k in range(2))
-    return [hidden_mode(m, column, ratio * wn, zeta, moving) for ratio, zeta in found]
+    return [MassCandidate(hidden_mode(m, column, ratio * wn, zeta, moving, still), ratio * wn, zeta)
+            for ratio, zeta in found]
