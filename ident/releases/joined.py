@@ -85,10 +85,10 @@ def _least_residual(m: Motion, model: FreeModel, centre: float, back: float, sig
     env = np.exp(-sigma * tau)
     pushes = [np.tanh(m.v[lo:hi, model.column] / model.v_smooth)]
     pushes += [m.y[lo:hi, i] - m.y[lo, i] for i in model.others]
-    # an unread mass's pull (`unread.hidden_mode`) is a force on this cart like the others' (its
-    # position and friction's share; its let-go modes, `hand.let_go_refit`, not: the change that
-    # brought them was measured without them here)
-    pushes += [] if model.hidden is None else [u - u[0] for u in model.hidden[lo:hi, :2].T]
+    # an unread mass's pull (`unread.hidden_mode`, with its let-go modes) is a force on this cart
+    # like the others' (without the modes, red team two_cart_coulomb_y1 702 went 0.2 -> 1.03
+    # samples late)
+    pushes += [] if model.hidden is None else [u - u[0] for u in model.hidden[lo:hi].T]
     free = [np.ones_like(t), tau, env * np.cos(omega * tau), env * np.sin(omega * tau)]
     free += [_forced(u, m.dt, sigma, omega) for u in pushes]
     base = np.stack(free, axis=1)
