@@ -17,83 +17,18 @@ friction 2.3. While stuck, the reading's error is one number, not q²/12 a sampl
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 import pytest
 
 from ident.diagnose import diagnose
+from testkit.held_lattice import held_lattice_record
 
 SEEDS = range(1, 13)
 
 
 def _record(seed: int) -> tuple[np.ndarray, np.ndarray, dict[str, float]]:
-    rng = np.random.default_rng([seed, 3404])
-    m1, m2 = rng.uniform(0.6, 2.5), rng.uniform(1.0, 2.5)
-    k = rng.uniform(150.0, 500.0)
-    share = rng.uniform(0.35, 0.65)
-    k2, k3 = k * share, k * (1 - share)
-    k1 = rng.uniform(300.0, 800.0)
-    follow = rng.uniform(0.03, 0.06)
-    kh = k2 / follow - k1 - k2
-    ch = 2 * 0.5 * math.sqrt(kh * m1)
-    zeta = rng.uniform(0.01, 0.03)
-    c2 = 2 * zeta * math.sqrt(k * m2)
-    d = rng.uniform(0.04, 0.09) * rng.choice([-1.0, 1.0])
-    fk = k * abs(d) / (4 * rng.uniform(2.0, 5.0))
-    f_h, a_h = rng.uniform(0.05, 0.5, 3), rng.uniform(0.3, 1.0, 3)
-    a_h *= rng.uniform(3e-3, 6e-3) / (2 * a_h.sum())
-    ph = rng.uniform(0, 2 * np.pi, 3)
-
-    waves = [(float(a), 2 * math.pi * float(f), float(p)) for a, f, p in zip(a_h, f_h, ph)]
-
-    def hand(t: float) -> float:
-        return sum(a * math.sin(w * t + p) for a, w, p in waves)
-
-    rate, t_r, end = rng.uniform(60.0, 150.0), rng.uniform(0.8, 1.2), rng.uniform(8.0, 12.0)
-    h = 2e-4
-    x1, v1, x2, v2 = 0.0, 0.0, -d, 0.0
-    x1 = (k2 * x2 + kh * hand(0.0)) / (k1 + k2 + kh)
-    stuck = True
-    t_s = np.arange(0.0, end, 1.0 / rate)
-    out = np.empty((t_s.size, 2))
-    j, t = 0, 0.0
-
-    def acc(t: float, x1: float, v1: float, x2: float, v2: float, slide: float) -> tuple[float, float]:
-        a1 = (-k1 * x1 - k2 * (x1 - x2) - kh * (x1 - hand(t)) - ch * v1) / m1
-        a2 = (-k3 * x2 - k2 * (x2 - x1) - c2 * v2 - fk * slide) / m2
-        return a1, a2
-
-    while j < t_s.size:
-        while j < t_s.size and t_s[j] <= t + 1e-12:
-            out[j] = x1, x2
-            j += 1
-        pull = -k3 * x2 - k2 * (x2 - x1)
-        if stuck and t >= t_r and abs(pull) > fk:
-            stuck = False
-        slide = 0.0 if stuck else (math.copysign(1.0, v2) if v2 != 0 else math.copysign(1.0, pull))
-        s = 0.0 if stuck else 1.0
-        a1, a2 = acc(t, x1, v1, x2, v2, slide)
-        b1, b2 = acc(t + h / 2, x1 + h / 2 * v1, v1 + h / 2 * a1, x2 + s * h / 2 * v2, s * (v2 + h / 2 * a2), slide)
-        c1_, c2_ = acc(t + h / 2, x1 + h / 2 * (v1 + h / 2 * a1), v1 + h / 2 * b1,
-                       x2 + s * h / 2 * (v2 + h / 2 * a2), s * (v2 + h / 2 * b2), slide)
-        d1, d2 = acc(t + h, x1 + h * (v1 + h / 2 * b1), v1 + h * c1_, x2 + s * h * (v2 + h / 2 * b2),
-                     s * (v2 + h * c2_), slide)
-        nx1 = x1 + h * (v1 + h / 6 * (a1 + b1 + c1_))
-        nv1 = v1 + h / 6 * (a1 + 2 * b1 + 2 * c1_ + d1)
-        if not stuck:
-            nx2 = x2 + h * (v2 + h / 6 * (a2 + b2 + c2_))
-            nv2 = v2 + h / 6 * (a2 + 2 * b2 + 2 * c2_ + d2)
-            if nv2 * v2 < 0 and abs(-k3 * nx2 - k2 * (nx2 - nx1)) <= fk:   # it stops here
-                nv2, stuck = 0.0, True
-            x2, v2 = nx2, nv2
-        x1, v1 = nx1, nv1
-        t += h
-    q = rng.uniform(3e-4, 8e-4)
-    offsets = rng.uniform(0.0, q, 2)
-    read = q * np.round((out + offsets) / q) - offsets + rng.normal(0.0, rng.uniform(0.1, 0.25) * q, out.shape)
-    truth = {"held_cart_gain_per_s2": k2 / m2, "coulomb_accel_m_s2": fk / m2}
-    return t_s, read, truth
+    return held_lattice_record(np.random.default_rng([seed, 3404]), pull_m=(0.04, 0.09), stop_cycles=(2.0, 5.0),
+                               rate_hz=(60.0, 150.0), q_m=(3e-4, 8e-4), noise_q=(0.1, 0.25))
 
 
 def z_scores(seed: int) -> dict[str, float] | None:
