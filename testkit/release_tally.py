@@ -20,13 +20,15 @@ Stream = Iterator[tuple[float, tuple[float, float]]]
 class Record:
     """A finished `sim://` rig: its samples (device s, metres), the true release times, the
     hand's force per unit mass as it let go at each (the jump in the cart's acceleration, m/s²;
-    empty unless a `student` drew the record), and the readings' noise RMS (m: the Gaussian
-    noise and the encoder's count, q²/12)."""
+    empty unless a `student` drew the record), the readings' noise RMS (m: the Gaussian
+    noise and the encoder's count, q²/12) and the pulled cart."""
 
     stream: Stream
     releases: list[float]
     let_go_m_s2: list[float]
     noise_m: float
+    #: the cart a student's hand pulls (the other is held); None for a scripted hand (its case says)
+    pulled_cart: int | None = None
 
     def in_data(self, rate_hz: float, snr: float = 10.0) -> list[bool]:
         """Per release: whether its instant is in the data (`testkit.student_records.instants_in_data`)."""
@@ -45,7 +47,7 @@ def record(url: str) -> Record:
     stream = ((f.t_us * 1e-6, (f.raw[0] / scale, f.raw[1] / scale)) for f in frames)
     noise = (rig.options.noise_counts ** 2 + 1.0 / 12.0) ** 0.5 / scale
     return Record(stream, [e.t_s for e in rig.events if e.kind == "release"],
-                  list(getattr(rig.hand, "let_go_m_s2", [])), noise)
+                  list(getattr(rig.hand, "let_go_m_s2", [])), noise, getattr(rig.hand, "pulled", None))
 
 
 def samples(url: str) -> tuple[Stream, list[float]]:

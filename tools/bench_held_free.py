@@ -26,13 +26,9 @@ from pathlib import Path
 
 import numpy as np
 
-from daq.decode import make_decoder
 from daq.detector import Released, ReleaseDetector, Settled
-from daq.frames import DataFrame
 from daq.held import moving_carts
-from daq.sim.options import parse_sim_url
-from daq.sim.rig import Rig
-from daq.sim.student import StudentHand
+from testkit.release_tally import record
 from testkit.student_records import student_records
 
 sys.path.insert(0, str(Path(__file__).resolve().parent / "redteam"))
@@ -63,21 +59,6 @@ class Score:
             self.free_right += ok
         if not ok:
             self.wrong.append(f"{label}: truth {truth}, got {got}, spans {[round(s * 1e3, 1) for s in spans]} mm")
-
-
-def _sim_record(rate: int, seed: int) -> tuple[Stream, list[float], int]:
-    """A rig's own student record: (device s, m) samples, the true releases, the pulled cart
-    (the other is held: `daq/sim/student.py`)."""
-    rig = Rig(parse_sim_url(f"sim://?realtime=0&rate_hz={rate}&student=releases&seed={seed}"))
-    data = bytearray()
-    while not rig.finished:
-        rig.produce_bytes(1 << 16)
-        data += rig.take(1 << 16)
-    scale = rig.options.counts_per_m
-    frames = [f for f in make_decoder("cartlab").feed(bytes(data)) if isinstance(f, DataFrame)]
-    stream = [(f.t_us * 1e-6, (f.raw[0] / scale, f.raw[1] / scale)) for f in frames]
-    assert isinstance(rig.hand, StudentHand)
-    return stream, [e.t_s for e in rig.events if e.kind == "release"], rig.hand.pulled
 
 
 def runs_of(stream: Stream) -> list[tuple[float, list[int] | None, list[float]]]:
@@ -140,8 +121,10 @@ def main(argv: list[str] | None = None) -> int:
                     stream: Stream = ((float(a), (float(b), float(c))) for a, (b, c) in zip(rec.t, rec.y, strict=True))
                 elif gen == "sim":
                     seed = args.seed + 1000 * rate + k
-                    stream, releases, pulled = _sim_record(rate, seed)
-                    truth = [(t, [pulled]) for t in releases]
+                    srec = record(f"sim://?realtime=0&rate_hz={rate}&student=releases&seed={seed}")
+                    assert srec.pulled_cart is not None
+                    truth = [(t, [srec.pulled_cart]) for t in srec.releases]   # the other cart held
+                    stream = srec.stream
                 else:
                     rrec = cases10.make_record(seed, rate=str(rate))
                     pulled = int(rrec.info["pulled_cart"])
