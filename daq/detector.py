@@ -73,12 +73,14 @@ from daq.detector_events import (
     Event,
     Rejected,
     Released,
+    Samples,
     Settled,
 )
 from daq.held import Swings, moving_carts, swings_of
+from daq.hold_dating import fit_onset_at, redate_hold, spring_of_pull
 from daq.onset import OnsetFit, fit_onset
-from daq.release_dating import Samples, centre_of, date_ringing_release, fit_onset_at, redate_hold, spring_of_pull
-from daq.ringing import RingingLimits, Turn, is_broken
+from daq.release_dating import date_ringing_release
+from daq.ringing import RingingLimits, Turn, centre_of, is_broken
 from daq.ringing_watch import RingingWatch
 from daq.stillness import Stillness, first_rest, mean_since, pulled_from_rest, ringing_rest
 

@@ -1,9 +1,12 @@
-"""The release detector's settings and the events it emits (`daq.detector`)."""
+"""The release detector's settings, the events it emits (`daq.detector`) and its kept samples."""
 
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass
 from typing import Literal
+
+import numpy as np
+import numpy.typing as npt
 
 from daq.errors import DaqValueError
 
@@ -98,3 +101,17 @@ class Disarmed:
 
 
 Event = Armed | Released | Rejected | Settled | Disarmed
+
+
+@dataclass(frozen=True, slots=True)
+class Samples:
+    """The detector's kept samples: times `t` (N,) s and positions `pos` (N, C) m, oldest first."""
+
+    t: npt.NDArray[np.float64]
+    pos: npt.NDArray[np.float64]
+
+    @classmethod
+    def of(cls, history: list[tuple[float, tuple[float, ...]]]) -> Samples:
+        t = np.fromiter((h[0] for h in history), dtype=np.float64, count=len(history))
+        pos = np.array([h[1] for h in history], dtype=np.float64).reshape(len(history), -1)
+        return cls(t, pos)

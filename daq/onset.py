@@ -34,7 +34,7 @@ def fit_onset(t: npt.NDArray[np.float64], y: npt.NDArray[np.float64], powers: Se
     (τ = t - t0): a hand that holds a cart still trembles (7-12 Hz, tens of µm) and lets it go
     with the tremor's velocity, position and velocity continuous; only the acceleration jumps.
     A quadratic follows a tremor over a quarter of its cycle: the caller fits from that long
-    before t0 (`daq.release_dating.HAND_LOOKBACK_S`).
+    before t0 (`daq.hold_dating.HAND_LOOKBACK_S`).
 
     t0 is searched on [t[0], t[-1]] by a grid at the median sample spacing, then refined on a
     grid 50× finer around the best point. Returns t0 (+ `trigger_offset_s`), `a = 2 c_2` and

@@ -9,7 +9,7 @@ rises over 60-150 ms to 10-19 m/s², declines, and is still 3-9 m/s² (0.2-1.2 t
 spring's pull) when the hand lets go; it is gone within ~10 ms. So the release is dated
 as the end of a hand force joined to the free response:
 
-- from a still hold (`fit_onset_at`, the fast path): the hand held the cart against the
+- from a still hold (`daq.hold_dating`, the fast path): the hand held the cart against the
   spring; at t0 that force ends and the spring's starts the motion, `y = x0 + Σ c_k max(t -
   t0, 0)^k`, or with the spring known from a ringing its response from rest (`daq.onset`);
 - a ringing (`date_ringing`): the free response `f` (a damped sinusoid about a drifting
@@ -26,143 +26,28 @@ as the end of a hand force joined to the free response:
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
 
-from daq.detector_events import DetectorSettings, Rejected, Released
+from daq.detector_events import DetectorSettings, Rejected, Released, Samples
 from daq.driven import DRIVEN_EXPLAINS, DRIVEN_FIT, PAIR_FLOOR, fits_across, no_hand_before, pair_release, still_free
 from daq.held import moving_carts
+from daq.hold_dating import date_hold_release
 from daq.joined import HAND_TERMS, PAIR_HAND_TERMS, ReleaseDate, date_pair, date_release
-from daq.onset import OnsetFit, fit_onset
-from daq.ringing import FreeFit, Turn, fit_free, motion_sign, slide_back, swings
+from daq.ringing import FreeFit, Turn, centre_of, fit_free, motion_sign, slide_back, spring_of, swings
 
 Array = npt.NDArray[np.float64]
 # why a ringing that the other cart's measured motion drives is no release
 DRIVEN_BY_OTHER = "ringing: the other cart moved this one (no hand on it)"
-# a hold's release is dated again with the hand's own motion from this long before the first
-# date: a quarter of a 7-12 Hz tremor's cycle, over which a quadratic follows it
-HAND_LOOKBACK_S = 0.025
 FREE_MIN_SAMPLES = 16
 # a ringing's free response is judged against its own RMS misfit, taken at least this share of its
 # swing |C - B| (a few samples' RMS is a poor yardstick at low rates; `daq.driven.PAIR_FLOOR` is
 # a free pair's)
 RING_FLOOR = 0.0003
-# ω from a pull's start acceleration, refitted this many times (`spring_of_pull`; the second
-# pass moves a 40 rad/s cart's date by 0.1 ms at 1 kHz, a third by less than 0.02)
-PULL_SPRING_PASSES = 2
 # a hold's onset that starts the cart at this share of the spring's pull there or more was a
 # hand let go at once (`let_go_at_once`): a hand that eases off starts it slower
 AT_ONCE = 0.7
-
-
-@dataclass(frozen=True, slots=True)
-class Samples:
-    """The detector's kept samples: times `t` (N,) s and positions `pos` (N, C) m, oldest first."""
-
-    t: Array
-    pos: Array
-
-    @classmethod
-    def of(cls, history: list[tuple[float, tuple[float, ...]]]) -> Samples:
-        t = np.fromiter((h[0] for h in history), dtype=np.float64, count=len(history))
-        pos = np.array([h[1] for h in history], dtype=np.float64).reshape(len(history), -1)
-        return cls(t, pos)
-
-
-# --- from a still hold ------------------------------------------------------------------------
-def fit_onset_at(s: Samples, channel: int, hold: tuple[float, ...], trigger_t: float,
-                 settings: DetectorSettings, spring: tuple[float, float] | None = None,
-                 onset_t: float | None = None) -> OnsetFit | None:
-    """The onset fit on the hold before `trigger_t` and the window the live decision saw.
-
-    With `onset_t` (a first date) the release is dated again with the hand's own motion
-    (`fit_onset`'s `hand_motion`), from `HAND_LOOKBACK_S` before that date."""
-    times = s.t
-    before = np.flatnonzero(times < trigger_t)
-    if before.size < 2:
-        return None
-    lookback = settings.fit_lookback_s if onset_t is None else trigger_t - onset_t + HAND_LOOKBACK_S
-    n_back = max(settings.fit_min_lookback_samples,
-                 int(np.count_nonzero(times[before] >= trigger_t - lookback)))
-    first = int(before[max(0, before.size - n_back)])
-    after = np.flatnonzero(times >= trigger_t)
-    # the window the live decision saw: fit_post_s and fit_min_post_samples past the trigger
-    n_post = max(settings.fit_min_post_samples + 1,
-                 int(np.count_nonzero(times[after] <= trigger_t + settings.fit_post_s)))
-    last = int(after[min(after.size, n_post) - 1]) + 1 if after.size else len(times)
-    t = times[first:last] - trigger_t
-    y = s.pos[first:last, channel] - hold[channel]
-    return fit_onset(t, y, settings.fit_powers, trigger_offset_s=trigger_t, spring=spring,
-                     hand_motion=onset_t is not None)
-
-
-def spring_of_pull(s: Samples, channel: int, hold: tuple[float, ...], trigger_t: float, fit: OnsetFit,
-                   pull_m: float, settings: DetectorSettings) -> tuple[OnsetFit, tuple[float, float] | None]:
-    """The onset fit of a release from a hold pulled `pull_m` from the cart's rest, with the
-    spring's motion from rest (σ 0, ω² = a / |pull|) in place of τ², τ³ when it fits as well.
-
-    Over the fitted window a stiff spring turns (ωτ ≈ 2 at 40 rad/s and 50 ms) and τ², τ³
-    date the release late (1.1 ms for a 40 rad/s cart at 1 kHz); ω from the fitted start
-    acceleration and the pull, refitted `PULL_SPRING_PASSES` times, follows it. Dry friction
-    lowers that acceleration a little (ω a little low), a wrong rest a lot: the spring is kept
-    only when its fit is no worse than the polynomial's. Returns (the fit, the spring or None).
-    """
-    best, spring, current = fit, None, fit
-    if abs(pull_m) <= settings.rest_margin_m:
-        return best, spring
-    for _ in range(PULL_SPRING_PASSES):
-        if current.accel_m_s2 == 0.0:
-            break
-        omega = math.sqrt(abs(current.accel_m_s2) / abs(pull_m))
-        again = fit_onset_at(s, channel, hold, trigger_t, settings, (0.0, omega))
-        if again is None:
-            break
-        current = again
-        if again.rms_m <= fit.rms_m:
-            best, spring = again, (0.0, omega)
-    return best, spring
-
-
-def redate_hold(s: Samples, channel: int, hold: tuple[float, ...], trigger_t: float, fit: OnsetFit,
-                settings: DetectorSettings, spring: tuple[float, float] | None = None) -> float:
-    """The instant (s) of a release from a still hold that `fit` dated, dated again with the
-    hand's own motion (its tremor) on both sides of t0; `fit`'s where that fit fails."""
-    again = fit_onset_at(s, channel, hold, trigger_t, settings, spring, onset_t=fit.t0_s)
-    return fit.t0_s if again is None else again.t0_s
-
-
-def date_hold_release(s: Samples, t_now: float, a: Turn, settings: DetectorSettings,
-                      spring: tuple[float, float] | None = None, channel: int | None = None) -> Released | None:
-    """The ringing began from a hold (still before turn A): date it by the onset fit, or None.
-
-    The cart that moved most from the hold is the released one (two carts may both ring) unless
-    `channel` is given; only it must have been still: the other cart, held by a hand, may
-    wander by millimetres. With `spring` (σ, ω of the ringing) the onset is the spring's motion
-    from rest (`daq.onset`).
-    """
-    plateau_mask = (s.t >= a.t_s - settings.still_s) & (s.t <= a.t_s)
-    plateau = s.pos[plateau_mask]
-    if len(plateau) < settings.fit_min_lookback_samples or s.t[0] > a.t_s - settings.still_s:
-        return None
-    hold = tuple(float(v) for v in plateau.mean(axis=0))
-    after_mask = s.t > a.t_s
-    after = s.pos[after_mask]
-    if channel is None:
-        channel = int(np.argmax(np.max(np.abs(after - np.array(hold)), axis=0)))
-    column = plateau[:, channel]
-    if float(column.max() - column.min()) > 2.0 * settings.still_band_m:
-        return None
-    away = np.flatnonzero(np.abs(after[:, channel] - hold[channel]) > settings.fire_m)
-    if away.size == 0:
-        return None
-    trigger = float(s.t[after_mask][away[0]])
-    fit = fit_onset_at(s, channel, hold, trigger, settings, spring)
-    if fit is None:
-        return None
-    return Released(redate_hold(s, channel, hold, trigger, fit, settings, spring), trigger, t_now, channel,
-                    abs(fit.accel_m_s2), hold)
 
 
 def others_swing(s: Samples, channel: int, t0_s: float, held_ratio: float) -> bool:
@@ -185,16 +70,6 @@ def hand_took(s: Samples, channels: list[int], turns: tuple[Turn, Turn, Turn], m
 
 
 # --- a ringing ------------------------------------------------------------------------------
-def spring_of(turns: tuple[Turn, Turn, Turn]) -> tuple[float, float]:
-    """(σ 1/s, ω rad/s) of a ringing from its turns A, B, C: ω = π / half-period, σ from the
-    swings' decay (0 when the second swing is not smaller)."""
-    a, b, c = turns
-    half = 0.5 * (c.t_s - a.t_s)
-    s1, s2 = abs(b.x_m - a.x_m), abs(c.x_m - b.x_m)
-    sigma = max(0.0, math.log(max(s1, 1e-12) / max(s2, 1e-12)) / half) if s2 < s1 else 0.0
-    return sigma, math.pi / half
-
-
 def free_span(half_s: float, step_s: float) -> float:
     """How long the free response is fitted (s): three quarters of a period, and at least
     `FREE_MIN_SAMPLES` samples (a stiff spring at 50 Hz has 4 samples a half-period: six samples
@@ -446,10 +321,3 @@ def let_go_at_once(hold: Released, turns: tuple[Turn, Turn, Turn]) -> bool:
     late; the red team's hold releases start at 0.98-1.22 of it)."""
     omega = spring_of(turns)[1]
     return hold.accel_m_s2 >= AT_ONCE * omega ** 2 * abs(hold.hold_pos[hold.channel] - centre_of(turns))
-
-
-def centre_of(turns: tuple[Turn, Turn, Turn]) -> float:
-    """Where a ringing swings about, from its turns A, B, C: (A + 2B + C) / 4, exact under dry
-    friction's linear decay and to first order under viscous decay."""
-    a, b, c = turns
-    return 0.25 * (a.x_m + 2.0 * b.x_m + c.x_m)

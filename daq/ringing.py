@@ -326,3 +326,20 @@ def even_clock(t: Array) -> Array:
     slope, intercept = np.polyfit(k, t, 1)
     line: Array = intercept + slope * k
     return line if float(np.max(np.abs(t - line))) < 0.5 * slope else t
+
+
+def spring_of(turns: tuple[Turn, Turn, Turn]) -> tuple[float, float]:
+    """(σ 1/s, ω rad/s) of a ringing from its turns A, B, C: ω = π / half-period, σ from the
+    swings' decay (0 when the second swing is not smaller)."""
+    a, b, c = turns
+    half = 0.5 * (c.t_s - a.t_s)
+    s1, s2 = abs(b.x_m - a.x_m), abs(c.x_m - b.x_m)
+    sigma = max(0.0, math.log(max(s1, 1e-12) / max(s2, 1e-12)) / half) if s2 < s1 else 0.0
+    return sigma, math.pi / half
+
+
+def centre_of(turns: tuple[Turn, Turn, Turn]) -> float:
+    """Where a ringing swings about, from its turns A, B, C: (A + 2B + C) / 4, exact under dry
+    friction's linear decay and to first order under viscous decay."""
+    a, b, c = turns
+    return 0.25 * (a.x_m + 2.0 * b.x_m + c.x_m)

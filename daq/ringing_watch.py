@@ -17,7 +17,8 @@ from __future__ import annotations
 from collections.abc import Iterable, Sequence
 from typing import Literal
 
-from daq.release_dating import Samples, free_span, hand_took
+from daq.detector_events import Samples
+from daq.release_dating import free_span, hand_took
 from daq.ringing import RingingLimits, Turn, Zigzag, is_broken, is_ringing
 
 #: The detector's kept samples, oldest first: (t s, one position per channel m).

@@ -77,7 +77,7 @@ def first_rest(rest: Rest, hold: tuple[float, ...], channels: Sequence[int]) -> 
 
 
 def ringing_rest(rest: Rest, hold: tuple[float, ...], channel: int, centre_m: float) -> tuple[float, ...]:
-    """A free ringing swings about the cart's rest (`centre_m`, `daq.release_dating.centre_of` its
+    """A free ringing swings about the cart's rest (`centre_m`, `daq.ringing.centre_of` its
     three turning points). It replaces the rest taken at start-up where the carts were first
     still, which may have been a cart held pulled (a later release from a hold near the true rest
     was then taken for a release "toward the rest"; a hand's swing from there was dated at its
