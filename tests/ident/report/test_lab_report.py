@@ -18,8 +18,14 @@ FIGURE_STEMS = ("cart1-simple", "cart2-simple", "cart1-pem", "cart2-pem", "both-
                 "cart1-diagnosis", "cart2-diagnosis", "both-diagnosis",
                 "cart1-envelope", "cart2-envelope")     # no envelope for two beating carts
 
-#: The matplotlib figures the report's fits drew, by "<run stem>/<kind>" (kept, not cleared).
+#: The matplotlib figures the report's fits drew, by "<case number>/<kind>" (kept, not cleared).
 DRAWN: dict[str, Figure] = {}
+
+
+def _keep(drawn: dict[str, Figure]) -> None:
+    """Keep one case's figures under its own number (an object's id may be reused once freed)."""
+    case = len({name.split("/")[0] for name in DRAWN})
+    DRAWN.update({f"{case}/{kind}": fig for kind, fig in drawn.items()})
 
 
 @pytest.fixture(scope="module")
@@ -32,8 +38,7 @@ def report(lab_runs: list[Path], tmp_path_factory: pytest.TempPathFactory) -> tu
     """The report of the three runs, fitted here; the figures drawn on the way are kept."""
     out = tmp_path_factory.mktemp("report")
     with pytest.MonkeyPatch.context() as patch:
-        patch.setattr(figs, "close", lambda drawn: DRAWN.update(
-            {f"{id(drawn)}/{kind}": fig for kind, fig in drawn.items()}))
+        patch.setattr(figs, "close", _keep)
         results = write_lab_report(lab_runs, out, run_notebook=False)   # run by its own test
     return out, results
 
