@@ -353,6 +353,20 @@ def without_lattice(spec: ModelSpec) -> tuple[ModelSpec, NDArray[np.bool_]]:
     return bare, keep
 
 
+def continuous_jacobian(bare: ModelSpec, theta: FloatArray, at: NDArray[np.int_], steps: FloatArray,
+                        dt: float, n: int) -> tuple[FloatArray, FloatArray]:
+    """The positions (n, carts) m of `bare` (a model read without its lattice, `without_lattice`)
+    at `theta` over `n` steps of `dt` s, and their forward differences (len(at), n, carts) in
+    the parameters at indices `at`, steps `steps`: ONE batched simulation of every perturbed row
+    (a diverging row is non-finite: the caller decides)."""
+    rows = np.repeat(theta[None, :], at.size + 1, axis=0)
+    rows[np.arange(1, at.size + 1), at] += steps
+    with np.errstate(all="ignore"):
+        pred = bare.predict(rows, dt, n)
+        diff = (pred[1:] - pred[0]) / steps[:, None, None]
+    return pred[0], diff
+
+
 def _std_through_lattice(spec: ModelSpec, theta: FloatArray, std: FloatArray, free: NDArray[np.int_],
                          steps: FloatArray, dt: float, y: FloatArray, train: NDArray[np.bool_],
                          root: FloatArray | None) -> FloatArray:
@@ -368,14 +382,10 @@ def _std_through_lattice(spec: ModelSpec, theta: FloatArray, std: FloatArray, fr
     bare, keep = without_lattice(spec)
     kept = keep[free]
     cols = free[kept]
-    at = (np.cumsum(keep) - 1)[cols]
-    h = steps[kept]
-    rows = np.repeat(theta[keep][None, :], cols.size + 1, axis=0)
-    rows[np.arange(1, cols.size + 1), at] += h
-    with np.errstate(all="ignore"):   # a diverging trial row is non-finite: `_finite` takes it
-        pred = bare.predict(rows, dt, y.shape[0])[:, train, :].reshape(rows.shape[0], -1)
-        jac = _finite(((pred[1:] - pred[0]) / h[:, None]).T)
-        resid = _finite(pred[0] - y[train].ravel())
+    position, diff = continuous_jacobian(bare, theta[keep], (np.cumsum(keep) - 1)[cols], steps[kept], dt,
+                                         y.shape[0])
+    jac = _finite(diff[:, train, :].reshape(cols.size, -1).T)   # `_finite` takes a diverging row
+    resid = _finite(position[train].ravel() - y[train].ravel())
     if root is not None:   # the rest drift's penalty, on the kept parameters
         jac = np.concatenate([jac, root[:, kept]])
         resid = np.concatenate([resid, root[:, kept] @ theta[cols]])

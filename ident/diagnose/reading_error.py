@@ -52,7 +52,7 @@ import dataclasses
 import numpy as np
 
 from ident.diagnose.drift import drift_penalty
-from ident.diagnose.fitting import FitResult, without_lattice
+from ident.diagnose.fitting import FitResult, continuous_jacobian, without_lattice
 from ident.diagnose.problem import FloatArray
 
 #: Phases of the lattice (per cart, shuffled between carts) at which the positions are read again.
@@ -77,13 +77,8 @@ def with_reading_error(result: FitResult, dt: float, y: FloatArray, quantum: flo
         return result
     theta = result.theta[keep]
     n = y.shape[0]
-    steps = 1e-6 * np.maximum(np.abs(theta[free]), 1e-6)
-    rows = np.repeat(theta[None, :], free.size + 1, axis=0)
-    rows[np.arange(1, free.size + 1), free] += steps
-    with np.errstate(all="ignore"):
-        pred = bare.predict(rows, dt, n)
-        jac = ((pred[1:].reshape(free.size, -1) - pred[0].ravel()) / steps[:, None]).T
-    position = pred[0]
+    position, diff = continuous_jacobian(bare, theta, free, 1e-6 * np.maximum(np.abs(theta[free]), 1e-6), dt, n)
+    jac = diff.reshape(free.size, -1).T
     resid = y - position
     if not (np.all(np.isfinite(jac)) and np.all(np.isfinite(resid))):
         return result
