@@ -31,7 +31,7 @@ from ident.diagnose import diagnose
 
 SET_SEED = 20261201
 KINDS = ("light", "pinned")
-PER_KIND = 12
+PER_KIND = 8
 
 
 def _chain(rng: np.random.Generator, kind: str) -> tuple[float, float, float, float, float]:

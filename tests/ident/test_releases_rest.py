@@ -29,7 +29,7 @@ import numpy as np
 from ident.releases import find_releases
 
 REDTEAM = Path(__file__).resolve().parents[2] / "tools" / "redteam"
-SEEDS = range(8)
+SEEDS = range(5)
 
 
 @contextmanager
