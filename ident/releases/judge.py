@@ -34,6 +34,11 @@ MIN_TURNS = 1
 #: 3–5 cm, pulls to 15 cm), while handling (nudges, a held cart's wander and touches) moves
 #: them by millimetres. `find_releases(min_amplitude_m=...)` changes it.
 MIN_RELEASE_AMPLITUDE_M = 0.01
+#: ... over this many of the record's periods after the let-go: that period is the fast mode's
+#: where two carts swing, and the slow one's may be 2-4 times longer (a chain whose slow mode
+#: dominates; testkit's effects seed 1147320673, a flick of two free carts: 0.94 s against
+#: 0.34 s, its 24 mm swing read 9.8 mm over one period and the release was handling)
+SWING_PERIODS = 2.0
 #: ... and this many noise stds and this many dry-friction bands.
 MIN_AMPLITUDE_SIGMAS = 30.0
 MIN_AMPLITUDE_BANDS = 4.0
@@ -87,9 +92,10 @@ def is_release(m: Motion, model: FreeModel, first: int, last: int, nxt: int, fre
     turns = turning_indices(x[last:stop], max(level / 3.0, 2.0 * band))
     if turns.size < MIN_TURNS:
         return False
-    span = x[last:min(stop, last + m.samples(m.period_s))]
-    amplitude = 0.5 * float(np.ptp(span))
-    if amplitude < max(level, min_amplitude_m) or stays(m, x, last, last + int(turns[0]), nxt, amplitude):
+    # (the swing over one period sets what the hand's force and the cart's leaving compare with)
+    amplitude = 0.5 * float(np.ptp(x[last:min(stop, last + m.samples(m.period_s))]))
+    swing = 0.5 * float(np.ptp(x[last:min(stop, last + m.samples(SWING_PERIODS * m.period_s))]))
+    if swing < max(level, min_amplitude_m) or stays(m, x, last, last + int(turns[0]), nxt, amplitude):
         return False
     if nudged_while_ringing(m, j, first, last, amplitude, min_amplitude_m) or steady_force(m, model, first, last):
         return False

@@ -28,7 +28,7 @@ from testkit.mcap_runs import write_mcap_run
 REL_TOL = 0.15
 #: main missed these when the generator was ported (strict: remove the mark once they pass)
 SET_SEED = 20261122
-API_CASES = 24
+API_CASES = 16
 CLI_CASES = 6
 
 
