@@ -97,6 +97,18 @@ class FreeModel:
         """Natural frequency of the cart alone (rad/s)."""
         return float(np.sqrt(max(float(self.stiffness[0]), 1e-12)))
 
+    @property
+    def static_stiffness(self) -> float:
+        """What a hand holding the cart still holds it against (1/s²): k_jj less an unread
+        mass's pull κ (`hidden`: the mass comes to rest with the cart, z = x_j, and its spring,
+        part of k_jj, then pulls nothing). A stiff spring to a light mass counted whole made a
+        hold's force look too weak for a release (`testkit.effects` coupled_mode 9988548: k_jj
+        576 /s² where the hand held against 75)."""
+        k = float(self.stiffness[0])
+        if self.hidden is not None and self.extra is not None:
+            k -= float(self.extra[1])
+        return max(k, 1e-12)
+
     def rest(self, others_x: FloatArray | None = None) -> float:
         """Spring equilibrium (m) for given other positions (none: zeros)."""
         load = 0.0 if others_x is None or not self.others else float(self.stiffness[1:] @ others_x)

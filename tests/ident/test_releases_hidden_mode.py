@@ -20,6 +20,7 @@ from ident.errors import IdentValueError
 from ident.releases import find_releases
 from ident.releases.motion import motion
 from ident.releases.unread import _oscillator_foh, hidden_mode, let_go_modes
+from testkit.effects import make_case
 from testkit.redteam import redteam_module
 
 
@@ -164,3 +165,17 @@ def test_a_hold_let_go_with_the_unread_cart_held_at_its_rest_is_dated_within_a_s
     (at 456 Hz its dry friction's share also the wrong way round) and the release was dated
     1.6, 5.2 and 16 samples late (red team seeds 3700-3739 and 3800-3839)."""
     _one_release_within_a_sample("two_cart_coulomb_y1", seed)
+
+
+@pytest.mark.parametrize("seed", [9988548, 72232176])
+def test_a_hold_of_a_cart_carrying_a_mass_on_a_stiff_spring_is_a_release(seed: int) -> None:
+    """`testkit.effects` coupled_mode holds (a 2026-12-02 sweep of 400 drawn cases): one cart
+    held 6-19 cm out, carrying a 0.06-0.5 kg mass on a 3.5-4.6 Hz spring. The free model takes
+    the mass, and its k_jj counts that spring whole (576 /s² against the 229 a hand holds the cart
+    against, the mass at rest with the cart): the hold's force read below 0.3 of the spring's at
+    the swing and neither release was found."""
+    case = make_case(seed, "coupled_mode")
+    assert case.observed.carts == 1 and case.truth.release == "hold"
+    found = find_releases(case.observed.t, case.observed.y)
+    assert len(found) == 1, [r.release_time_s for r in found]
+    assert abs(found[0].release_time_s - case.truth.release_time_s) <= 1.0 / case.truth.rate_hz
