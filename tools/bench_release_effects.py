@@ -88,6 +88,8 @@ def main(argv: list[str] | None = None) -> int:
     for name in ("families", "noisy holds"):
         for tree in trees:
             errs = [e for s, _, e in results[tree] if s == name]
+            if not errs:   # (`--noisy 0`)
+                continue
             print(f"{name:12s} {str(tree)[-24:]:>24s} {len(errs):6d} {sum(e <= 1 for e in errs):12d} "
                   f"{sum(e <= 3 for e in errs):6d} {sum(e > 3 for e in errs):5d} {max(errs):8.1f}")
     if len(trees) >= 2:
