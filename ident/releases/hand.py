@@ -103,7 +103,7 @@ class FreeModel:
         mass's pull κ (`hidden`: the mass comes to rest with the cart, z = x_j, and its spring,
         part of k_jj, then pulls nothing). A stiff spring to a light mass counted whole made a
         hold's force look too weak for a release (`testkit.effects` coupled_mode 9988548: k_jj
-        576 /s² where the hand held against 75)."""
+        576 /s², of which the mass's pull κ 347)."""
         k = float(self.stiffness[0])
         if self.hidden is not None and self.extra is not None:
             k -= float(self.extra[1])

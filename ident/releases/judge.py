@@ -39,8 +39,9 @@ MIN_RELEASE_AMPLITUDE_M = 0.01
 #: the fast mode's where two carts swing, and the slow one's may be 2-4 times longer (a chain
 #: whose slow mode dominates; testkit's effects seed 1147320673, a flick of two free carts:
 #: 0.94 s against 0.34 s, its 24 mm swing read 9.8 mm over one period and the release was
-#: handling). Two periods whatever the turns took in a slow pull by hand 3 s after a nudge of a
-#: handling record, whose period (3.3 s) no ringing sets (red team issue 10, 4202 at 50 Hz).
+#: handling). Read over two periods whatever the turns, the swing after a nudge took in a slow
+#: pull by hand 3 s later: a handling record's period (3.3 s) is set by no ringing (red team
+#: issue 10, handling 4202 at 50 Hz: a false release).
 SWING_PERIODS = 2.0
 #: ... and this many noise stds and this many dry-friction bands.
 MIN_AMPLITUDE_SIGMAS = 30.0
