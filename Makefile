@@ -20,15 +20,13 @@ venv: $(STAMP)
 demo: $(STAMP)
 	$(PY) tools/demo_bench.py --out demo-report
 
-# Three workers (pytest-xdist) on CI's two cores: the suite is written to pass on a busy 2-core
-# machine (`tools/suite_under_load.py` runs it beside CPU burners), and a third worker fills the
-# time the process, Zenoh and browser tests spend waiting: 694 s against 783-815 s with two
-# (184-194 % of two cores busy, 2026-12-02, see docs/benchmarks.md); `$(PY) -m pytest FILE` still
-# runs in one process. Each module runs whole on one worker (loadscope): a module's tests may
-# share its fixtures' state in file order (the browser tests' run; `--dist loadgroup` no longer
-# groups under pytest 9.2, pytest-xdist issue 1386).
+# Two workers (pytest-xdist): the suite is written to pass on a busy 2-core machine, and takes
+# about half the time (10 min here on 2026-11-29, see docs/benchmarks.md); `$(PY) -m pytest FILE`
+# still runs in one process. Each module runs whole on one worker (loadscope): a module's tests
+# may share its fixtures' state in file order (the browser tests' run; `--dist loadgroup` no
+# longer groups under pytest 9.2, pytest-xdist issue 1386).
 test: $(STAMP)
-	OPENBLAS_NUM_THREADS=1 $(PY) -m pytest -n 3 --dist loadscope
+	OPENBLAS_NUM_THREADS=1 $(PY) -m pytest -n 2 --dist loadscope
 
 # Headless Chromium + chromedriver for the bench page's browser tests (Debian packages).
 # Best effort: without root or apt the browser tests skip and say why.
