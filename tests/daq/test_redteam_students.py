@@ -29,11 +29,13 @@ def cases10() -> ModuleType:
     return redteam_module("cases10")
 
 
-@pytest.mark.parametrize(("seed", "rate"), [(s, None) for s in range(9)] + [(s, "50") for s in range(220, 227)]
+@pytest.mark.parametrize(("seed", "rate"), [(s, None) for s in range(5)] + [(s, "50") for s in (220, 225, 226)]
                          + [(1006, None), (1315, None), (2203, None)])
 def test_every_release_of_a_red_team_student_is_dated_within_20_ms(cases10: ModuleType, seed: int,
                                                                      rate: str | None) -> None:
-    """Seeds 220-226 at 50 Hz (the red team's batch 5): springs up to 40 rad/s leave 4 samples a
+    """Seeds 0-4 of the red team's first batch (5-8 dropped from the suite, 2026-12-02: its
+    time; `tools/redteam/run10.py` runs any number). Seeds 220, 225, 226 at 50 Hz (the red
+    team's batch 5; 221-224 dropped likewise): springs up to 40 rad/s leave 4 samples a
     half-period; the free fit over 1.5 half-periods then had 6 samples for its 7 unknowns and
     dated a flick a half-period late (220), a weakly marked one 39 ms early (225), or took a
     stream that starts in motion for a release (226). Seed 227 at 50 Hz is left out: a flick let
@@ -108,7 +110,7 @@ def test_a_hold_let_go_at_once_beside_a_pinned_cart_is_dated_at_its_onset() -> N
     assert len(found) == 1 and abs(found[0] - case.truth["release_time_s"]) <= step, found
 
 
-@pytest.mark.parametrize("rate_hz", [100, 200, 1000])
+@pytest.mark.parametrize("rate_hz", [100, 1000])
 @pytest.mark.parametrize("ramp_s", [0.05, 0.1])
 def test_a_hold_let_go_gradually_is_dated_where_the_force_ends(rate_hz: int, ramp_s: float) -> None:
     """A cart held still 60 mm out (15 rad/s, ζ 0.02), the hand's force ramped down to zero over

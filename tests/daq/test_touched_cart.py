@@ -109,8 +109,8 @@ def _stick_slip(grid: np.ndarray, other: np.ndarray, follow: float, x0: float, w
     return out
 
 
-@pytest.mark.parametrize(("rate_hz", "dry"), [(50, False), (100, False), (200, False), (1000, False),
-                                              (50, True), (200, True)])
+@pytest.mark.parametrize(("rate_hz", "dry"), [(50, False), (200, False), (1000, False), (50, True),
+                                              (200, True)])
 def test_moving_the_held_cart_while_the_other_rings_makes_no_second_run(rate_hz: int, dry: bool) -> None:
     rng = np.random.default_rng(7100 + rate_hz + (50_000 if dry else 0))
     extra = []
