@@ -90,7 +90,8 @@ class Rig:
         else:
             periods = (2.0 * math.pi * math.sqrt(o.m1 / (o.k1 + o.k2)), 2.0 * math.pi * math.sqrt(o.m2 / (o.k2 + o.k3)))
             knobs = StudentKnobs(o.student, o.student_releases, o.flick_m, o.wander_m, o.follow, o.p_nudge,
-                                 o.p_touch, o.p_moving, o.tremor_m, o.carts, o.duration_s or 600.0, periods)
+                                 o.p_touch, o.p_moving, o.tremor_m, o.carts, o.duration_s or 600.0, periods,
+                                 ((o.k2 / o.m1, o.k1 / o.m1), (o.k2 / o.m2, o.k3 / o.m2)))
             self.hand = StudentHand(knobs, hand_rng, self.state, self._rest_of)
         self.rate_hz = o.rate_hz
         self.next_sample_s = 0.0

@@ -23,11 +23,13 @@ the pulled cart (with the other one held), so they hold on any rig:
   hold of 0.3-2 s, let go still;
 - 1 to `student_releases` releases, U(2.5, 7) s apart (measured 3.6-7.2 s), each new one
   while the last may still ring; the record ends U(1.5, 5) s after the last (cut ringing);
-- the other cart held loosely by a hand (80 %, else pinned): a soft spring seen as its
-  hold point, plus a wander of a few sines (0.2-1.5 Hz) of amplitude `wander_m` × U(0.25, 1)
-  (100-400 counts measured), plus `follow` × U(0.4, 1.6) times the pulled cart's position
-  (it follows weakly through the spring: quasi-static `k2 / (k2 + k3 + k_hand)`); it is a
-  position constraint (`ident.physics.rig.PositionPath`);
+- the other cart held loosely by a hand (80 %, else pinned): the hand is a soft spring and
+  damper (`Grip`, the student's ζ_g) towards a hold point that wanders by a few sines
+  (0.2-1.5 Hz) of amplitude `wander_m` × U(0.25, 1) (100-400 counts measured); its stiffness
+  makes the held cart follow the pulled one through the coupling spring by `follow` ×
+  U(0.4, 1.6) at rest: k_hand = k_c (1/f - 1) - k_w per unit mass of the held cart (k_c the
+  coupling spring, k_w its wall's; at least k_c, so f is at most k_c / (2 k_c + k_w)). A
+  pinned cart is a position constraint (`ident.physics.rig.PositionPath`);
 - with probability `p_nudge` a nudge 0.4-1.2 s before a release: the cart pushed 3-10 mm
   out and brought back by the hand in 0.2-0.5 s, let go at rest (measured: ~1 cm, 0.8 s
   before);
@@ -135,16 +137,14 @@ class PullHold:
 
 @dataclass(frozen=True, slots=True)
 class LooseHold:
-    """A hand holding a cart loosely: hold point, moves, wander, and `follow` × the other cart."""
+    """Where a hand holding a cart means it to be: hold point, wander and moves."""
 
     x_hold: float
     wander: Sines
-    follow: float
-    other: Callable[[], float]
     moves: Moves = ()
 
     def __call__(self, t: float) -> float:
-        x = self.x_hold + _sines(t, self.wander, 0.0) + self.follow * self.other()
+        x = self.x_hold + _sines(t, self.wander, 0.0)
         for t0, dx, dur in self.moves:
             x += dx * _min_jerk((t - t0) / dur)
         return x
@@ -166,6 +166,8 @@ class StudentKnobs:
     carts: int
     duration_s: float
     period_s: tuple[float, float] = (0.56, 0.56)   # of cart 1 and cart 2 alone (the other held)
+    #: per cart, (coupling spring, spring to its wall) per unit mass (1/s²): the held cart's grip
+    springs: tuple[tuple[float, float], tuple[float, float]] = ((63.0, 63.0), (63.0, 63.0))
 
 
 @dataclass(frozen=True, slots=True)
@@ -198,6 +200,7 @@ class StudentHand:
         self.grip = (float(rng.uniform(30.0, 70.0)), float(rng.uniform(0.6, 1.0)))   # ω_g rad/s, ζ_g
         self._acts: list[_Act] = []
         self._held: LooseHold | None = None
+        self._held_grip: tuple[float, float] | None = None    # (ω_h rad/s, ζ_h) of a loose hold
         self._draw()
         self._next = 0
 
@@ -295,13 +298,20 @@ class StudentHand:
             phases = self.rng.uniform(0.0, 2.0 * math.pi, 3)
             wander = tuple((amp / math.sqrt(3.0), 2.0 * math.pi * float(f), float(p)) for f, p in zip(freqs, phases))
             follow = k.follow * self._u(0.4, 1.6)
+            coupling, wall = k.springs[other - 1]
+            if follow > 0.0:
+                stiffness = max(coupling * (1.0 / follow - 1.0) - wall, coupling)
+                self._held_grip = (math.sqrt(stiffness), self.grip[1])
         else:
-            wander, follow = (), 0.0
-        state = self.state
-        pulled_x: Callable[[], float] = (lambda: state.x1) if other == 2 else (lambda: state.x2)
-        # the hand holds where the cart is (its rest) minus what it follows there: continuous at t=0
-        self._held = LooseHold(-_sines(0.0, wander, 0.0), wander, follow, pulled_x)
-        self._set_path(other, self._held)
+            wander = ()
+        # the hand holds the cart where it is (its rest): continuous at t=0
+        self._held = LooseHold(-_sines(0.0, wander, 0.0), wander)
+        self._hold(other)
+
+    def _hold(self, cart: int) -> None:
+        """The other cart on its hand: a soft grip towards `_held`, or pinned to it."""
+        assert self._held is not None
+        self._set_path(cart, self._held if self._held_grip is None else Grip(self._held, *self._held_grip))
 
     def _start_moving(self, amp: float, phase: float) -> None:
         """The record starts in the tail of an earlier release: the pulled cart already swings."""
@@ -381,7 +391,6 @@ class StudentHand:
         held = self._held
         if held is None:
             return
-        self._held = LooseHold(held.x_hold, held.wander, held.follow, held.other,
-                               (*held.moves, (t, dx, self._u(0.2, 0.8))))
-        self._set_path(3 - self.pulled, self._held)
+        self._held = LooseHold(held.x_hold, held.wander, (*held.moves, (t, dx, self._u(0.2, 0.8))))
+        self._hold(3 - self.pulled)
         self._event("touch", t)
