@@ -212,7 +212,8 @@ _TABLE: dict[str, tuple[Parser, str, str]] = {
     "flick_m": (_float(0.001, 1), "m", "typical extreme of a student's flick (each drawn 0.6-1.6 times this)"),
     "wander_m": (_float(0, 0.1), "m", "wander amplitude of a loosely held cart (each drawn 0.25-1 times this)"),
     "follow": (_float(0, 1), "", ("how much a loosely held cart follows the pulled one through the spring "
-               "at rest (each drawn 0.4-1.6 times this; sets the holding hand's stiffness; 0: pinned)")),
+               "at rest (each drawn 0.4-1.6 times this; sets the holding hand's stiffness; "
+               "0: the cart on the hand's path)")),
     "p_nudge": (_float(0, 1), "", "student: probability of a nudge (out and back by hand) before a release"),
     "p_touch": (_float(0, 1), "", "student: probability that the held cart is moved by hand after a release"),
     "p_moving": (_float(0, 1), "", "student: probability that the record starts in motion"),

@@ -138,5 +138,4 @@ def test_a_loosely_held_cart_is_a_cart_on_the_hands_spring() -> None:
             if speed < 0.01:                                     # a hold let go still
                 ratios.append(float(held[k - 1] / y[k - 1, pulled]))
     assert len(jerks) >= 10 and max(jerks) < 0.6, jerks
-    print(np.round(ratios, 4))
     assert ratios and all(0.4 * follow * 0.95 <= r <= 1.6 * follow * 1.05 for r in ratios), ratios
