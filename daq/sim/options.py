@@ -73,7 +73,7 @@ class SimOptions:
     student_releases: int = 4
     flick_m: float = 0.05
     wander_m: float = 0.003
-    follow: float = 0.05
+    follow: float = 0.02
     p_nudge: float = 0.3
     p_touch: float = 0.3
     p_moving: float = 0.25
