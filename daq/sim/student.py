@@ -30,7 +30,8 @@ the pulled cart (with the other one held), so they hold on any rig:
   U(0.4, 1.6) at rest (0.8-3.2 % at the default; measured on the seven real hand releases
   with the other cart held, by least squares over their first 1.5 s: 1.2-2.2 %):
   k_hand = k_c (1/f - 1) - k_w per unit mass of the held cart (k_c the coupling spring, k_w
-  its wall's; at least k_c, so f is at most k_c / (2 k_c + k_w)). A pinned cart is a position constraint (`ident.physics.rig.PositionPath`);
+  its wall's; at least k_c, so f is at most k_c / (2 k_c + k_w)). A pinned cart is a position
+  constraint (`ident.physics.rig.PositionPath`);
 - with probability `p_nudge` a nudge 0.4-1.2 s before a release: the cart pushed 3-10 mm
   out and brought back by the hand in 0.2-0.5 s, let go at rest (measured: ~1 cm, 0.8 s
   before);
