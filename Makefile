@@ -21,7 +21,7 @@ demo: $(STAMP)
 	$(PY) tools/demo_bench.py --out demo-report
 
 # Two workers (pytest-xdist): the suite is written to pass on a busy 2-core machine, and takes
-# about half the time (783-815 s here on 2026-12-02, see docs/benchmarks.md); `$(PY) -m pytest FILE`
+# about half the time (687-815 s here on 2026-12-02, see docs/benchmarks.md); `$(PY) -m pytest FILE`
 # still runs in one process. Each module runs whole on one worker (loadscope): a module's tests
 # may share its fixtures' state in file order (the browser tests' run; `--dist loadgroup` no
 # longer groups under pytest 9.2, pytest-xdist issue 1386).
