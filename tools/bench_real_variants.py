@@ -10,6 +10,7 @@ looks like and not what the hand did:
 - `swapped`: the encoder columns exchanged (the pulled cart is cart 1, the held one cart 2);
 - `offset`: the time base shifted by 1000 s (a clock that did not start at 0);
 - `decimated-N`: every N-th sample (the ~890 Hz stream read at ~440, ~180, ~90 and ~45 Hz);
+  with `--phases`, from every one of the first N samples (`decimated-N+k`);
 - `late-start`: the record starts 0.25 s before the hand begins to push (little quiet time);
 - `cut`: the record ends 1.2 s after the first release (the release becomes incomplete).
 
@@ -26,7 +27,7 @@ variant: releases found, extra ones, the largest distance from the judge, the pu
 in all, how many are within 20 ms of the judge or, on a decimated variant whose sample period
 is longer, within one sample period.
 
-    OPENBLAS_NUM_THREADS=1 .venv/bin/python tools/bench_real_variants.py [--only ident|daq] [--diagnose]
+    OPENBLAS_NUM_THREADS=1 .venv/bin/python tools/bench_real_variants.py [--only ident|daq] [--diagnose] [--phases]
 """
 
 from __future__ import annotations
@@ -72,13 +73,16 @@ def load(path: Path) -> tuple[Array, Array]:
     return rows[:, 1].copy(), rows[:, 2:4] * M_PER_COUNT
 
 
-def variants(t: Array, y: Array, judged: tuple[float, ...]) -> Iterator[Variant]:
+def variants(t: Array, y: Array, judged: tuple[float, ...], phases: bool = False) -> Iterator[Variant]:
+    """The variants of the module docstring; with `phases`, each decimation from every starting
+    sample (`decimated-N+k`: a logger's clock falls anywhere against the hand's let-go)."""
     yield Variant("original", t, y, judged, 2)
     yield Variant("negated", t, -y, judged, 2)
     yield Variant("swapped", t, y[:, ::-1].copy(), judged, 1)
     yield Variant("offset", t + 1000.0, y, tuple(j + 1000.0 for j in judged), 2)
     for n in (2, 5, 10, 20):
-        yield Variant(f"decimated-{n}", t[::n].copy(), y[::n].copy(), judged, 2)
+        for k in range(n if phases else 1):
+            yield Variant(f"decimated-{n}" + (f"+{k}" if k else ""), t[k::n].copy(), y[k::n].copy(), judged, 2)
     # the hand begins to push ~0.15-0.25 s before it lets go
     begin = max(0.0, judged[0] - 0.45)
     keep = t >= begin
@@ -141,6 +145,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--realdata", type=Path, default=REPO.parent / "shared" / "realdata")
     parser.add_argument("--only", choices=("daq", "ident"), default=None)
     parser.add_argument("--diagnose", action="store_true", help="also diagnose every complete release")
+    parser.add_argument("--phases", action="store_true",
+                        help="each decimation from every starting sample, not only the first")
     args = parser.parse_args(argv)
     fits: dict[tuple[str, int], list[float]] = {}
     friction_first = diagnoses = 0
@@ -156,7 +162,7 @@ def main(argv: list[str] | None = None) -> int:
     for name, eyes in BY_EYE.items():
         t, y = load(folder / name)
         judged = tuple(judge_release(t, y[:, 1], e) for e in eyes)
-        for v in variants(t, y, judged):
+        for v in variants(t, y, judged, args.phases):
             cells = []
             for fname, finder in finders.items():
                 found = finder(v)
