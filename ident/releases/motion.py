@@ -238,15 +238,19 @@ def smoothed_noise(noise: FloatArray, window: int) -> FloatArray:
     return np.asarray(noise * float(np.linalg.norm(savgol_coeffs(window, 3))))
 
 
-def accel_noise(m: Motion, column: int) -> float:
-    """The noise std (m/s²) in column `column`'s smoothed acceleration (`accel_noise_gain`)."""
-    return float(m.noise_m[column]) * accel_noise_gain(m.window, m.dt)
+def accel_noise(m: Motion, column: int, ringing: bool = False) -> float:
+    """The noise std (m/s²) in column `column`'s smoothed acceleration (`accel_noise_gain`);
+    with `ringing`, of the reading noise estimated from fourth differences (`noise_std`: a
+    cart that rings through the record at a low rate leaves no sample where its second
+    difference is noise alone)."""
+    noise = float(measurement_noise(m.y[:, [column]], 4)[0]) if ringing else float(m.noise_m[column])
+    return noise * accel_noise_gain(m.window, m.dt)
 
 
-def measurement_noise(y: FloatArray) -> FloatArray:
-    """Per-column noise std (m), (n,): white noise from second differences, never below the
-    encoder's quantization noise q/√12 (q the smallest step between samples), which a slow
-    cart read at a high rate hides from the differences."""
+def measurement_noise(y: FloatArray, order: int = 2) -> FloatArray:
+    """Per-column noise std (m), (n,): white noise from differences of `order` (`noise_std`),
+    never below the encoder's quantization noise q/√12 (q the smallest step between samples),
+    which a slow cart read at a high rate hides from the differences."""
     steps = np.abs(np.diff(y, axis=0))
     quanta = np.array([float(np.min(col[col > 0])) if np.any(col > 0) else 0.0 for col in steps.T])
-    return np.asarray(np.maximum(noise_std(y), quanta / np.sqrt(12.0)))
+    return np.asarray(np.maximum(noise_std(y, order), quanta / np.sqrt(12.0)))
