@@ -4,7 +4,8 @@ A cart released beside a hand-held one rings down by dry friction within a few p
 then follows the held cart's slow wander through the spring for the rest of the record: the
 position spectrum of the window can peak at that slow drift (the ring's peak is broad and
 low), and a baseline started there fits the drift (fit ~1 %) and leaves nothing for any
-effect. The baseline also starts at the velocity spectrum's peaks and keeps the better fit.
+effect. The baseline also starts at the velocity spectrum's peaks (`baseline.one_cart_peaks`) and
+keeps the better fit.
 Cases: `testkit.effects` Coulomb + held cart runs over the family's whole range (and the bench
 case that showed it), those whose
 free cart's position spectrum peaks below half the ring's frequency.
@@ -60,3 +61,24 @@ def test_a_ring_stopped_by_friction_beside_a_wandering_held_cart_is_fitted_not_t
         report = diagnose(case.observed.t, case.observed.y, carts=1).report
         assert report.baseline.fit_percent > 50.0, f"seed {seed}: baseline fit {report.baseline.fit_percent:.1f} %"
         assert judge(case, report).all_found, f"seed {seed}: found {[e.effect for e in report.effects]}"
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("seed", [108, 111, 112, 122])
+def test_a_stiff_ring_stopped_early_in_a_long_held_cart_record_is_diagnosed(seed: int) -> None:
+    # `testkit.effects` coulomb+held_cart over wide carts (up to ~6 Hz), 18 s records: the cart
+    # stops within its first 0.6-2 s and the held cart wanders to the end. Of seeds 100-123 the
+    # old code failed these four: 112 and 122 started the baseline only at the wander's slow
+    # peaks (the Hann window weighs the ring's start ~0.01; no effect found, baseline fit ~1 %),
+    # 108 and 111 cut no still tail (the held cart's column judged as moving) and fitted the
+    # ring on 5-7 samples a period (friction 43 % off and a 4.9 Hz 'mode' the headline). Seed
+    # 110 (static friction 1.36 x kinetic, stick-slip dragged by the wander for 8 s) still
+    # misses (friction 11 % off, the coupling 8x), and is not listed
+    case = make_case(seed, "coulomb+held_cart", record_s=18.0, wide_carts=True)
+    wn = case.truth.details["wn_rad_s"]
+    starts = [float(theta[0]) for theta in linear_starts(_free_response(case))]
+    assert any(abs(w / wn - 1.0) < 0.2 for w in starts), f"starts {starts} rad/s, ring {wn:.2f}"
+    report = diagnose(case.observed.t, case.observed.y, carts=1).report
+    verdict = judge(case, report)
+    assert verdict.all_found, f"found {[e.effect for e in report.effects]}"
+    assert max(verdict.errors.values()) < 0.05, verdict.errors
