@@ -287,19 +287,14 @@ def level_log_likelihood(y: FloatArray, position: FloatArray, q: float, offset: 
     return best
 
 
-def lattice_worth_points(y: FloatArray, q: float, first_motion: int = 0) -> float:
-    """What a lattice of quantum `q` costs a perfect model of `y` (N, c), in fit-% points of the
-    record's motion: 100 ‖e‖ / ‖y - ȳ‖ over every output, e the reading error.
-
-    While the carts move, e is uniform on ±q/2 (Widrow: variance q²/12) whatever the motion.
-    Before `first_motion` (the sample where the motion begins) the carts are held still: the
-    held level is read off those very readings, so the lattice shifts it as a whole and no fit
-    pays for it there (e counts 0, not q²/12: a record zeroed on a held cart reads it exactly).
-    """
+def lattice_worth_points(y: FloatArray, q: float) -> float:
+    """What a lattice of quantum `q` costs a perfect model of `y` (N, c), the window a fit % is
+    taken on (the free response), in its fit-% points: 100 ‖e‖ / ‖y - ȳ‖ over every output, e
+    the reading error, uniform on ±q/2 while the carts move (Widrow: variance q²/12) whatever
+    the motion."""
     centred = y - np.mean(y, axis=0)
     total = float(np.sum(centred ** 2))
-    moving = max(y.shape[0] - max(first_motion, 0), 0) * y.shape[1]
-    return float(100.0 * q * np.sqrt(moving / 12.0 / total)) if total > 0 else 0.0
+    return float(100.0 * q * np.sqrt(y.size / 12.0 / total)) if total > 0 else 0.0
 
 
 def lattice_candidates(y: FloatArray, count: int = 8) -> list[Lattice]:

@@ -59,7 +59,7 @@ from ident.diagnose.reading_error import with_reading_error
 from ident.diagnose.redate import redated_release
 from ident.diagnose.select import Judgement, Selection, Step, forward, is_material, threshold
 from ident.diagnose.stretch import check, check_input, moving, release_stretch
-from ident.diagnose.window import Window, hold_level
+from ident.diagnose.window import Window
 from ident.errors import IdentDimensionError, IdentValueError
 from ident.physics.chain import LINEAR_NAMES, modes
 from ident.physics.free import switched_input
@@ -187,7 +187,7 @@ def diagnose(t: FloatArray, y: FloatArray, carts: int | None = None, step_m: flo
     redated = redated_release(t_arr, y_arr, win, final[1])
     if redated is not None:   # a flick's let-go joined on the fitted model's free response
         win = dataclasses.replace(win, release_time_s=redated)
-    effects = _ranked(prob, steps, y_arr, hold_level(y_arr)[2], final, base)
+    effects = _ranked(prob, steps, y_arr[win.start:], final, base)
     cause = next((e.effect for e in effects if e.material), "none")
     report = _report(prob, win, t_arr, base, ext, first_round, effects, cause, ev, coherence, step_m,
                      source, time.perf_counter() - started, start_s is not None or stop_s is not None, final, read)
@@ -324,12 +324,12 @@ def _no_lattice(prob: Problem, base: FitResult, read: Lattice | None = None) -> 
                      "resampled between them onto a uniform grid (ident.make_uniform): no staircase to model")
 
 
-def _ranked(prob: Problem, steps: list[Step], record: FloatArray, first_motion: int,
+def _ranked(prob: Problem, steps: list[Step], window: FloatArray,
             refit: tuple[Problem, FitResult], baseline: FitResult) -> list[EffectFit]:
     """Accepted effects with their own gain, largest first (parameters from `refit`, the final
-    model on its finer grid, `fine.refit_fine`); `record` (N, c) the readings of the whole
-    record and `first_motion` where its motion begins (an encoder lattice's worth); whether
-    each is material against the `baseline`'s misfit and the final model's (`is_material`)."""
+    model on its finer grid, `fine.refit_fine`); `window` (N, c) the readings of the window the
+    fit % is taken on (an encoder lattice's worth in those points); whether each is material
+    against the `baseline`'s misfit and the final model's (`is_material`)."""
     final = steps[-1].judgement.result if steps else None
     fine_prob, fine = refit
     rows = []
@@ -340,12 +340,15 @@ def _ranked(prob: Problem, steps: list[Step], record: FloatArray, first_motion: 
         params, std = cands.effect_parameters(fine, j.effect)
         if j.effect == "coulomb_friction" and one_encoder(prob):   # cart 2's friction as identifiable
             params, std = identifiable_friction(fine_prob, fine, typical_scale(fine_prob, fine), params, std)
-        # an encoder lattice is credited with what it costs a perfect reading of the record
-        # (the sensor reads all of it), not with what the staircase happened to gain on a
+        # an encoder lattice is credited with what it costs a perfect reading of the window
+        # (the sensor reads all of it; in the points of the window's fit %: the lattice of a
+        # pull-hold release had been counted over the stretch with its hold when the window
+        # was not cut at a release `ident.releases` found, 0.047 for 0.058 points of the
+        # window, and judged immaterial), not with what the staircase happened to gain on a
         # model that is itself off by some quanta (judged by its readings' likelihood, the
         # model with it can fit worse: the 2023 open-loop test_3_13 at -1.08 points)
         if j.effect == "quantization":
-            gain = lattice_worth_points(record, params["quantum_m"], first_motion)
+            gain = lattice_worth_points(window, params["quantum_m"])
         rows.append((gain, k, j, params, std, is_material(step, gain, final, baseline)))
     rows.sort(key=lambda r: -r[0])
     return [EffectFit(effect=j.effect, rank=rank, step=k, parameters=params, parameter_std=std,  # type: ignore[arg-type]
