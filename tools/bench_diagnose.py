@@ -2,6 +2,7 @@
 
     OPENBLAS_NUM_THREADS=1 PYTHONPATH=. .venv/bin/python tools/bench_diagnose.py [--per-family 40] [--seed 11]
         [--families a,b] [--one-encoder 20] [--speed 8] [--baseline-commit cebba2a] [--encoder-m M] [--wide-carts]
+        [--record-s S]
         [--json out.json]
         [--skip-real] [--skip-speed]
 
@@ -67,10 +68,11 @@ def case_seeds(seed: int, family: str, n: int) -> list[int]:
 
 
 def run_family(family: str, n: int, seed: int, encoder_m: float | None = None,
-               wide_carts: bool = False) -> list[dict[str, Any]]:
+               wide_carts: bool = False, record_s: float | None = None) -> list[dict[str, Any]]:
     rows: list[dict[str, Any]] = []
     for k, case_seed in enumerate(case_seeds(seed, family, n)):
-        case = make_case(case_seed, family, encoder_m=encoder_m, cubic_r_max=CUBIC_R_MAX_FULL, wide_carts=wide_carts)
+        case = make_case(case_seed, family, encoder_m=encoder_m, cubic_r_max=CUBIC_R_MAX_FULL, wide_carts=wide_carts,
+                         record_s=record_s)
         try:
             report, elapsed = diagnose_case(case)
         except CASE_ERRORS as exc:  # a crash is a result of the benchmark, not its end
@@ -340,6 +342,9 @@ def main(argv: Sequence[str] | None = None) -> int:
                         help="git checkout to take the baseline commit from (default: this one)")
     parser.add_argument("--wide-carts", action="store_true",
                         help="two carts' masses 0.3-3 kg and springs 20-1000 N/m (testkit.effects WIDE_*)")
+    parser.add_argument("--record-s", type=float, default=None,
+                        help="every generated record this long (s; a student's records run 10-20 s, the "
+                             "ring often stopped in the first seconds), not 4-10 s after the release")
     parser.add_argument("--encoder-m", type=float, default=None,
                         help="read every run through an encoder of this count (m), e.g. 1.786e-5 (ECP)")
     parser.add_argument("--skip-real", action="store_true")
@@ -351,7 +356,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     for family in [f for f in args.families.split(",") if f]:
         if family not in FAMILIES:
             parser.error(f"--families: expected names from {', '.join(FAMILIES)}, got {family!r}")
-        rows += run_family(family, args.per_family, args.seed, args.encoder_m, args.wide_carts)
+        rows += run_family(family, args.per_family, args.seed, args.encoder_m, args.wide_carts, args.record_s)
     if rows:
         results["families"] = summarise_families(rows)
     results["cases"] = rows

@@ -100,7 +100,8 @@ def linear_summary(lin: FloatArray, carts: int) -> dict[str, float]:
 def validation_text(decimation: int, n_work: int, forced: bool = False, tail_cut: bool = False,
                     span: tuple[float, float] | None = None, n_fine: int | None = None) -> str:
     """`forced`: the model takes a measured force input, and the window is the whole record (or
-    the `span` (s) asked for); `tail_cut`: the carts' still tail was cut (`stretch.still_tail_cut`),
+    the `span` (s) asked for); `tail_cut`: the carts' still tail was cut (`stretch.still_tail_cut`,
+    or sooner to resolve the fitted modes: `stretch.resolving_decimation`),
     or a forced record where its work grid no longer resolved its modes (`stretch.modes_resolved_cut`);
     `n_fine`: the samples the final model was refitted on for its parameters (`fine.refit_fine`)."""
     which = "every sample" if decimation == 1 else f"one sample in {decimation}"
@@ -114,7 +115,9 @@ def validation_text(decimation: int, n_work: int, forced: bool = False, tail_cut
         window += ", the measured force input driving the model"
     else:
         window = ("Window from the end of the hand's influence to the end of the free response"
-                  + (" (cut in the carts' still tail, where the work samples run out)" if tail_cut else ""))
+                  + (" (cut where the work samples run out: decimated only as much as the carts' motion, a "
+                     f"still tail as long and {MIN_SAMPLES_PER_PERIOD} samples a period of the fitted modes allow)"
+                     if tail_cut else ""))
     return (f"{window}, {which} "
             f"({n_work} work samples). Every model is fitted (simulated output error) on the whole "
             "window and fit % (MATLAB compare, simulated output) is measured there. Effects are added "

@@ -58,7 +58,7 @@ from ident.diagnose.models import EFFECTS, effect_names
 from ident.diagnose.reading_error import with_reading_error
 from ident.diagnose.redate import redated_release
 from ident.diagnose.select import Judgement, Selection, Step, forward, is_material, threshold
-from ident.diagnose.stretch import check, check_input, moving, release_stretch
+from ident.diagnose.stretch import Stretch, check, check_input, moving, release_stretch, resolving_decimation
 from ident.diagnose.window import Window
 from ident.errors import IdentDimensionError, IdentValueError
 from ident.physics.chain import LINEAR_NAMES, modes
@@ -128,25 +128,22 @@ def diagnose(t: FloatArray, y: FloatArray, carts: int | None = None, step_m: flo
     as_read = None if readings is None else _readings_of(readings, y)
     outputs = moving(y, carts)   # before anything is fitted: a still column has no fit %
     t_arr, y_arr = check(t, outputs.y)
-    cut = release_stretch(t_arr, y_arr, check_input(u, t_arr.size), carts, start_s, stop_s)
+    u_in = check_input(u, t_arr.size)
+    cut = release_stretch(t_arr, y_arr, u_in, carts, start_s, stop_s)
+    prob, fixed = _work_problem(cut, step_m)
+    progress.stage("diagnosis: the linear baseline")
+    base = fit_baseline(prob, fixed)
+    n_lin = len(LINEAR_NAMES[cut.carts])
+    finest = resolving_decimation(max(w for w, _ in modes(base.theta[None, :n_lin], cut.carts)),
+                                  float(t_arr[1] - t_arr[0]))
+    if u_in is None and finest < cut.win.decimation:
+        # the work grid too coarse for the fitted modes: finer, cut where its samples run out
+        cut = release_stretch(t_arr, y_arr, u_in, carts, start_s, stop_s, finest)
+        prob, fixed = _work_problem(cut, step_m)
+        base = fit_baseline(prob, fixed)
     t_arr, y_all, u_arr, carts, y_arr, other, win = (cut.t, cut.y_all, cut.u, cut.carts, cut.y, cut.other,
                                                       cut.win)
     idx = np.arange(win.start, t_arr.size, win.decimation)
-    held = None if other is None else y_all[idx, other] - y_all[idx[0], other]
-    # a measured force input is held from sample to sample: so it is simulated, switching
-    # within a work step where the record's samples switch it (each step's impulse kept); the
-    # carts rest at a zero input (`ident.data.input_jumps`): a drive on from the first sample
-    # acts from there (taken relative to that sample, the 2023 test_3_7's step was left to the
-    # carts' fitted rest and its friction credited +0.07 points)
-    work_u = None if u_arr is None else switched_input(u_arr[win.start:], win.decimation)
-    prob = Problem(t_arr[idx] - t_arr[win.start], y_arr[idx], float(t_arr[1] - t_arr[0]) * win.decimation,
-                   np.ones(idx.size, dtype=bool), carts, float(np.max(np.ptp(y_arr[idx], axis=0))),
-                   held, None if work_u is None else work_u[0],
-                   anchor=anchor_of(win, float(t_arr[1] - t_arr[0]), y_arr[win.start:], y_arr[idx]),
-                   input_switch=None if work_u is None else work_u[1])
-    fixed = _fixed_rest(win, carts, step_m)
-    progress.stage("diagnosis: the linear baseline")
-    base = fit_baseline(prob, fixed)
     lattice, coherence = find_lattice(y_arr[win.start:])
     read = None    # the readings' lattice, when the positions were resampled between its levels
     if lattice is None and as_read is not None:
@@ -154,7 +151,6 @@ def diagnose(t: FloatArray, y: FloatArray, carts: int | None = None, step_m: flo
     if lattice is None and read is None:   # noise after the encoder: a lattice proposed, kept only if it fits
         lattice = find_noisy_lattice(y_arr[win.start:])
         coherence = lattice.coherence if lattice is not None else coherence
-    n_lin = len(LINEAR_NAMES[carts])
     wn_modes = np.array([w for w, _ in modes(base.theta[None, :n_lin], carts)])
     prob, base = _with_drift(prob, base, float(wn_modes[0]))
     held = None
@@ -268,6 +264,26 @@ def _staged(label: str, work: Callable[[], _T]) -> _T:
     """`work()` with `label` shown by a command's progress display (a no-op in library use)."""
     progress.stage(label)
     return work()
+
+
+def _work_problem(cut: Stretch, step_m: float | None) -> tuple[Problem, dict[str, float]]:
+    """The fit's problem on the work grid of a stretch (its window decimated), and the rests it
+    fixes (`_fixed_rest`)."""
+    t_arr, y_arr, u_arr, win, dt = cut.t, cut.y, cut.u, cut.win, float(cut.t[1] - cut.t[0])
+    idx = np.arange(win.start, t_arr.size, win.decimation)
+    held = None if cut.other is None else cut.y_all[idx, cut.other] - cut.y_all[idx[0], cut.other]
+    # a measured force input is held from sample to sample: so it is simulated, switching
+    # within a work step where the record's samples switch it (each step's impulse kept); the
+    # carts rest at a zero input (`ident.data.input_jumps`): a drive on from the first sample
+    # acts from there (taken relative to that sample, the 2023 test_3_7's step was left to the
+    # carts' fitted rest and its friction credited +0.07 points)
+    work_u = None if u_arr is None else switched_input(u_arr[win.start:], win.decimation)
+    prob = Problem(t_arr[idx] - t_arr[win.start], y_arr[idx], dt * win.decimation,
+                   np.ones(idx.size, dtype=bool), cut.carts, float(np.max(np.ptp(y_arr[idx], axis=0))),
+                   held, None if work_u is None else work_u[0],
+                   anchor=anchor_of(win, dt, y_arr[win.start:], y_arr[idx]),
+                   input_switch=None if work_u is None else work_u[1])
+    return prob, _fixed_rest(win, cut.carts, step_m)
 
 
 def _fixed_rest(win: Window, carts: int, step_m: float | None) -> dict[str, float]:

@@ -21,7 +21,7 @@ FloatArray = NDArray[np.float64]
 
 
 def release_stretch(t: FloatArray, y: FloatArray, u: FloatArray | None, carts: int | None,
-                    start_s: float | None, stop_s: float | None) -> Stretch:
+                    start_s: float | None, stop_s: float | None, finest: int | None = None) -> Stretch:
     """`t` (N,), `y` (N, k) cut to [`start_s`, `stop_s`] (`diagnose`'s arguments), or by default,
     without a force input `u`, to the first complete release `ident.releases` finds (up to the
     next release), dated by the window's scan and, for one cart, from the later of the two
@@ -35,11 +35,12 @@ def release_stretch(t: FloatArray, y: FloatArray, u: FloatArray | None, carts: i
     47 samples late on generated runs that the scan dates within one. From a still hold
     (`_from_hold`; one cart, or a chain read cart by cart) the motion's onset is the release:
     `ident releases` dates it within a sample where the scan dated generated Coulomb holds up to
-    72 samples late, and its instant is taken."""
+    72 samples late, and its instant is taken. `finest`: a free window's decimation at most (its
+    modes resolved, `resolving_decimation`), cut where the work samples run out."""
     found = None
     if start_s is None and stop_s is None and u is None:
         found, stop_s = _first_release(t, y)
-    cut = _cut(t, y, u, carts, start_s, stop_s)
+    cut = _cut(t, y, u, carts, start_s, stop_s, finest)
     if found is None or cut.y.shape[1] < cut.carts:
         return cut      # a chain read through one encoder: the scan's instant
     agree = RELEASE_AGREE * float(t[1] - t[0])
@@ -49,7 +50,7 @@ def release_stretch(t: FloatArray, y: FloatArray, u: FloatArray | None, carts: i
     if early or (scan > instant + agree and _from_hold(cut.t, pulled, found)):
         # the fit starts where `ident releases` dates the release: for one cart after the scan's
         # instant, and at a still hold's onset, which the scan dates late
-        cut = _cut(t, y, u, carts, instant, stop_s)
+        cut = _cut(t, y, u, carts, instant, stop_s, finest)
     return cut
 
 
@@ -105,10 +106,10 @@ class Stretch:
 
 
 def _cut(t: FloatArray, y: FloatArray, u: FloatArray | None, carts: int | None, start_s: float | None,
-         stop_s: float | None) -> Stretch:
+         stop_s: float | None, finest: int | None = None) -> Stretch:
     """The record cut to [`start_s`, `stop_s`] (a start given: the hand let go there, the
     release reported at that instant), its carts (`_free_carts` unless given) and release
-    window."""
+    window, decimated at most `finest` (a free window)."""
     keep = _kept(t, start_s, stop_s)
     t_k, y_k = t[keep], y[keep]
     u_k = None if u is None else u[keep]
@@ -119,6 +120,9 @@ def _cut(t: FloatArray, y: FloatArray, u: FloatArray | None, carts: int | None, 
         win = dataclasses.replace(win, release_time_s=max(start_s, float(t[0])))
     if u is None:
         stop, decimation = still_tail_cut(fitted[win.start:])
+        if finest is not None and finest < decimation:
+            kept = MAX_WORK_SAMPLES * finest
+            stop, decimation = (kept if kept < fitted.shape[0] - win.start else None), finest
     else:
         stop, decimation = modes_resolved_cut(fitted, float(t_k[1] - t_k[0]), n)
     if stop is not None:
@@ -135,6 +139,16 @@ MIN_SAMPLES_PER_PERIOD = 6
 #: ... of a mode whose positions' power at its peak is this many times their noise floor (the
 #: median power over the upper half of the band).
 MODE_OVER_NOISE = 100.0
+
+
+def resolving_decimation(wn_rad_s: float, dt: float) -> int:
+    """The coarsest decimation of samples `dt` (s) apart that keeps `MIN_SAMPLES_PER_PERIOD`
+    a period of a mode of `wn_rad_s`. A free window decimated to `MAX_WORK_SAMPLES` work
+    samples may not: a stiff cart (5.8 Hz) that dry friction stopped early, dragged in
+    stick-slip by a wandering held cart to the end of an 18 s record at 222 Hz, had one
+    sample in 8 (4 a period): friction 50 % off and the coupling not found; one in 6,
+    4 % and 6 % (`testkit.effects` coulomb+held_cart, seed 451227722, wide carts)."""
+    return max(1, int(2.0 * np.pi / wn_rad_s / (dt * MIN_SAMPLES_PER_PERIOD)))
 
 
 def modes_resolved_cut(y: FloatArray, dt: float, carts: int) -> tuple[int | None, int]:

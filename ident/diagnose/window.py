@@ -67,7 +67,8 @@ class Window:
     `start` index of t_w in the full run; `decimation` D (every D-th sample is used);
     `hold` (n_out,) held level before the motion; `hold_noise_m` its scatter;
     `release_time_s` the estimated release; `period_s` the dominant period; `tail_cut`: the
-    window's still tail was cut (`stretch.still_tail_cut`), or a forced record's end
+    window's still tail was cut (`stretch.still_tail_cut`; sooner where the work grid must resolve
+    the fitted modes, `stretch.resolving_decimation`), or a forced record's end
     (`stretch.modes_resolved_cut`); `flick`: how a release the flick's join dated was found
     (the motion's onset and the output it was dated on; `ident.diagnose.redate` dates it again
     on the fitted model), None for any other release.

@@ -1,6 +1,7 @@
 """The diagnosis window's still tail: a window whose carts stop early is decimated only as much as
 its motion and a still tail as long need, and cut in the tail where the work samples run out
-(`ident.diagnose.stretch.still_tail_cut`).
+(`ident.diagnose.stretch.still_tail_cut`); and decimated less, and cut sooner, where its work grid
+would not resolve the fitted modes (`resolving_decimation`).
 
 The records are drawn from the physics of a dry-friction cart, independently of the code: a
 Coulomb-damped ring loses the same amplitude every half cycle, 2F/wn², so its envelope falls
@@ -12,8 +13,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ident.diagnose.stretch import still_tail_cut
+from ident.diagnose import diagnose
+from ident.diagnose.stretch import MIN_SAMPLES_PER_PERIOD, resolving_decimation, still_tail_cut
 from ident.diagnose.window import MAX_WORK_SAMPLES
+from testkit.effects import judge, make_case
 
 
 def _coulomb_ring(rate_hz: float, duration_s: float, stop_s: float, noise_m: float, quantum_m: float,
@@ -60,3 +63,29 @@ def test_a_second_fitted_cart_that_moves_to_the_end_keeps_the_window_whole() -> 
     t = np.arange(y.shape[0]) / 200.0
     other = 2e-3 * np.sin(2 * np.pi * 0.15 * t)
     assert still_tail_cut(np.column_stack([y[:, 0], other]))[0] is None
+
+
+def test_the_resolving_decimation_keeps_six_samples_a_period_and_no_more() -> None:
+    for wn, rate in [(36.0, 222.0), (15.5, 890.0), (100.0, 1000.0), (5.0, 50.0), (60.0, 50.0)]:
+        dt = 1.0 / rate
+        d = resolving_decimation(wn, dt)
+        per_period = 2.0 * np.pi / wn / dt
+        assert d >= 1
+        assert per_period / d >= MIN_SAMPLES_PER_PERIOD or d == 1
+        assert per_period / (d + 1) < MIN_SAMPLES_PER_PERIOD
+
+
+@pytest.mark.slow
+def test_a_stiff_cart_dragged_to_the_end_of_a_long_record_is_fitted_on_a_grid_that_resolves_its_ring() -> None:
+    # `testkit.effects` coulomb+held_cart (wide carts, 18 s at 222 Hz): a 5.8 Hz cart that dry
+    # friction stops within 2 s and the wandering held cart drags in stick-slip to 15.7 s. Decimated
+    # to 500 work samples (one in 8: four a period) the friction was 50 % off and the coupling
+    # not found; the bench case of `tools/bench_diagnose.py --families coulomb+held_cart
+    # --wide-carts --record-s 18` (case 22)
+    case = make_case(451227722, "coulomb+held_cart", record_s=18.0, wide_carts=True)
+    result = diagnose(case.observed.t, case.observed.y, carts=1)
+    wn = result.report.corrected_linear["wn_rad_s"]
+    assert 2.0 * np.pi / wn / float(np.median(np.diff(result.t))) >= MIN_SAMPLES_PER_PERIOD
+    verdict = judge(case, result.report)
+    assert verdict.all_found, verdict.found
+    assert verdict.errors["coulomb_accel_m_s2"] < 0.05, verdict.errors
