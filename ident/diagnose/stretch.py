@@ -120,9 +120,8 @@ def _cut(t: FloatArray, y: FloatArray, u: FloatArray | None, carts: int | None, 
         win = dataclasses.replace(win, release_time_s=max(start_s, float(t[0])))
     if u is None:
         stop, decimation = still_tail_cut(fitted[win.start:])
-        if finest is not None and finest < decimation:
-            kept = MAX_WORK_SAMPLES * finest
-            stop, decimation = (kept if kept < fitted.shape[0] - win.start else None), finest
+        if finest is not None and finest < decimation:   # (then 500·finest samples < the window)
+            stop, decimation = MAX_WORK_SAMPLES * finest, finest
     else:
         stop, decimation = modes_resolved_cut(fitted, float(t_k[1] - t_k[0]), n)
     if stop is not None:
@@ -146,8 +145,8 @@ def resolving_decimation(wn_rad_s: float, dt: float) -> int:
     a period of a mode of `wn_rad_s`. A free window decimated to `MAX_WORK_SAMPLES` work
     samples may not: a stiff cart (5.8 Hz) that dry friction stopped early, dragged in
     stick-slip by a wandering held cart to the end of an 18 s record at 222 Hz, had one
-    sample in 8 (4 a period): friction 50 % off and the coupling not found; one in 6,
-    4 % and 6 % (`testkit.effects` coulomb+held_cart, seed 451227722, wide carts)."""
+    sample in 8 (4 a period): friction 50 % off and the coupling not found; one in 5, 1.8 %
+    and 4.9 % (`testkit.effects` coulomb+held_cart, seed 451227722, wide carts)."""
     return max(1, int(2.0 * np.pi / wn_rad_s / (dt * MIN_SAMPLES_PER_PERIOD)))
 
 
