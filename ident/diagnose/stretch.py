@@ -175,7 +175,7 @@ def modes_resolved_cut(y: FloatArray, dt: float, carts: int) -> tuple[int | None
     peaks = peaks[np.interp(peaks, w, power) > MODE_OVER_NOISE * floor]
     if not peaks.size:
         return None, decimation
-    need = max(1, int(2.0 * np.pi / (dt * MIN_SAMPLES_PER_PERIOD * float(np.max(peaks)))))
+    need = resolving_decimation(float(np.max(peaks)), dt)
     return (MAX_WORK_SAMPLES * need, need) if need < decimation else (None, decimation)
 
 
