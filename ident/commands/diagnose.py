@@ -71,6 +71,7 @@ def run(args: argparse.Namespace) -> int:
 def diagnose_releases(args: argparse.Namespace) -> dict[int, tuple[Any, tuple[int, ...]]]:
     """Load the file raw, pick the release(s) and diagnose each: release number (0 for the
     whole record) -> (`Diagnosis`, the cart numbers of its columns)."""
+    from ident.commands.releases import drive_without_release
     from ident.data import make_uniform
     from ident.errors import IdentValueError
     from ident.io import load
@@ -95,6 +96,10 @@ def diagnose_releases(args: argparse.Namespace) -> dict[int, tuple[Any, tuple[in
             raise IdentValueError("--all", "a record with releases (see `ident releases`)", "none found")
         return _each(args, data, raw.y, releases)
     if not releases and args.release_number is None:
+        driven = drive_without_release(args)
+        if driven:   # no free response to fit: the drive's response needs the drive
+            raise IdentValueError("record", "a hand release (see `ident releases`), or --input for a driven record",
+                                  f"no release found, and {driven}")
         return {0: diagnose_window(args, data, None, raw.y)}
     release = choose(releases, args.release_number or FIRST_COMPLETE)
     return {release.number: diagnose_window(args, data, release, raw.y)}

@@ -38,6 +38,8 @@ def run(args: argparse.Namespace) -> int:
     else:
         print(table(args.path, releases))
     note = drive_note(args, releases)
+    if not releases and (driven := drive_without_release(args)):
+        note = f"note: no hand release; {driven}"
     if note:
         print(note, file=sys.stderr)
     return 0
@@ -54,6 +56,52 @@ def drive_note(args: argparse.Namespace, releases: list[Any]) -> str | None:
     within `DRIVE_LEAD_S` before a listed release: in the positions alone a force step on a
     cart at rest is a release from a still hold (a motor pulse's on and off), and the record
     is the response to that drive (`ident diagnose FILE --input COLUMN`). None otherwise."""
+    if not releases:
+        return None
+    for name, switches in recorded_drives(args):
+        led = [(r.number, r.release_time_s - float(s)) for r in releases for s in switches
+               if 0.0 <= r.release_time_s - float(s) <= DRIVE_LEAD_S]
+        if led:
+            which = ", ".join(f"{1e3 * lead:.0f} ms before release {k}" for k, lead in led)
+            return (f"note: column {name!r} switches {which}: a recorded drive moves the carts there, not a "
+                    f"hand; `{_diagnose_command(args, name)}` fits the response to it")
+    return None
+
+
+def drive_without_release(args: argparse.Namespace) -> str | None:
+    """For a record with no release: what to do when a column named like a drive switches in
+    it (the carts' motion is the response to that drive, `ident diagnose --input`); None when
+    none does. Fitted as a free response from where it first moves, such a record had named
+    a 0.19 Hz "coupled mode" at 12 % fit (the 2025 ECP-210 motor pulses, 07-Feb-2025_11_16_25)."""
+    drives = recorded_drives(args)
+    if not drives:
+        return None
+    name, switches = drives[0]
+    at = ", ".join(f"{float(s):.2f}" for s in switches[:4]) + (", ..." if switches.size > 4 else "")
+    return (f"column {name!r} switches at {at} s: a recorded drive moves the carts; "
+            f"`{_diagnose_command(args, name)}` fits the response to it")
+
+
+def _diagnose_command(args: argparse.Namespace, drive: str) -> str:
+    """The `ident diagnose` command line that fits the response to `drive`, with the loader's
+    options as given."""
+    import shlex
+
+    words = ["ident", "diagnose", args.path]
+    if args.time_col is not None:
+        words += ["--time", args.time_col]
+    for column in args.pos_cols or []:
+        words += ["--pos", column]
+    if args.scale is not None:
+        words += ["--scale", repr(args.scale)]
+    if args.rate_hz is not None:
+        words += ["--rate-hz", repr(args.rate_hz)]
+    return shlex.join([*words, "--input", drive])
+
+
+def recorded_drives(args: argparse.Namespace) -> list[tuple[str, Any]]:
+    """(name, switch times (s) on the file's time base) of every column of a text export named
+    like a drive (`DRIVE_HINTS`, not a position) that switches at least once; none for MCAP."""
     import itertools
     from pathlib import Path
 
@@ -65,28 +113,25 @@ def drive_note(args: argparse.Namespace, releases: list[Any]) -> str | None:
     from ident.text_table import MAX_HEAD_LINES, read_table, text_lines
 
     path = Path(args.path)
-    if not releases or path.suffix == ".mcap":
-        return None
+    if path.suffix == ".mcap":
+        return []
     try:   # the names only: the header and the first rows, not the whole record again
         names = read_table(itertools.islice(text_lines(path), MAX_HEAD_LINES + 2)).names
     except (IdentError, OSError):
-        return None
+        return []
     drives = [n for n in names if any(h in n.lower() for h in DRIVE_HINTS)
               and not any(h in n.lower() for h in POSITION_HINTS)]   # a commanded position is no force
+    out = []
     for name in drives:
         try:
             data = load(path, time_col=args.time_col, pos_cols=args.pos_cols, scale=args.scale,
                         input_col=name, rate_hz=args.rate_hz, raw=True)
         except IdentError:
             continue
-        switches = data.t[np.clip(input_jumps(data.u) + 1, 0, data.n_samples - 1)]
-        led = [(r.number, r.release_time_s - float(s)) for r in releases for s in switches
-               if 0.0 <= r.release_time_s - float(s) <= DRIVE_LEAD_S]
-        if led:
-            which = ", ".join(f"{1e3 * lead:.0f} ms before release {k}" for k, lead in led)
-            return (f"note: column {name!r} switches {which}: a recorded drive moves the carts there, not a "
-                    f"hand; `ident diagnose {args.path} --input '{name}'` fits the response to it")
-    return None
+        jumps = input_jumps(data.u)
+        if jumps.size:
+            out.append((name, data.t[np.clip(jumps + 1, 0, data.n_samples - 1)]))
+    return out
 
 
 def releases_of_file(args: argparse.Namespace) -> list[Any]:
