@@ -60,7 +60,10 @@ def run(args: argparse.Namespace) -> int:
         return 2 if len(failed) == len(fits) else 0
     report = fits[0].report
     if report.status == "failed":
-        print(f"ident fit: error: {report.reason}", file=sys.stderr)
+        from ident.commands.releases import drive_without_release
+
+        driven = drive_without_release(args, "fit") if args.input_col is None and args.release is None else None
+        print(f"ident fit: error: {report.reason}" + (f"; {driven}" if driven else ""), file=sys.stderr)
         return 2
     print(report.model_dump_json(indent=2) if args.json else format_fit_report(report, args.path))
     return 0

@@ -64,13 +64,13 @@ def drive_note(args: argparse.Namespace, releases: list[Any]) -> str | None:
         if led:
             which = ", ".join(f"{1e3 * lead:.0f} ms before release {k}" for k, lead in led)
             return (f"note: column {name!r} switches {which}: a recorded drive moves the carts there, not a "
-                    f"hand; `{_diagnose_command(args, name)}` fits the response to it")
+                    f"hand; `{_command(args, name)}` fits the response to it")
     return None
 
 
-def drive_without_release(args: argparse.Namespace) -> str | None:
+def drive_without_release(args: argparse.Namespace, command: str = "diagnose") -> str | None:
     """For a record with no release: what to do when a column named like a drive switches in
-    it (the carts' motion is the response to that drive, `ident diagnose --input`); None when
+    it (the carts' motion is the response to that drive, `ident COMMAND --input`); None when
     none does. Fitted as a free response from where it first moves, such a record had named
     a 0.19 Hz "coupled mode" at 12 % fit (the 2025 ECP-210 motor pulses, 07-Feb-2025_11_16_25)."""
     drives = recorded_drives(args)
@@ -79,15 +79,15 @@ def drive_without_release(args: argparse.Namespace) -> str | None:
     name, switches = drives[0]
     at = ", ".join(f"{float(s):.2f}" for s in switches[:4]) + (", ..." if switches.size > 4 else "")
     return (f"column {name!r} switches at {at} s: a recorded drive moves the carts; "
-            f"`{_diagnose_command(args, name)}` fits the response to it")
+            f"`{_command(args, name, command)}` fits the response to it")
 
 
-def _diagnose_command(args: argparse.Namespace, drive: str) -> str:
-    """The `ident diagnose` command line that fits the response to `drive`, with the loader's
-    options as given."""
+def _command(args: argparse.Namespace, drive: str, command: str = "diagnose") -> str:
+    """The `ident COMMAND` line that fits the response to `drive`, with the loader's options
+    as given."""
     import shlex
 
-    words = ["ident", "diagnose", args.path]
+    words = ["ident", command, args.path]
     if args.time_col is not None:
         words += ["--time", args.time_col]
     for column in args.pos_cols or []:

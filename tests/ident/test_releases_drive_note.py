@@ -10,9 +10,9 @@ a damped cart let go from a still hold, beside a drive column that never switche
 record without a release is a damped cart's response to a force pulse, from its closed form.
 
 A record with no release whose drive column switches is refused by `ident diagnose` (without
-`--input`), naming the column and the command that fits it: fitted as a free response from
-where it first moved, the 2025 ECP-210 motor pulses had been given a 0.19 Hz "coupled mode"
-at 12 % fit."""
+`--input`), naming the column and the command that fits it (`ident fit`'s error names them
+too): fitted as a free response from where it first moved, the 2025 ECP-210 motor pulses had
+been given a 0.19 Hz "coupled mode" at 12 % fit."""
 
 from __future__ import annotations
 
@@ -87,6 +87,10 @@ def test_a_driven_record_without_a_release_is_noted_and_not_diagnosed_without_it
     assert out == ""
     assert "no release found, and column 'effort' switches at 2.00, 6.00 s" in err
     assert f"ident diagnose {path} --scale 1.0 --input effort" in err
+    assert main(["fit", str(path), "--scale", "1"]) == 2
+    err = capsys.readouterr().err
+    assert "none found; column 'effort' switches at 2.00, 6.00 s" in err
+    assert f"ident fit {path} --scale 1.0 --input effort" in err
     # given the drive, the record is the response to it
     assert main(["diagnose", str(path), "--scale", "1", "--input", "effort", "--json"]) == 0
     assert '"cause"' in capsys.readouterr().out
