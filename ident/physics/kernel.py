@@ -182,24 +182,25 @@ def _row_terms(c: int, m_in: int, gin: FloatArray, drag: FloatArray, cubic: floa
 # dry-friction step's ~200); so nothing is allocated here: `scratch` holds the work arrays.
 # (`_nrt` is numba's own target option, `numba.core.options.TargetOptions`, absent from its stubs.)
 @numba.njit(error_model="numpy", cache=True, _nrt=False)  # type: ignore[call-overload]
-def simulate_rows(phi: FloatArray, gam: FloatArray, phih: FloatArray, gamh: FloatArray, kt: FloatArray,
+def simulate_rows(phi: FloatArray, gam: FloatArray, phih: FloatArray, gamh: FloatArray, phi_fine: FloatArray,
+                  gam_fine: FloatArray, phih_fine: FloatArray, gamh_fine: FloatArray, kt: FloatArray,
                   z0: FloatArray, fk: FloatArray, fs: FloatArray, sigma: FloatArray, drag: FloatArray,
                   cubic: FloatArray, kappa: FloatArray, gin: FloatArray, u: FloatArray, switch: FloatArray,
-                  dt: float, substeps: int, out: FloatArray, end: FloatArray, scratch: FloatArray) -> None:
+                  dt: float, substeps: int, fine: int, out: FloatArray, end: FloatArray, scratch: FloatArray) -> None:
     """Deviations e (P, N, c) into `out`, and the last sample's state (P, 2c) into `end`,
     for every parameter row.
 
-    phi/phih (P, n, n), gam/gamh (P, n, c): zero-order-hold maps over h and h/2; kt (P, c, c)
-    mass-normalised stiffness; z0 (P, n); fk, fs, sigma, drag, kappa (P, c); cubic (P,); gin
-    (P, c, m) input gains; u (N, m) inputs at the samples, linear between them where
-    `switch` (N, m) is NaN, else held (`_input_value`); dt the sample step (s), split into
-    `substeps`; `scratch` (SCRATCH_ROWS, n) work space.
+    phi/phih (P, n, n), gam/gamh (P, n, c): zero-order-hold maps over h and h/2, and the
+    `*_fine` ones over h/`fine` and h/(2 `fine`); kt (P, c, c) mass-normalised stiffness; z0
+    (P, n); fk, fs, sigma, drag, kappa (P, c); cubic (P,); gin (P, c, m) input gains; u (N, m)
+    inputs at the samples, linear between them where `switch` (N, m) is NaN, else held
+    (`_input_value`); dt the sample step (s), split into `substeps`, and a step in which a held
+    input switches (0 < switch < 1) into `fine` times as many; `scratch` (SCRATCH_ROWS, n) work
+    space.
     """
     n_rows, n_samples, c = out.shape
     n = 2 * c
     m_in = u.shape[1]
-    h = dt / substeps
-    step = 1.0 / substeps
     z, mid, wz = scratch[0], scratch[1], scratch[2]
     w, w_mid, acc, inp = scratch[3, :c], scratch[4, :c], scratch[5, :c], scratch[6, :c]
     af, sgn, held, x_rev, theta, rev = (scratch[7, :c], scratch[8, :c], scratch[9, :c], scratch[10, :c],
@@ -220,18 +221,23 @@ def simulate_rows(phi: FloatArray, gam: FloatArray, phih: FloatArray, gamh: Floa
             out[p, 0, i] = z[i]
         k = 1
         while k < n_samples:
-            for j in range(substeps):
+            count = substeps * fine if _switches(u, switch, k, m_in) else substeps
+            phi_s, gam_s, phih_s, gamh_s = ((phi_fine[p], gam_fine[p], phih_fine[p], gamh_fine[p]) if count > substeps
+                                            else (phi_p, gam_p, phih_p, gamh_p))
+            h = dt / count
+            step = 1.0 / count
+            for j in range(count):
                 frac0 = j * step
                 # input at the sub-step start and middle (linear between samples, or held)
                 for i in range(c):
                     inp[i] = 0.0
                     for q in range(m_in):
                         inp[i] += gin_p[i, q] * _input_value(u, switch, k, q, frac0, frac0, frac0 + step)
-                _matvec_add(phi_p, z, wz, False)
+                _matvec_add(phi_s, z, wz, False)
                 if smooth:
                     _accel(z, w, inp, c, kt_p, drag_p, cubic_p, kappa_p, sigma_p, acc)
-                    _matvec_add(phih_p, z, mid, False)
-                    _matvec_add(gamh_p, acc, mid, True)
+                    _matvec_add(phih_s, z, mid, False)
+                    _matvec_add(gamh_s, acc, mid, True)
                     _dahl(w, z, c, fk_p, sigma_p, 0.5 * h, w_mid)
                     for i in range(c):
                         inp[i] = 0.0
@@ -239,9 +245,9 @@ def simulate_rows(phi: FloatArray, gam: FloatArray, phih: FloatArray, gamh: Floa
                             inp[i] += gin_p[i, q] * _input_value(u, switch, k, q, frac0 + 0.5 * step,
                                                                  frac0, frac0 + step)
                     _accel(mid, w_mid, inp, c, kt_p, drag_p, cubic_p, kappa_p, sigma_p, acc)
-                    _matvec_add(gam_p, acc, wz, True)
+                    _matvec_add(gam_s, acc, wz, True)
                 if coulomb:
-                    _coulomb(z, wz, gam_p, kt_p, c, fk_p, fs_p, sigma_p, inp, h, af, sgn, held, x_rev, theta, rev)
+                    _coulomb(z, wz, gam_s, kt_p, c, fk_p, fs_p, sigma_p, inp, h, af, sgn, held, x_rev, theta, rev)
                 if smooth:
                     _dahl(w, mid, c, fk_p, sigma_p, h, w_mid)
                     for i in range(c):
@@ -258,6 +264,16 @@ def simulate_rows(phi: FloatArray, gam: FloatArray, phih: FloatArray, gamh: Floa
                 break
         for i in range(n):
             end[p, i] = z[i]
+
+
+@numba.njit(error_model="numpy", cache=True, inline="always")
+def _switches(u: FloatArray, switch: FloatArray, k: int, m_in: int) -> bool:
+    """Whether a held input switches inside the step from sample k - 1 to k."""
+    for q in range(m_in):
+        phi = switch[k - 1, q]
+        if 0.0 < phi < 1.0 and u[k - 1, q] != u[k, q]:
+            return True
+    return False
 
 
 @numba.njit(error_model="numpy", cache=True, inline="always")

@@ -7,7 +7,10 @@ x = (g / wn²)(1 - e^{-ζ wn s}(cos(wd s) + ζ wn / wd sin(wd s))), s = t - t_s.
 samples and interpolated linearly (as before), the step was smeared over a work step and moved
 by up to one: 0.3-5 % of the step's swing off (and with dry friction, whose stops it moves,
 a 10 mm misfit at a 67 Hz motor pulse's edge); held and switched where the record switches
-it, 0.13-0.31 %, what the sub-steps leave.
+it, 0.13-0.31 %, what the sub-steps left: within a sub-step the input is held at its mean,
+which keeps the impulse but not when it came, and the diagnosis credited a cubic spring or
+pre-sliding (finer sub-steps) with what the linear model lost. A step in which the input
+switches is now split into `SWITCH_SUBSTEPS` times its sub-steps: 0.002-0.003 %.
 """
 
 from __future__ import annotations
@@ -28,7 +31,7 @@ def _exact(t: np.ndarray, t_s: float, wn: float, zeta: float, g: float) -> np.nd
 
 @pytest.mark.parametrize(("rate_hz", "decimation", "wn", "edge"), [
     (67.0, 2, 23.0, 151), (200.0, 4, 15.5, 402), (890.0, 20, 15.5, 2213), (890.0, 7, 40.0, 1000),
-    (1000.0, 1, 15.5, 700)])
+    (1000.0, 1, 15.5, 700), (150.0, 3, 20.3, 88)])
 def test_a_held_step_between_work_samples_is_simulated_as_it_acts(rate_hz: float, decimation: int, wn: float,
                                                                    edge: int) -> None:
     dt = 1.0 / rate_hz
@@ -48,7 +51,7 @@ def test_a_held_step_between_work_samples_is_simulated_as_it_acts(rate_hz: float
     exact = _exact(t_work, edge * dt, wn, zeta, g)
     swing = 2.0 * g / wn ** 2
     held_error = float(np.max(np.abs(held - exact)))
-    assert held_error < 4e-3 * swing
+    assert held_error < 1e-4 * swing
     if edge % decimation:   # an edge inside a work step: what linear interpolation made of it
         linear_error = float(np.max(np.abs(linear - exact)))
         assert linear_error > max(3.0 * held_error, 2e-3 * swing)
@@ -92,3 +95,31 @@ def test_two_carts_read_through_one_encoder_with_a_motor_pulse_are_diagnosed() -
     assert report.carts == 2
     assert report.extended.fit_percent > 99.0, report.extended.fit_percent
     assert "coupled_mode" not in [e.effect for e in report.effects]
+
+
+@pytest.mark.parametrize(("rate_hz", "f_hz", "zeta", "q_m", "noise_rel", "amp_m", "length_s", "on_s", "off_s"), [
+    (149.843, 3.2363, 0.0382, 2.553e-05, 0.057, 0.02579, 8.565, 0.594, 5.566),
+    (58.298, 3.1984, 0.0325, 5.979e-05, 0.198, 0.01094, 10.26, 0.875, 5.369),
+    (352.754, 3.1883, 0.039, 5.509e-05, 0.437, 0.03097, 6.329, 0.907, 4.057)])
+def test_a_motor_pulse_on_a_cart_without_effects_is_given_none(
+        rate_hz: float, f_hz: float, zeta: float, q_m: float, noise_rel: float, amp_m: float, length_s: float,
+        on_s: float, off_s: float) -> None:
+    """A linear cart's response to a drive pulse (the closed form above, switched on and off at
+    samples), read through an encoder lattice with noise before it, diagnosed with its input:
+    no effect of the carts. These are three of five of 30 such draws (58-977 Hz, 12-430 µm
+    lattices) that had a cubic spring or dry friction with pre-sliding accepted, the first as
+    the headline, where the switch fell inside a work step (see the module docstring); with
+    the noise drawn here the first still fails before the change, the other two pass."""
+    from ident.diagnose import diagnose
+
+    t = np.arange(0.0, length_s, 1.0 / rate_hz)
+    on, off = np.ceil(on_s * rate_hz) / rate_hz, np.ceil(off_s * rate_hz) / rate_hz
+    wn = 2.0 * np.pi * f_hz
+    x = (_exact(t, on - 1e-9, wn, zeta, amp_m * wn ** 2) - _exact(t, off - 1e-9, wn, zeta, amp_m * wn ** 2))
+    rng = np.random.default_rng(int(rate_hz))
+    phase = rng.uniform(0.0, q_m)
+    y = q_m * np.round((x + phase + rng.normal(0.0, noise_rel * q_m, t.size)) / q_m) - phase
+    u = np.where((t >= on - 1e-9) & (t < off - 1e-9), 1.0, 0.0)
+    report = diagnose(t, y, u=u).report
+    assert [e.effect for e in report.effects if e.effect != "quantization"] == []
+    assert report.cause in ("none", "quantization")
