@@ -12,8 +12,9 @@ when that is shorter): for block b the model
 is refitted with the cost taken outside b — `CV_ITERATIONS` damped Gauss-Newton steps from the
 whole-window fit, `(J_{-b}ᵀJ_{-b} + λ D) Δ_b = -J_{-b}ᵀ r_{-b}`, λ chosen by the cost outside b — and simulated through
 the WHOLE window from the window start (the state stays continuous); the cost is the squared
-residual inside b. CV = Σ_b. Interleaved samples would test interpolation; a block tests
-what the model predicts where it was not fitted. No I/O here.
+residual inside b. CV = Σ_b, of the better of two refits (`CV_DAMPING`). Interleaved samples
+would test interpolation; a block tests what the model predicts where it was not fitted. No I/O
+here.
 """
 
 from __future__ import annotations
