@@ -20,12 +20,15 @@ class DataFrame:
 
     `t_us` is the device clock as sent (for `cartlab` a u32 that wraps every ~71.6 min;
     for `csv`/`ecp` converted from seconds/milliseconds and not wrapping). `seq` is the
-    device's u32 sequence counter when the dialect has one, else None.
+    device's u32 sequence counter when the dialect has one, else None. `drive` is the rig's
+    drive command as sent, for a dialect that streams one (`ecp`: the line's `target` and
+    `duty`; in open loop `target` is the duty's target, `4096·V/5`), else None.
     """
 
     seq: int | None
     t_us: int
     raw: tuple[float, ...]
+    drive: tuple[float, float] | None = None
 
 
 @dataclass(frozen=True, slots=True)

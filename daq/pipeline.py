@@ -60,6 +60,13 @@ DEFAULT_COUNTS_PER_M: dict[str, float] = {"cartlab": 20000.0, "csv": 1.0, "ecp":
 BATCH_NS = 20_000_000
 MAX_BATCH = 500
 MAX_LIVE_GAPS = 100   # gap intervals kept for the live status (a run keeps all of its own)
+# a release dated within DRIVE_LEAD_NS after or DRIVE_LAG_NS before a switch of the rig's drive
+# (`DataFrame.drive`) is the drive's step, not a hand's (the 2025 ECP-210 motor pulses' edges were
+# dated 8 ms after and 1 ms before the switch); it is re-dated to the switch when the drive had
+# been steady for DRIVE_LEAD_NS before it (a closed loop's drive changes at every sample)
+DRIVE_LEAD_NS = 200_000_000
+DRIVE_LAG_NS = 50_000_000
+MAX_SWITCHES = 64
 log = logging.getLogger(__name__)
 
 
@@ -98,12 +105,17 @@ class _Batch:
         self.t_ns: list[int] = []
         self.raw1: list[float] = []
         self.raw2: list[float] = []
+        self.target: list[float] = []
+        self.duty: list[float] = []
 
-    def add(self, t_ns: int, raw: tuple[float, ...]) -> None:
+    def add(self, t_ns: int, raw: tuple[float, ...], drive: tuple[float, float] | None) -> None:
         self.t_ns.append(t_ns)
         self.raw1.append(raw[0])
         if len(raw) == 2:
             self.raw2.append(raw[1])
+        if drive is not None:
+            self.target.append(drive[0])
+            self.duty.append(drive[1])
 
     def take(self, bench: str, run_id: str | None, seq: int, unit: RawUnit,
              gains: tuple[float, ...], offsets_m: tuple[float, ...]) -> SampleBatch:
@@ -115,9 +127,12 @@ class _Batch:
             g2, o2 = gains[1], offsets_m[1]
             raw2 = self.raw2
             pos2 = [r * g2 - o2 for r in raw2]
+        # a stream sends its drive with every sample or with none
+        driven = len(self.target) == len(self.t_ns)
         batch = SampleBatch.model_construct(
             bench=bench, run_id=run_id, batch_seq=seq, t_ns=self.t_ns, pos1_m=pos1, pos2_m=pos2,
-            raw1=self.raw1, raw2=raw2, raw_unit=unit, schema_version=1)
+            raw1=self.raw1, raw2=raw2, raw_unit=unit, target=self.target if driven else None,
+            duty=self.duty if driven else None, schema_version=1)
         self.clear()
         return batch
 
@@ -160,7 +175,11 @@ class Acquisition:
         self.runs_started = 0
         self.run: _Run | None = None
         self._unit: RawUnit = "m" if config.dialect == "csv" else "counts"
-        self._ring: deque[tuple[int, tuple[float, ...]]] = deque()
+        self._ring: deque[tuple[int, tuple[float, ...], tuple[float, float] | None]] = deque()
+        self._drive: tuple[float, float] | None = None
+        self._drive_since_ns = 0
+        # (device ns of the first sample of a new drive, ns the drive had been steady before it)
+        self._switches: deque[tuple[int, int]] = deque(maxlen=MAX_SWITCHES)
         # a release is known up to first_release_confirm_s after its trigger (see daq.detector)
         self._ring_ns = int((config.detector.pre_trigger_s + config.detector.first_release_confirm_s + 1.0) * 1e9)
         self._live_seq = 0
@@ -249,24 +268,27 @@ class Acquisition:
         if step.lost or self._disconnected_at is not None or step.anomaly:
             self._gap(t_ns, step.lost, step.anomaly)
         self.last_t_ns, self.last_raw = t_ns, raw
+        drive = frame.drive
+        if drive != self._drive and drive is not None:
+            if self._drive is not None:
+                self._switches.append((t_ns, t_ns - self._drive_since_ns))
+            self._drive, self._drive_since_ns = drive, t_ns
         ring = self._ring
-        ring.append((t_ns, raw))
+        ring.append((t_ns, raw, drive))
         while ring[0][0] < t_ns - self._ring_ns:
             ring.popleft()
         g = self._gains
         live = self._live
         if not live.t_ns:
             self._batch_start_ns = t_ns
-        live.t_ns.append(t_ns)
-        live.raw1.append(raw[0])
+        live.add(t_ns, raw, drive)
         if len(raw) == 2:
-            live.raw2.append(raw[1])
             unzeroed: tuple[float, ...] = (raw[0] * g[0], raw[1] * g[1])
         else:
             unzeroed = (raw[0] * g[0],)
         run = self.run
         if run is not None:
-            run.batch.add(t_ns, raw)
+            run.batch.add(t_ns, raw, drive)
         events = self.detector.feed(t_ns * 1e-9, unzeroed)
         if events:
             self._events(events, t_ns)
@@ -302,8 +324,7 @@ class Acquisition:
                          for c, (r, z) in enumerate(zip(raw, zeros, strict=True))])
                 self._set_state("armed", t_ns)
             elif isinstance(event, Released):
-                self._start_run(event)
-                self._set_state("released", round(event.t_release_s * 1e9))
+                self._set_state("released", self._start_run(event))
             elif isinstance(event, Settled):
                 self._set_state("settled", t_ns)
                 if self.run is not None:
@@ -332,12 +353,20 @@ class Acquisition:
                            seq_gaps=tl.seq_gaps, lost_frames=tl.lost_lines, clock_wraps=tl.clock_wraps,
                            reconnects=self.reconnects, gap_intervals=list(self.gaps))
 
-    def _start_run(self, event: Released) -> None:
+    def _start_run(self, event: Released) -> int:
+        """Open the run of `event`; its release instant (device ns)."""
         self._flush_batches()
         release_ns = round(event.t_release_s * 1e9)
+        switched = [(t, steady) for t, steady in self._switches
+                    if release_ns - DRIVE_LEAD_NS <= t <= release_ns + DRIVE_LAG_NS]
+        if switched:   # the drive moved the carts: a step response, from the first sample of a new drive
+            first_switch, steady = switched[0]
+            if steady >= DRIVE_LEAD_NS:
+                release_ns = first_switch
+            log.debug("release at %.3f s is the drive's switch at %.3f s", event.t_release_s, first_switch / 1e9)
         first_ns = release_ns - int(self.config.detector.pre_trigger_s * 1e9)
         ring = list(self._ring)
-        start = next((i for i, (t, _) in enumerate(ring) if t >= first_ns), len(ring))
+        start = next((i for i, (t, _, _) in enumerate(ring) if t >= first_ns), len(ring))
         pre = ring[max(0, start - 1):]   # one sample more, so at least pre_trigger_s precede the release
         first_t = pre[0][0] if pre else release_ns
         now = self._wall_clock()
@@ -353,13 +382,15 @@ class Acquisition:
             detector_settings=self.config.detector.as_metadata(), detector_method=METHOD,
             release_time_s=(release_ns - first_t) / 1e9, release_t_ns=release_ns, first_t_ns=first_t,
             pre_trigger_s=self.config.detector.pre_trigger_s, pulled_cart=event.channel + 1,
-            lab_case=self.config.lab_case, counters=self.counters(), software_version=daq.__version__,
+            lab_case=self.config.lab_case, trigger="drive" if switched else "hand", counters=self.counters(),
+            software_version=daq.__version__,
             started_utc=now.isoformat(timespec="milliseconds"), utc_offset_ns=self.utc_offset_ns)
         gains, offsets_m = cal.linear_terms()
         self.run = _Run(meta, cal, self.counters(), gains=gains, offsets_m=offsets_m)
         self.outputs.run_started(meta)
-        for t, raw in pre:
-            self.run.batch.add(t, raw)
+        for t, raw, drive in pre:
+            self.run.batch.add(t, raw, drive)
+        return release_ns
 
     def _end_run(self, status: str, reason: str) -> None:
         run = self.run

@@ -88,7 +88,7 @@ def run_info(run: RunData, path: Path) -> dict[str, Any]:
 #: Scalar fields of `RunMetadata` copied into every export (the rest is in `metadata_json`).
 _EXPORTED_FIELDS = ("run_id", "bench", "pulled_cart", "lab_case", "dialect", "port", "counts_per_m",
                     "n_channels", "rate_hz", "device_model", "firmware", "detector_method",
-                    "pre_trigger_s", "software_version", "started_utc", "ended_utc")
+                    "pre_trigger_s", "trigger", "software_version", "started_utc", "ended_utc")
 
 
 def export_metadata(run: RunData) -> dict[str, str | float | int | None]:
@@ -113,29 +113,38 @@ def export_metadata(run: RunData) -> dict[str, str | float | int | None]:
     return out
 
 
+def export_columns(run: RunData) -> dict[str, npt.NDArray[np.float64]]:
+    """The exported columns by name: `time_s`, `pos1_m`[, `pos2_m`][, `target`, `duty`: the
+    rig's drive as the device sent it, for a stream that has one]."""
+    columns = {"time_s": run.time_s, "pos1_m": run.pos_m[:, 0]}
+    if run.n_channels == 2:
+        columns["pos2_m"] = run.pos_m[:, 1]
+    if run.drive is not None:
+        columns["target"], columns["duty"] = run.drive[:, 0], run.drive[:, 1]
+    return columns
+
+
 def export_csv(run: RunData) -> str:
-    """`# key: value` metadata lines, then `time_s,pos1_m[,pos2_m]` with full float precision."""
+    """`# key: value` metadata lines, then the `export_columns` with full float precision."""
     out = io.StringIO()
     for key, value in export_metadata(run).items():
         out.write(f"# {key}: {'' if value is None else value}\n")
     writer = csv.writer(out, lineterminator="\n")
-    writer.writerow(["time_s", "pos1_m", "pos2_m"][: 1 + run.n_channels])
-    for t, row in zip(run.time_s.tolist(), run.pos_m.tolist()):
-        writer.writerow([repr(t)] + [repr(x) for x in row])
+    columns = export_columns(run)
+    writer.writerow(list(columns))
+    for row in zip(*(c.tolist() for c in columns.values())):
+        writer.writerow([repr(x) for x in row])
     return out.getvalue()
 
 
 def export_json(run: RunData, path: Path) -> str:
     body = run_info(run, path)
-    body["time_s"] = run.time_s.tolist()
-    body["pos1_m"] = run.pos_m[:, 0].tolist()
-    if run.n_channels == 2:
-        body["pos2_m"] = run.pos_m[:, 1].tolist()
+    body.update({name: column.tolist() for name, column in export_columns(run).items()})
     return json.dumps(body)
 
 
 def export_mat(run: RunData, out_path: Path) -> None:
-    """MATLAB file with `time_s`, `pos1_m`[, `pos2_m`], `release_time_s` (NaN if unknown) and a
+    """MATLAB file with the `export_columns` (each N x 1), `release_time_s` (NaN if unknown) and a
     struct `metadata` (`export_metadata`; unknown numbers NaN, unknown text empty)."""
     from scipy.io import savemat  # lazy: scipy costs seconds to import
 
@@ -144,12 +153,6 @@ def export_mat(run: RunData, out_path: Path) -> None:
                "n_samples"}
     struct = {key: (float("nan") if key in numeric else "") if value is None else value
               for key, value in export_metadata(run).items()}
-    data: dict[str, Any] = {
-        "time_s": run.time_s[:, None],
-        "pos1_m": run.pos_m[:, :1],
-        "release_time_s": float("nan") if release is None else release,
-        "metadata": struct,
-    }
-    if run.n_channels == 2:
-        data["pos2_m"] = run.pos_m[:, 1:2]
+    data: dict[str, Any] = {name: column[:, None] for name, column in export_columns(run).items()}
+    data.update({"release_time_s": float("nan") if release is None else release, "metadata": struct})
     savemat(str(out_path), data)

@@ -190,9 +190,16 @@ def _position_scale(name: str, scale: float | None) -> float:
     return found
 
 
+#: The columns of a run's drive, as the device sent it (`SampleBatch.target`, `.duty`).
+DRIVE_COLUMNS = ("target", "duty")
+
+
 def load_mcap(path: str | Path, step_m: float = DEFAULT_STEP_M,
-              release_time_s: float | None = None, raw: bool = False) -> IdData:
+              release_time_s: float | None = None, raw: bool = False, input_col: str | None = None) -> IdData:
     """Load a `daq` run file: samples, release time and pulled cart from its metadata.
+    With `input_col` (a column of `DRIVE_COLUMNS`: the run's drive) `u` is that column as
+    recorded, as `load_text` does with a text export's drive column, less its value at the run's
+    first sample (where daq zeroed the carts at rest under it).
 
     Read by `schemas.run_file` (the one damage-tolerant reader, with its limits), so a
     truncated file (a killed writer) yields every complete chunk, and a file beyond a limit
@@ -218,8 +225,24 @@ def load_mcap(path: str | Path, step_m: float = DEFAULT_STEP_M,
     t, _, y = check_arrays(t, None, read.pos_m)
     _check_plausible(y)
     names = tuple(f"pos{j + 1}_m" for j in range(y.shape[1]))
-    data = (IdData(t, np.zeros(t.shape), y, release, pulled, file.name, (), names) if raw
-            else replace(_step_run(t, y, release, step_m, pulled, file.name), columns=names))
+    if input_col is not None:
+        if read.drive is None:
+            raise IdentValueError("--input", "a run whose samples carry the rig's drive "
+                                  f"({', '.join(DRIVE_COLUMNS)}: the ecp dialect's)",
+                                  f"{input_col!r} in a run without one")
+        column = DRIVE_COLUMNS[_find_column(list(DRIVE_COLUMNS), input_col)]
+        drive = read.drive[:, DRIVE_COLUMNS.index(column)]
+        # the carts rest under the drive at the run's first sample (daq armed on them still and
+        # zeroed them there), so the drive acts from its value there: an input on at the first
+        # sample would be switched on there (`ident.data.input_jumps`), and a motor pulse's
+        # off-edge had fitted 49 % instead of 99.96 %
+        u = (drive - drive[0]).astype(np.float64)
+        note = f"input: the run's {column!r} as recorded, from its value at the run's first sample ({drive[0]:.6g})"
+        data = IdData(t, u, y, release, pulled, file.name, (note,), names)
+    elif raw:
+        data = IdData(t, np.zeros(t.shape), y, release, pulled, file.name, (), names)
+    else:
+        data = replace(_step_run(t, y, release, step_m, pulled, file.name), columns=names)
     if read.complete:
         return data
     damage = (read.stop_reason or "file ended early")[:120]
@@ -234,9 +257,11 @@ def _step_run(t: FloatArray, y: FloatArray, release_time_s: float | None, step_m
     return with_found_release(t, y, step_m, pulled_cart, name)
 
 
-def _starts_as_mcap(file: Path) -> bool:
+def is_run_file(file: Path) -> bool:
+    """True for an MCAP file: `.mcap`, or any file that starts with the MCAP magic (a
+    `.mcap.part` left by a killed writer)."""
     try:
-        return run_file.has_mcap_magic(file)
+        return file.suffix == ".mcap" or run_file.has_mcap_magic(file)
     except OSError as exc:
         raise DataFileError(f"cannot read {file}: {exc}") from exc
 
@@ -253,10 +278,11 @@ def load(path: str | Path, time_col: str | None = None, pos_cols: list[str] | No
     file = Path(path)
     if not file.exists():
         raise DataFileError(f"expected an existing file, got {str(file)!r}")
-    if file.suffix == ".mcap" or _starts_as_mcap(file):
-        return load_mcap(file, step_m, release_time_s, raw=raw)
+    if is_run_file(file):
+        return load_mcap(file, step_m, release_time_s, raw=raw, input_col=input_col)
     return load_text(file, time_col, pos_cols, scale, release_time_s, step_m, input_col=input_col, raw=raw,
                      rate_hz=rate_hz)
 
 
-__all__ = ["MAX_POSITION_M", "POSITION_HINTS", "Table", "load", "load_mcap", "load_text", "read_table", "unit_scale"]
+__all__ = ["DRIVE_COLUMNS", "MAX_POSITION_M", "POSITION_HINTS", "Table", "is_run_file", "load", "load_mcap",
+           "load_text", "read_table", "unit_scale"]

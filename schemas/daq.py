@@ -21,6 +21,7 @@ DetectorState = Literal["idle", "armed", "released", "settled"]
 RunStatus = Literal["complete", "recovered", "aborted"]
 RawUnit = Literal["counts", "m"]
 GapReason = Literal["disconnect", "seq_gap", "clock_jump", "disk_full"]
+RunTrigger = Literal["hand", "drive"]
 
 
 class SampleBatch(Record):
@@ -30,7 +31,10 @@ class SampleBatch(Record):
     has the same length. `raw*` are the decoded values before calibration and zeroing, in
     `raw_unit` (encoder counts for the `cartlab` and `ecp` dialects, metres for `csv`).
     `pos2_m`/`raw2` are None for one-channel streams. `run_id` is None outside a run.
-    `batch_seq` counts batches per stream (live) or per file (MCAP), from 0.
+    `batch_seq` counts batches per stream (live) or per file (MCAP), from 0. `target[i]`,
+    `duty[i]` are the rig's drive command with sample i as the device sent it (the `ecp`
+    dialect's fields; in open loop `target` is the duty's target, `4096·V/5`), None for a
+    stream without a drive.
     """
 
     bench: BenchName
@@ -42,16 +46,20 @@ class SampleBatch(Record):
     raw1: list[float]
     raw2: list[float] | None = None
     raw_unit: RawUnit = "counts"
+    target: list[float] | None = None
+    duty: list[float] | None = None
 
     @model_validator(mode="after")
     def _same_lengths(self) -> SampleBatch:
         n = len(self.t_ns)
         lengths = [len(self.pos1_m), len(self.raw1)]
-        lengths += [len(x) for x in (self.pos2_m, self.raw2) if x is not None]
+        lengths += [len(x) for x in (self.pos2_m, self.raw2, self.target, self.duty) if x is not None]
         if any(length != n for length in lengths):
             raise ValueError(f"expected every list of length {n} (len(t_ns)), got lengths {lengths}")
         if (self.pos2_m is None) != (self.raw2 is None):
             raise ValueError("expected pos2_m and raw2 both present or both None")
+        if (self.target is None) != (self.duty is None):
+            raise ValueError("expected target and duty both present or both None")
         return self
 
 
@@ -118,6 +126,9 @@ class RunMetadata(Record):
     carts that swung freely, the pulled one first: the ones to fit) come from the carts'
     amplitudes when the run ends: a cart whose span is a small fraction of the pulled cart's
     is held, even though a loose hand lets it wander (None while the run is open).
+    `trigger` is "hand" for a hand release and "drive" for a run that began where the rig's
+    drive switched (a motor pulse's edge: a step response to the drive, which the samples
+    carry as `target`/`duty`; the release time is then the first sample of the new drive).
     """
 
     bench: BenchName
@@ -140,6 +151,7 @@ class RunMetadata(Record):
     pulled_cart: int | None = None
     lab_case: str | None = None
     moving_carts: list[int] | None = None
+    trigger: RunTrigger = "hand"
     counters: DaqCounters = Field(default_factory=DaqCounters)
     software_version: str
     started_utc: str

@@ -65,8 +65,8 @@ def encode(dialect: Dialect | str, frame: Frame) -> bytes:
     """The line `frame` was decoded from, in `dialect` (exact round trip for DataFrames).
 
     cartlab: `$D`/`$I` lines (counts rounded to integers); csv: `time_s,pos...` with the
-    time to the microsecond and positions exact; ecp: `c1:c2:0:0:time_ms` (target and
-    duty are not kept by the decoder, written as 0). csv and ecp have no `$I` line.
+    time to the microsecond and positions exact; ecp: `c1:c2:target:duty:time_ms` (the
+    frame's drive, 0:0 when it has none). csv and ecp have no `$I` line.
     """
     if dialect == "cartlab":
         return encode_frame(frame)
@@ -79,4 +79,5 @@ def encode(dialect: Dialect | str, frame: Frame) -> bytes:
     if len(frame.raw) != 2:
         raise DaqValueError("encode ecp", "two positions", frame.raw)
     time_ms = f"{frame.t_us // 1000}.{frame.t_us % 1000:03d}" if frame.t_us >= 0 else f"{frame.t_us / 1e3:.3f}"
-    return f"{_exact(frame.raw[0])}:{_exact(frame.raw[1])}:0:0:{time_ms}\n".encode()
+    target, duty = frame.drive or (0.0, 0.0)
+    return f"{_exact(frame.raw[0])}:{_exact(frame.raw[1])}:{_exact(target)}:{_exact(duty)}:{time_ms}\n".encode()

@@ -5,8 +5,8 @@
   are names, not numbers) is ignored and counted in `extra["header"]`; `#` lines in
   `extra["comment"]`; blank lines are skipped.
 - `ecp`: `cart1pos:cart2pos:target:duty:time_ms` as streamed by the Teensy controller of
-  an ECP Model 210 rig. Positions are encoder counts. `target` and `duty` are checked
-  to be numbers but not kept (a `DataFrame` carries positions only).
+  an ECP Model 210 rig. Positions are encoder counts; `target` and `duty` are kept as
+  the frame's `drive` (a motor pulse moves the carts: the record keeps what drove them).
 
 `t_us` is the sent time converted to microseconds (rounded); these dialects have no
 sequence counter (`seq` is None) and their time does not wrap. Lines longer than
@@ -134,7 +134,7 @@ class EcpDecoder(_LineDecoder):
         if len(values) != 5 or abs(values[4]) > 1e12:
             self.counters.malformed += 1
             return None
-        return DataFrame(None, round(values[4] * 1e3), (values[0], values[1]))
+        return DataFrame(None, round(values[4] * 1e3), (values[0], values[1]), (values[2], values[3]))
 
 
 def encode_csv(t_s: float, positions: Sequence[float], digits: int = 6) -> bytes:

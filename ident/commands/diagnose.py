@@ -44,9 +44,11 @@ def add_parser(subparsers: Any) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from ident.commands.releases import use_run_drive
     from ident.errors import IdentError
 
     try:
+        use_run_drive(args, "diagnose")
         results = diagnose_releases(args)
     except IdentError as exc:
         print(f"ident diagnose: error: {exc}", file=sys.stderr)

@@ -41,10 +41,12 @@ def add_parser(subparsers: Any) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from ident.commands.releases import use_run_drive
     from ident.errors import IdentError
     from ident.report.text import format_fit_report
 
     try:
+        use_run_drive(args, "fit")
         numbers = release_numbers(args)
         fits = [fit_path(args, number) for number in numbers]
     except IdentError as exc:

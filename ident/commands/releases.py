@@ -46,23 +46,26 @@ def run(args: argparse.Namespace) -> int:
 
 
 #: Column names of a recorded drive (a motor's command, `ident diagnose --input`).
-DRIVE_HINTS = ("effort", "input", "duty", "voltage", "current", "command", "pwm", "force")
-#: A drive that switches at most this long (s) before a listed release is named beside it.
+DRIVE_HINTS = ("effort", "input", "duty", "target", "voltage", "current", "command", "pwm", "force")
+#: A drive that switches at most DRIVE_LEAD_S before or DRIVE_LAG_S after a listed release is named
+#: beside it (the finder dated a 2025 ECP-210 motor pulse's off-switch in a daq run 1 ms before it).
 DRIVE_LEAD_S = 0.2
+DRIVE_LAG_S = 0.05
 
 
 def drive_note(args: argparse.Namespace, releases: list[Any]) -> str | None:
-    """A note when a text export has a column named like a drive (`DRIVE_HINTS`) that switches
-    within `DRIVE_LEAD_S` before a listed release: in the positions alone a force step on a
+    """A note when a file has a drive (`recorded_drives`) that switches within `DRIVE_LEAD_S`
+    before or `DRIVE_LAG_S` after a listed release: in the positions alone a force step on a
     cart at rest is a release from a still hold (a motor pulse's on and off), and the record
     is the response to that drive (`ident diagnose FILE --input COLUMN`). None otherwise."""
     if not releases:
         return None
     for name, switches in recorded_drives(args):
         led = [(r.number, r.release_time_s - float(s)) for r in releases for s in switches
-               if 0.0 <= r.release_time_s - float(s) <= DRIVE_LEAD_S]
+               if -DRIVE_LAG_S <= r.release_time_s - float(s) <= DRIVE_LEAD_S]
         if led:
-            which = ", ".join(f"{1e3 * lead:.0f} ms before release {k}" for k, lead in led)
+            which = ", ".join(f"{1e3 * abs(lead):.0f} ms {'before' if lead >= 0 else 'after'} release {k}"
+                              for k, lead in led)
             return (f"note: column {name!r} switches {which}: a recorded drive moves the carts there, not a "
                     f"hand; `{_command(args, name)}` fits the response to it")
     return None
@@ -101,30 +104,18 @@ def _command(args: argparse.Namespace, drive: str, command: str = "diagnose") ->
 
 def recorded_drives(args: argparse.Namespace) -> list[tuple[str, Any]]:
     """(name, switch times (s) on the file's time base) of every column of a text export named
-    like a drive (`DRIVE_HINTS`, not a position) that switches at least once; none for MCAP."""
-    import itertools
-    from pathlib import Path
-
+    like a drive (`DRIVE_HINTS`, not a position), or of a `daq` run's drive (`DRIVE_COLUMNS`),
+    that switches at least once."""
     import numpy as np
 
     from ident.data import input_jumps
     from ident.errors import IdentError
-    from ident.io import POSITION_HINTS, load
-    from ident.text_table import MAX_HEAD_LINES, read_table, text_lines
+    from ident.io import load
 
-    path = Path(args.path)
-    if path.suffix == ".mcap":
-        return []
-    try:   # the names only: the header and the first rows, not the whole record again
-        names = read_table(itertools.islice(text_lines(path), MAX_HEAD_LINES + 2)).names
-    except (IdentError, OSError):
-        return []
-    drives = [n for n in names if any(h in n.lower() for h in DRIVE_HINTS)
-              and not any(h in n.lower() for h in POSITION_HINTS)]   # a commanded position is no force
     out = []
-    for name in drives:
+    for name in _drive_names(args.path):
         try:
-            data = load(path, time_col=args.time_col, pos_cols=args.pos_cols, scale=args.scale,
+            data = load(args.path, time_col=args.time_col, pos_cols=args.pos_cols, scale=args.scale,
                         input_col=name, rate_hz=args.rate_hz, raw=True)
         except IdentError:
             continue
@@ -132,6 +123,70 @@ def recorded_drives(args: argparse.Namespace) -> list[tuple[str, Any]]:
         if jumps.size:
             out.append((name, data.t[np.clip(jumps + 1, 0, data.n_samples - 1)]))
     return out
+
+
+def _drive_names(path_text: str) -> list[str]:
+    """The columns of the file that may hold a drive: a run's `DRIVE_COLUMNS` when its samples
+    carry them, a text export's columns named like a drive (`DRIVE_HINTS`, not a position)."""
+    import itertools
+    from pathlib import Path
+
+    from ident.errors import IdentError
+    from ident.io import DRIVE_COLUMNS, POSITION_HINTS, is_run_file
+    from ident.text_table import MAX_HEAD_LINES, read_table, text_lines
+
+    path = Path(path_text)
+    try:
+        if is_run_file(path):
+            return list(DRIVE_COLUMNS) if run_trigger(path) is not None else []
+        # the names only: the header and the first rows, not the whole record again
+        names = read_table(itertools.islice(text_lines(path), MAX_HEAD_LINES + 2)).names
+    except (IdentError, OSError):
+        return []
+    return [n for n in names if any(h in n.lower() for h in DRIVE_HINTS)
+            and not any(h in n.lower() for h in POSITION_HINTS)]   # a commanded position is no force
+
+
+def run_trigger(path: Any) -> str | None:
+    """What started a `daq` run whose samples carry the rig's drive: its metadata's `trigger`
+    ("hand" or "drive"); None for a run without a drive or a file that is not a run."""
+    from schemas import SchemaError, run_file
+
+    try:
+        read = run_file.read_run(path)
+    except (SchemaError, OSError):
+        return None
+    if read.drive is None or read.metadata is None:
+        return None
+    return read.metadata.trigger
+
+
+def use_run_drive(args: argparse.Namespace, command: str) -> None:
+    """A `daq` run begun by the rig's drive is fitted as the response to it (`run_drive`):
+    `args.input_col` is set to the drive's column, unless a release was asked for (`--release`,
+    `--all`, `--release-s`); stderr says so."""
+    if getattr(args, "all", False) or any(getattr(args, name, None) is not None
+                                          for name in ("release_number", "release")):
+        return
+    drive = run_drive(args)
+    if drive is not None:
+        args.input_col = drive
+        print(f"ident {command}: note: the run began where the rig's drive switched (a motor pulse, not a hand): "
+              f"the response to its {drive!r} is fitted (as --input {drive})", file=sys.stderr)
+
+
+def run_drive(args: argparse.Namespace) -> str | None:
+    """The drive column to fit a `daq` run against when the run began at a switch of the rig's
+    drive (`RunMetadata.trigger` "drive": a motor pulse's edge), the one that switches (duty
+    before target); None for any other file, or when `--input` is given."""
+    from pathlib import Path
+
+    from ident.io import is_run_file
+
+    if args.input_col is not None or not is_run_file(Path(args.path)) or run_trigger(args.path) != "drive":
+        return None
+    switching = [name for name, _ in recorded_drives(args)]
+    return next((name for name in ("duty", "target") if name in switching), None)
 
 
 def releases_of_file(args: argparse.Namespace) -> list[Any]:

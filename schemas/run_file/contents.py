@@ -25,7 +25,9 @@ from schemas.run_file.records import ReadOutcome, iter_records
 
 @dataclass(frozen=True)
 class RunContents:
-    """A run file read: `t_ns` (N,) int64 device time; `pos_m`, `raw` (N, n_channels).
+    """A run file read: `t_ns` (N,) int64 device time; `pos_m`, `raw` (N, n_channels);
+    `drive` (N, 2) the rig's drive as sent (`SampleBatch.target`, `.duty`), None when no
+    batch carries one (0 in a batch without it).
 
     `metadata` is the final `cartlab.run` record (else `cartlab.run_started`), `finished` the
     `cartlab.run_finished` one;
@@ -41,7 +43,11 @@ class RunContents:
     complete: bool
     stop_reason: str | None = None
     n_records: int = 0
+    drive: npt.NDArray[np.float64] | None = None
 
+
+_Arrays = tuple[npt.NDArray[np.int64], npt.NDArray[np.float64], npt.NDArray[np.float64],
+                npt.NDArray[np.float64] | None]
 
 #: Capacity growth of the sample arrays while reading (`_Columns`): the peak is about this
 #: times the arrays (doubling: 41.6 bytes a sample for 24 of arrays).
@@ -58,6 +64,8 @@ class _Columns:
     t_ns: npt.NDArray[np.int64] = field(default_factory=lambda: np.zeros(0, np.int64))
     pos: npt.NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 1)))
     raw: npt.NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 1)))
+    drive: npt.NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 2)))
+    driven: bool = False
     #: (first time, start row, rows) of each batch, to put them in time order at the end
     batches: list[tuple[int, int, int]] = field(default_factory=list)
     n_samples: int = 0
@@ -81,6 +89,11 @@ class _Columns:
         self.t_ns[start:stop] = batch.t_ns
         self.pos[start:stop] = np.asarray(pos, dtype=np.float64).T.reshape(rows, len(pos))
         self.raw[start:stop] = np.asarray(raw, dtype=np.float64).T.reshape(rows, len(raw))
+        if batch.target is not None and batch.duty is not None:
+            if not self.driven:   # kept from the first batch that has one: no room taken in a run without
+                self.driven = True
+                self.drive.resize((self.t_ns.shape[0], 2), refcheck=False)
+            self.drive[start:stop] = np.asarray([batch.target, batch.duty], dtype=np.float64).T.reshape(rows, 2)
         if rows:
             self.batches.append((int(batch.t_ns[0]), start, rows))
         self.n_samples = stop
@@ -90,19 +103,22 @@ class _Columns:
         self.t_ns.resize((capacity,), refcheck=False)
         self.pos.resize((capacity, self.pos.shape[1]), refcheck=False)
         self.raw.resize((capacity, self.raw.shape[1]), refcheck=False)
+        if self.driven:
+            self.drive.resize((capacity, 2), refcheck=False)
 
-    def arrays(self) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.float64], npt.NDArray[np.float64]]:
-        """(t_ns, pos, raw) of every sample read, the unwritten capacity given back, batches in
-        time order (a file keeps them in order; a recovered one may not: then a copy). Call once,
-        at the end."""
+    def arrays(self) -> _Arrays:
+        """(t_ns, pos, raw, drive or None) of every sample read, the unwritten capacity given
+        back, batches in time order (a file keeps them in order; a recovered one may not: then a
+        copy). Call once, at the end."""
         self._grow(self.n_samples)
-        t_ns, pos, raw = self.t_ns, self.pos, self.raw
+        t_ns, pos, raw, drive = self.t_ns, self.pos, self.raw, self.drive
         order = sorted(range(len(self.batches)), key=lambda i: self.batches[i][0])
         if order != list(range(len(order))):
             rows = np.concatenate([np.arange(self.batches[i][1], self.batches[i][1] + self.batches[i][2])
                                    for i in order])
             t_ns, pos, raw = t_ns[rows], pos[rows], raw[rows]
-        return t_ns, pos, raw
+            drive = drive[rows] if self.driven else drive
+        return t_ns, pos, raw, drive if self.driven else None
 
 
 def read_run(path: Path, limits: Limits = DEFAULT_LIMITS) -> RunContents:
@@ -134,9 +150,9 @@ def read_run(path: Path, limits: Limits = DEFAULT_LIMITS) -> RunContents:
             meta[record.name] = record  # the last record of a name wins
     metadata = run_metadata(meta)
     finished = _metadata(meta, topics.METADATA_FINISHED, RunFinished)
-    t_ns, pos, raw = _joined(columns, metadata)
+    t_ns, pos, raw, drive = _joined(columns, metadata)
     return RunContents(t_ns, pos, raw, metadata, finished, states, outcome.complete,
-                       outcome.stop_reason, n_records)
+                       outcome.stop_reason, n_records, drive)
 
 
 _R = TypeVar("_R", RunMetadata, RunFinished)
@@ -159,12 +175,11 @@ def run_metadata(found: dict[str, Metadata]) -> RunMetadata | None:
     return final if final is not None else _metadata(found, topics.METADATA_RUN_STARTED, RunMetadata)
 
 
-def _joined(columns: _Columns, metadata: RunMetadata | None
-            ) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+def _joined(columns: _Columns, metadata: RunMetadata | None) -> _Arrays:
     n_channels = (2 if columns.two_channels else 1) if columns.two_channels is not None else (
         metadata.n_channels if metadata is not None else 1)
     if not columns.n_samples:
-        return np.zeros(0, np.int64), np.zeros((0, n_channels)), np.zeros((0, n_channels))
+        return np.zeros(0, np.int64), np.zeros((0, n_channels)), np.zeros((0, n_channels)), None
     return columns.arrays()
 
 

@@ -121,5 +121,5 @@ def test_encode_then_decode_is_the_identity(t_us: int, pos: list[float], t32: in
     assert make_decoder("cartlab").feed(encode("cartlab", cartlab)) == [cartlab]
     csv = DataFrame(None, t_us, tuple(pos))
     assert make_decoder("csv").feed(encode("csv", csv)) == [csv]
-    ecp = DataFrame(None, t_us, (float(counts[0]), float(c2)))
+    ecp = DataFrame(None, t_us, (float(counts[0]), float(c2)), (float(c2), pos[0]))
     assert make_decoder("ecp").feed(encode("ecp", ecp)) == [ecp]

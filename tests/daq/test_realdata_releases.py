@@ -9,6 +9,8 @@ back into lines) through a `daq run --until-eof` process. Checked: one run per l
 release and none from handling, and the release instant judged from the data on its own: a
 damped sinusoid fitted here (independently of daq) one period after the instant follows the
 data from 20 ms after it, and did not hold a quarter second before it (the hand was acting).
+Every such run is a hand's (`trigger`); the 2025 motor pulses (the records whose Control Effort
+switches) give one run per switch, begun by the drive at the first sample of the new command.
 
 Strict check (the issue's 20 ms): the instant against the independent judge of
 `testkit/release_judge.py` (a nonlinear free response with dry friction fitted after the
@@ -57,14 +59,20 @@ def _labels_2025(realdata: Path, name: str) -> list[float]:
     raise AssertionError(f"{name} is not in the PROVENANCE table")
 
 
-def _load(path: Path) -> tuple[Array, Array]:
-    """Time (s) and encoder 2 (counts) of a lab export, read here with numpy on its own."""
+def _table(path: Path) -> Array:
+    """The rows of a lab export (Sample, Time, two positions, Control Effort), read here with
+    numpy on its own."""
     rows = []
     for line in path.read_text().splitlines():
         fields = line.replace("[", " ").replace("]", " ").replace(";", " ").split()
         if len(fields) == 5 and fields[0].isdigit():
             rows.append([float(f) for f in fields])
-    table = np.array(rows)
+    return np.array(rows)
+
+
+def _load(path: Path) -> tuple[Array, Array]:
+    """Time (s) and encoder 2 (counts) of a lab export."""
+    table = _table(path)
     return table[:, 1], table[:, 3]
 
 
@@ -96,16 +104,13 @@ def _replay(path: Path, runs: Path) -> list[float]:
     (each file replayed once per session: both tests below read the same runs)."""
     if path in _REPLAYED:
         return _REPLAYED[path]
-    proc = subprocess.run(daq_command("-v", "run", "--port", f"replay://{path}?speed=max", "--dialect", "ecp",
-                                      "--runs-dir", str(runs), "--no-zenoh", "--until-eof"),
-                          cwd=REPO, capture_output=True, timeout=120, check=False)
-    assert proc.returncode == 0, proc.stderr.decode()
     out = []
-    for run_path in sorted(runs.glob("*.mcap")):
+    for run_path in _replayed_runs(path, runs):
         run = load_run(run_path)
         assert run.metadata is not None and run.metadata.release_t_ns is not None
         assert run.metadata.pulled_cart == 2 and run.metadata.lab_case == "cart2"   # cart 1 held ...
         assert run.metadata.moving_carts == [2]                                       # ... and not fitted
+        assert run.metadata.trigger == "hand"
         out.append(run.metadata.release_t_ns / 1e9)
     _REPLAYED[path] = out
     return out
@@ -177,3 +182,34 @@ def test_every_real_hand_release_instant_is_within_20_ms_of_the_judge(realdata_d
         print(f"{name}: daq {t0:.4f} s, judge {judged:.4f} s, offset {1e3 * (t0 - judged):+.1f} ms")
     assert len(offsets) == sum(len(_labels_2025(realdata_dir, n)) for n in HAND_2025)
     assert all(abs(t0 - judged) <= JUDGE_LIMIT_S for _, t0, judged in offsets)
+
+
+def _motor_pulses(realdata: Path) -> list[Path]:
+    """The 2025 records whose Control Effort (the motor's command) switches: the open-loop pulses."""
+    return [path for path in sorted((realdata / ECP_2025).glob("*.txt")) if np.ptp(_table(path)[:, 4]) > 0]
+
+
+def test_every_edge_of_a_real_motor_pulse_is_a_run_begun_by_the_drive_at_its_switch(
+        realdata_dir: Path, tmp_path: Path) -> None:
+    """Each switch of the command is one run, marked `drive` and released at the first sample of
+    the new command (daq had recorded them as hand releases, with no word of the motor)."""
+    pulses = _motor_pulses(realdata_dir)
+    assert len(pulses) >= 2
+    for k, path in enumerate(pulses):
+        table = _table(path)
+        switches = table[1:, 1][np.diff(table[:, 4]) != 0]
+        runs = [load_run(p) for p in _replayed_runs(path, tmp_path / str(k))]
+        assert len(runs) == len(switches), (path.name, len(runs), switches)
+        for run, switch in zip(runs, switches, strict=True):
+            meta = run.metadata
+            assert meta is not None and meta.trigger == "drive", path.name
+            assert meta.release_t_ns == round(switch * 1e9), (path.name, meta.release_t_ns, switch)
+            assert run.drive is not None and set(np.unique(run.drive[:, 0])) <= set(table[:, 4])
+
+
+def _replayed_runs(path: Path, runs: Path) -> list[Path]:
+    proc = subprocess.run(daq_command("run", "--port", f"replay://{path}?speed=max", "--dialect", "ecp",
+                                      "--runs-dir", str(runs), "--no-zenoh", "--until-eof"),
+                          cwd=REPO, capture_output=True, timeout=120, check=False)
+    assert proc.returncode == 0, proc.stderr.decode()
+    return sorted(runs.glob("*.mcap"))
