@@ -249,6 +249,31 @@ def load_mcap(path: str | Path, step_m: float = DEFAULT_STEP_M,
     return replace(data, notes=(*data.notes, f"run file damaged after {len(t)} samples ({damage})"))
 
 
+def run_drive_columns(path: str | Path) -> tuple[str, ...]:
+    """`DRIVE_COLUMNS` when `path` is a `daq` run whose samples carry the rig's drive, else ()."""
+    read = _read_run_quietly(Path(path))
+    return DRIVE_COLUMNS if read is not None and read.drive is not None else ()
+
+
+def run_drive(path: str | Path) -> str | None:
+    """The column a `daq` run begun by the rig's drive (`RunMetadata.trigger` "drive": a motor
+    pulse's edge) is fitted against: its response is to that drive, not a hand's release.
+    `duty` when it changes in the run, else `target` (a lab export's replay sends no duty); None
+    for any other file."""
+    read = _read_run_quietly(Path(path))
+    if read is None or read.drive is None or read.metadata is None or read.metadata.trigger != "drive":
+        return None
+    return next((DRIVE_COLUMNS[j] for j in (1, 0) if np.ptp(read.drive[:, j]) > 0.0), None)
+
+
+def _read_run_quietly(file: Path) -> run_file.RunContents | None:
+    """The run file at `file`, or None when it is not one that can be read."""
+    try:
+        return run_file.read_run(file) if file.is_file() and is_run_file(file) else None
+    except (SchemaError, OSError, DataFileError):
+        return None
+
+
 def _step_run(t: FloatArray, y: FloatArray, release_time_s: float | None, step_m: float,
               pulled_cart: int | None, name: str) -> IdData:
     """The record with the release step at the known release, or where the finder puts it."""
@@ -285,4 +310,4 @@ def load(path: str | Path, time_col: str | None = None, pos_cols: list[str] | No
 
 
 __all__ = ["DRIVE_COLUMNS", "MAX_POSITION_M", "POSITION_HINTS", "Table", "is_run_file", "load", "load_mcap",
-           "load_text", "read_table", "unit_scale"]
+           "load_text", "read_table", "run_drive", "run_drive_columns", "unit_scale"]

@@ -132,13 +132,13 @@ def _drive_names(path_text: str) -> list[str]:
     from pathlib import Path
 
     from ident.errors import IdentError
-    from ident.io import DRIVE_COLUMNS, POSITION_HINTS, is_run_file
+    from ident.io import POSITION_HINTS, is_run_file, run_drive_columns
     from ident.text_table import MAX_HEAD_LINES, read_table, text_lines
 
     path = Path(path_text)
     try:
         if is_run_file(path):
-            return list(DRIVE_COLUMNS) if run_trigger(path) is not None else []
+            return list(run_drive_columns(path))
         # the names only: the header and the first rows, not the whole record again
         names = read_table(itertools.islice(text_lines(path), MAX_HEAD_LINES + 2)).names
     except (IdentError, OSError):
@@ -147,46 +147,20 @@ def _drive_names(path_text: str) -> list[str]:
             and not any(h in n.lower() for h in POSITION_HINTS)]   # a commanded position is no force
 
 
-def run_trigger(path: Any) -> str | None:
-    """What started a `daq` run whose samples carry the rig's drive: its metadata's `trigger`
-    ("hand" or "drive"); None for a run without a drive or a file that is not a run."""
-    from schemas import SchemaError, run_file
-
-    try:
-        read = run_file.read_run(path)
-    except (SchemaError, OSError):
-        return None
-    if read.drive is None or read.metadata is None:
-        return None
-    return read.metadata.trigger
-
-
 def use_run_drive(args: argparse.Namespace, command: str) -> None:
-    """A `daq` run begun by the rig's drive is fitted as the response to it (`run_drive`):
+    """A `daq` run begun by the rig's drive is fitted as the response to it (`ident.io.run_drive`):
     `args.input_col` is set to the drive's column, unless a release was asked for (`--release`,
     `--all`, `--release-s`); stderr says so."""
     if getattr(args, "all", False) or any(getattr(args, name, None) is not None
                                           for name in ("release_number", "release")):
         return
-    drive = run_drive(args)
+    from ident.io import run_drive
+
+    drive = None if args.input_col is not None else run_drive(args.path)
     if drive is not None:
         args.input_col = drive
         print(f"ident {command}: note: the run began where the rig's drive switched (a motor pulse, not a hand): "
               f"the response to its {drive!r} is fitted (as --input {drive})", file=sys.stderr)
-
-
-def run_drive(args: argparse.Namespace) -> str | None:
-    """The drive column to fit a `daq` run against when the run began at a switch of the rig's
-    drive (`RunMetadata.trigger` "drive": a motor pulse's edge), the one that switches (duty
-    before target); None for any other file, or when `--input` is given."""
-    from pathlib import Path
-
-    from ident.io import is_run_file
-
-    if args.input_col is not None or not is_run_file(Path(args.path)) or run_trigger(args.path) != "drive":
-        return None
-    switching = [name for name, _ in recorded_drives(args)]
-    return next((name for name in ("duty", "target") if name in switching), None)
 
 
 def releases_of_file(args: argparse.Namespace) -> list[Any]:

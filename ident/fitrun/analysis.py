@@ -117,6 +117,9 @@ class RunAnalysis:
     #: one-cart case's free cart first and then the other carts (a held cart's motion enters as
     #: an input, `diagnosis_columns`); None: `data.y`
     diagnosis_y: FloatArray | None = None
+    #: `data.u` is a recorded force input (`FitSettings.step_input` False), which the diagnosis
+    #: models too; else the release step
+    forced: bool = False
 
     @property
     def release_time_s(self) -> float | None:
@@ -232,7 +235,7 @@ def analyse_fits(data: IdData, settings: FitSettings = FitSettings()) -> RunAnal
                        lambda: pem(cart_data, order, noise_model=settings.noise_model))
         y_hat = None if model is None else model.simulate(cart_data.u)
     analysis = RunAnalysis(case, cart_data, moving, tuple(simple), model, y_hat, timings_s=timings,
-                           errors=errors, diagnosis_y=diagnosed)
+                           errors=errors, diagnosis_y=diagnosed, forced=not settings.step_input)
     return dataclasses.replace(analysis, envelope=envelope_of(analysis))
 
 
@@ -302,7 +305,7 @@ def with_diagnosis(analysis: RunAnalysis) -> RunAnalysis:
 def _diagnose(analysis: RunAnalysis, carts: int) -> Diagnosis:
     data = analysis.data
     y = data.y if analysis.diagnosis_y is None else analysis.diagnosis_y
-    return diagnose(data.t, y, carts=carts, source=data.name)
+    return diagnose(data.t, y, carts=carts, source=data.name, u=data.u if analysis.forced else None)
 
 
 def fit_simple_result(data: IdData, method: SimpleMethod, output: int, friction: bool = False) -> SimpleResult:

@@ -30,7 +30,7 @@ from ident.data import IdData, from_release
 from ident.errors import IdentError
 from ident.fitrun.analysis import FitSettings, RunAnalysis, analyse_fits, with_diagnosis
 from ident.fitrun.records import to_fit_report
-from ident.io import DEFAULT_STEP_M, load
+from ident.io import DEFAULT_STEP_M, load, run_drive
 from ident.releases import FIRST_COMPLETE, select_or_whole
 from schemas.fit import FitReport, FitTimings
 
@@ -109,7 +109,12 @@ def _stepped(data: IdData, step_m: float | None) -> IdData:
 def fit_first(path: str | Path, who: RunIdentity = RunIdentity(), *,
               options: RunFileOptions = RunFileOptions(), settings: FitSettings | None = None,
               release: int | None = None, select: ReleaseSelector = select_or_whole) -> RunFit:
-    """Stage 1: load and fit (simple identification, PEM); a failed report for a bad run."""
+    """Stage 1: load and fit (simple identification, PEM); a failed report for a bad run. A
+    `daq` run begun by the rig's drive is fitted as the response to it (`ident.io.run_drive`)
+    unless a release or an input is given."""
+    if release is None and options.input_col is None and options.release_time_s is None:
+        drive = run_drive(path)
+        options = options if drive is None else dataclasses.replace(options, input_col=drive)
     settings = settings or FitSettings(step_input=options.input_col is None)
     started = time.perf_counter()
     try:

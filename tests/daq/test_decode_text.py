@@ -51,7 +51,8 @@ def test_text_encoders_round_trip() -> None:
     assert encode_csv(1.5, [0.1, -0.02]) == b"1.500000,0.100000,-0.020000\n"
     assert encode_ecp(12, -3, 0, 0.25, 4.5) == b"12:-3:0:0.2500:4.500\n"
     assert make_decoder("csv").feed(encode_csv(1.5, [0.1])) == [DataFrame(None, 1_500_000, (0.1,))]
-    assert make_decoder("ecp").feed(encode_ecp(12, -3, 0, 0.25, 4.5)) == [DataFrame(None, 4500, (12.0, -3.0), (0.0, 0.25))]
+    assert make_decoder("ecp").feed(encode_ecp(12, -3, 0, 0.25, 4.5)) == [
+        DataFrame(None, 4500, (12.0, -3.0), (0.0, 0.25))]
 
 
 def test_unknown_dialect_is_named() -> None:

@@ -11,8 +11,9 @@ Here a motor pulse on a damped cart is written from its closed form (the step re
 lines, on its clock of 1 and 2 ms steps, and streamed through `replay://` into a `daq run`
 process that records real MCAP files. Checked: a run at each edge, marked `trigger: drive`,
 released at the first sample of the new drive; the samples carry the drive as sent; the
-exports name its columns; `ident diagnose RUN.mcap` fits the response to the drive and names
-no cart effect. A hand release in the same dialect (the drive steady at 0) stays `hand`.
+exports name its columns; `ident diagnose RUN.mcap`, `ident fit RUN.mcap` and the worker's fit
+take the response to the drive, identify the cart and name no cart effect. A hand release in
+the same dialect (the drive steady at 0) stays `hand`.
 """
 
 from __future__ import annotations
@@ -29,6 +30,7 @@ from daq.decode.text import encode_ecp
 from daq.run_file import RunData, export_csv, export_json, load_run
 from ident.cli import main as ident_main
 from ident.errors import IdentValueError
+from ident.fitrun import RunIdentity, complete, fit_first
 from ident.io import load
 from testkit.daq_process import daq_command
 from testkit.mcap_runs import write_mcap_run
@@ -148,6 +150,16 @@ def test_ident_fit_identifies_the_cart_from_a_driven_run(
     assert pem["fit_percent"][0] > 99.0
     assert pem["modes"][0]["wn_rad_s"] == pytest.approx(OMEGA, rel=0.01)
     assert pem["modes"][0]["zeta"] == pytest.approx(ZETA, rel=0.05)
+
+
+def test_the_worker_s_fit_of_a_driven_run_is_the_response_to_its_drive(
+        pulse: tuple[Array, Array, list[Path]]) -> None:
+    """`ident worker` fits a finished run by `fit_first` and `complete`: PEM and the diagnosis
+    both on the response to the drive."""
+    report = complete(fit_first(pulse[2][1], RunIdentity())).report
+    assert report.status == "ok" and report.pem is not None and report.diagnosis is not None
+    assert report.pem.fit_percent[0] > 99.0
+    assert report.diagnosis.window_start_s < 0.01 and report.diagnosis.cause == "none"
 
 
 def test_a_hand_release_with_the_drive_at_rest_is_a_hand_s_run(tmp_path: Path) -> None:
