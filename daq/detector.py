@@ -177,6 +177,23 @@ class ReleaseDetector:
         self._watched = tuple(range(len(pos)))
         return [Armed(t_s, self._hold)]
 
+    def drive_release(self, t_switch_s: float) -> list[Event]:
+        """The rig's drive switched at `t_switch_s` (a motor pulse's edge, known from the stream):
+        the carts' motion since is its step response, released there, on the channel that moved
+        most since, whatever the hand's rules made of it (a 3 mm step that swings back toward
+        its hold reads as a nudge that "came back"). Nothing while a run is open or before the
+        switch is in the history."""
+        if self.state == "released" or not self._history or self._history[0][0] > t_switch_s:
+            return []
+        before = [x for t, x in self._history if t < t_switch_s] or [self._history[0][1]]
+        hold = before[-1]
+        after = [x for t, x in self._history if t >= t_switch_s] or [hold]
+        moved = [max(abs(x[c] - hold[c]) for x in after) for c in range(len(hold))]
+        channel = max(range(len(moved)), key=moved.__getitem__)
+        self._trigger_t = None
+        t_s = self._history[-1][0]
+        return [self._release(Released(t_switch_s, t_switch_s, t_s, channel, 0.0, hold))]
+
     def hole(self, span_s: float) -> list[Event]:
         """Samples are missing: `span_s` between the samples either side of the hole (s).
 

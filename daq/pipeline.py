@@ -66,6 +66,9 @@ MAX_LIVE_GAPS = 100   # gap intervals kept for the live status (a run keeps all 
 # been steady for DRIVE_LEAD_NS before it (a closed loop's drive changes at every sample)
 DRIVE_LEAD_NS = 200_000_000
 DRIVE_LAG_NS = 50_000_000
+# a candidate the hand's rules turn down within DRIVE_RECENT_NS after such a switch is the drive's
+# step all the same (the 2023 open-loop 3 mm steps swing back toward their hold: "came back")
+DRIVE_RECENT_NS = 1_000_000_000
 MAX_SWITCHES = 64
 log = logging.getLogger(__name__)
 
@@ -178,6 +181,7 @@ class Acquisition:
         self._ring: deque[tuple[int, tuple[float, ...], tuple[float, float] | None]] = deque()
         self._drive: tuple[float, float] | None = None
         self._drive_since_ns = 0
+        self._last_release_ns = -(2**62)   # the last run's release (device ns)
         # (device ns of the first sample of a new drive, ns the drive had been steady before it)
         self._switches: deque[tuple[int, int]] = deque(maxlen=MAX_SWITCHES)
         # a release is known up to first_release_confirm_s after its trigger (see daq.detector)
@@ -332,9 +336,24 @@ class Acquisition:
             elif isinstance(event, Rejected | Disarmed):
                 if isinstance(event, Rejected):   # shown at -v: why handling made no run
                     log.debug("candidate at %.3f s turned down: %s", event.t_s, event.reason)
+                    switch = self._recent_switch(round(event.t_s * 1e9))
+                    if switch is not None:   # the drive moved the carts, whatever a hand's rules say
+                        log.debug("... but the drive switched at %.3f s", switch / 1e9)
+                        self._events(self.detector.drive_release(switch / 1e9), t_ns)
+                        continue
                 self._set_state("idle", t_ns)
         if self.detector.state == "idle" and self.state == "settled":
             self._set_state("idle", t_ns)
+
+    def _recent_switch(self, t_ns: int) -> int | None:
+        """The last switch of a drive that had been steady for `DRIVE_LEAD_NS`, within
+        `DRIVE_RECENT_NS` before `t_ns` and after the last run's release (device ns), or None."""
+        for switch, steady in reversed(self._switches):
+            if switch < t_ns - DRIVE_RECENT_NS or switch <= self._last_release_ns:
+                return None
+            if steady >= DRIVE_LEAD_NS and switch <= t_ns:
+                return switch
+        return None
 
     def _set_state(self, state: DetectorState, t_ns: int) -> None:
         if state == self.state:
@@ -364,6 +383,7 @@ class Acquisition:
             if steady >= DRIVE_LEAD_NS:
                 release_ns = first_switch
             log.debug("release at %.3f s is the drive's switch at %.3f s", event.t_release_s, first_switch / 1e9)
+        self._last_release_ns = release_ns
         first_ns = release_ns - int(self.config.detector.pre_trigger_s * 1e9)
         ring = list(self._ring)
         start = next((i for i, (t, _, _) in enumerate(ring) if t >= first_ns), len(ring))

@@ -148,6 +148,8 @@ def encode_csv_header(n_positions: int) -> bytes:
     return (",".join(["time_s"] + [f"pos{i + 1}" for i in range(n_positions)]) + "\n").encode()
 
 
-def encode_ecp(cart1: int, cart2: int, target: int, duty: float, time_ms: float) -> bytes:
-    """`cart1pos:cart2pos:target:duty:time_ms\\n` (positions and target in counts)."""
-    return f"{cart1}:{cart2}:{target}:{duty:.4f}:{time_ms:.3f}\n".encode()
+def encode_ecp(cart1: int, cart2: int, target: float, duty: float, time_ms: float) -> bytes:
+    """`cart1pos:cart2pos:target:duty:time_ms\\n` (positions in counts; a whole target, counts on
+    the Teensy, without decimals, any other as exported: ECP Executive's efforts are volts)."""
+    target_text = str(int(target)) if float(target).is_integer() else repr(float(target))
+    return f"{cart1}:{cart2}:{target_text}:{duty:.4f}:{time_ms:.3f}\n".encode()

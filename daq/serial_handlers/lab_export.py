@@ -9,7 +9,8 @@ it through the same decoder as the live rig: each row becomes one line of that d
 
 Columns are found by name: `Time` (s), `Encoder 1 Pos` and `Encoder 2 Pos` (counts; a
 missing encoder reads 0, `Commanded Pos` is a command, not a position), `Control Effort`
-(the ecp line's target, rounded). Rows that are not all numbers are skipped. Pure.
+(the ecp line's target, as exported: the 2025 app's duty targets are whole counts, ECP
+Executive's efforts volts). Rows that are not all numbers are skipped. Pure.
 """
 
 from __future__ import annotations
@@ -57,7 +58,7 @@ def export_to_dialect(data: bytes, dialect: str) -> bytes:
         t_s = values[time_col]
         pos = [round(values[c]) if c is not None else 0 for c in enc]
         if dialect == "ecp":
-            target = round(values[effort]) if effort is not None else 0
+            target = values[effort] if effort is not None else 0.0
             out += encode_ecp(pos[0], pos[1], target, 0.0, t_s * 1e3)
         elif dialect == "csv":
             out += encode_csv(t_s, [float(p) for p in pos], digits=0)

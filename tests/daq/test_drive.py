@@ -53,11 +53,12 @@ def _ecp_clock(seed: int) -> Array:
     return t[t <= END_S]
 
 
-def _step(t: Array, t0: float) -> Array:
+def _step(t: Array, t0: float, zeta: float = ZETA) -> Array:
     """Unit step response from rest at `t0` (0 before)."""
     tau = np.maximum(t - t0, 0.0)
-    wd = OMEGA * np.sqrt(1 - ZETA**2)
-    out: Array = 1 - np.exp(-ZETA * OMEGA * tau) * (np.cos(wd * tau) + ZETA / np.sqrt(1 - ZETA**2) * np.sin(wd * tau))
+    root = np.sqrt(1 - zeta**2)
+    phase = OMEGA * root * tau
+    out: Array = 1 - np.exp(-zeta * OMEGA * tau) * (np.cos(phase) + zeta / root * np.sin(phase))
     return np.where(t >= t0, out, 0.0)
 
 
@@ -160,6 +161,20 @@ def test_the_worker_s_fit_of_a_driven_run_is_the_response_to_its_drive(
     assert report.status == "ok" and report.pem is not None and report.diagnosis is not None
     assert report.pem.fit_percent[0] > 99.0
     assert report.diagnosis.window_start_s < 0.01 and report.diagnosis.cause == "none"
+
+
+def test_a_small_drive_step_that_swings_back_toward_its_hold_is_still_the_drive_s_run(tmp_path: Path) -> None:
+    """A 2.5 mm step (the 2023 open-loop steps are 2.9 mm) overshoots past the detector's 3 mm
+    trigger and swings back within it: by a hand's rules a nudge that came back, so no run was
+    recorded; the drive switched there, so it is the drive's step."""
+    t = _ecp_clock(7)
+    drive = (t < ON_S).astype(np.float64)   # on from the start, switched off at ON_S
+    first_off = t[np.argmax(t >= ON_S)]
+    _write_stream(tmp_path / "step.txt", t, 0.0025 * _step(t, first_off, zeta=0.2), drive)
+    runs = _daq_runs(tmp_path / "step.txt", tmp_path / "runs")
+    assert len(runs) == 1
+    meta = runs[0].metadata
+    assert meta is not None and meta.trigger == "drive" and meta.release_t_ns == round(first_off * 1e9)
 
 
 def test_a_hand_release_with_the_drive_at_rest_is_a_hand_s_run(tmp_path: Path) -> None:

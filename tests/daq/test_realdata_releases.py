@@ -9,8 +9,9 @@ back into lines) through a `daq run --until-eof` process. Checked: one run per l
 release and none from handling, and the release instant judged from the data on its own: a
 damped sinusoid fitted here (independently of daq) one period after the instant follows the
 data from 20 ms after it, and did not hold a quarter second before it (the hand was acting).
-Every such run is a hand's (`trigger`); the 2025 motor pulses (the records whose Control Effort
-switches) give one run per switch, begun by the drive at the first sample of the new command.
+Every such run is a hand's (`trigger`); the motor pulses and steps (the 2025 and 2023 records
+whose Control Effort switches) give one run per switch of a steady command, begun by the drive
+at the first sample of the new command.
 
 Strict check (the issue's 20 ms): the instant against the independent judge of
 `testkit/release_judge.py` (a nonlinear free response with dry friction fitted after the
@@ -60,12 +61,12 @@ def _labels_2025(realdata: Path, name: str) -> list[float]:
 
 
 def _table(path: Path) -> Array:
-    """The rows of a lab export (Sample, Time, two positions, Control Effort), read here with
-    numpy on its own."""
+    """The rows of a lab export (Sample, Time, two or three positions, Control Effort last), read
+    here with numpy on its own."""
     rows = []
     for line in path.read_text().splitlines():
         fields = line.replace("[", " ").replace("]", " ").replace(";", " ").split()
-        if len(fields) == 5 and fields[0].isdigit():
+        if len(fields) >= 5 and fields[0].isdigit():
             rows.append([float(f) for f in fields])
     return np.array(rows)
 
@@ -184,27 +185,39 @@ def test_every_real_hand_release_instant_is_within_20_ms_of_the_judge(realdata_d
     assert all(abs(t0 - judged) <= JUDGE_LIMIT_S for _, t0, judged in offsets)
 
 
-def _motor_pulses(realdata: Path) -> list[Path]:
-    """The 2025 records whose Control Effort (the motor's command) switches: the open-loop pulses."""
-    return [path for path in sorted((realdata / ECP_2025).glob("*.txt")) if np.ptp(_table(path)[:, 4]) > 0]
+def _motor_steps(realdata: Path) -> list[Path]:
+    """The records whose Control Effort (the motor's command) switches: the 2025 open-loop pulses
+    and the 2023 open-loop steps (ECP Executive exports, the effort in volts)."""
+    paths = sorted((realdata / ECP_2025).glob("*.txt")) + sorted((realdata / ECP_2023).glob("*.csv"))
+    return [path for path in paths if np.ptp(_table(path)[:, -1]) > 0]
 
 
-def test_every_edge_of_a_real_motor_pulse_is_a_run_begun_by_the_drive_at_its_switch(
+def _steady_switches(table: Array) -> Array:
+    """Times (s) of the first sample of each new command that had been steady for 1 s before it
+    (the 2023 steps switch on at their second sample, with the cart in motion from there)."""
+    time_s, effort = table[:, 1], table[:, -1]
+    changes = np.flatnonzero(np.diff(effort) != 0) + 1
+    since = np.concatenate([[time_s[0]], time_s[changes]])
+    return np.asarray([time_s[i] for i, start in zip(changes, since[:-1], strict=True) if time_s[i] - start >= 1.0])
+
+
+def test_every_step_of_a_real_motor_command_is_a_run_begun_by_the_drive_at_its_switch(
         realdata_dir: Path, tmp_path: Path) -> None:
-    """Each switch of the command is one run, marked `drive` and released at the first sample of
-    the new command (daq had recorded them as hand releases, with no word of the motor)."""
-    pulses = _motor_pulses(realdata_dir)
-    assert len(pulses) >= 2
-    for k, path in enumerate(pulses):
+    """Each switch of a steady command is one run, marked `drive` and released at the first
+    sample of the new command. daq had recorded the 2025 pulses' edges as hand releases, with no
+    word of the motor, and no run of the 2023 steps (3 mm: a nudge that "came back", or slow)."""
+    steps = _motor_steps(realdata_dir)
+    assert len(steps) >= 2
+    for k, path in enumerate(steps):
         table = _table(path)
-        switches = table[1:, 1][np.diff(table[:, 4]) != 0]
+        switches = _steady_switches(table)
         runs = [load_run(p) for p in _replayed_runs(path, tmp_path / str(k))]
         assert len(runs) == len(switches), (path.name, len(runs), switches)
         for run, switch in zip(runs, switches, strict=True):
             meta = run.metadata
             assert meta is not None and meta.trigger == "drive", path.name
             assert meta.release_t_ns == round(switch * 1e9), (path.name, meta.release_t_ns, switch)
-            assert run.drive is not None and set(np.unique(run.drive[:, 0])) <= set(table[:, 4])
+            assert run.drive is not None and set(np.unique(run.drive[:, 0])) <= set(table[:, -1])
 
 
 def _replayed_runs(path: Path, runs: Path) -> list[Path]:

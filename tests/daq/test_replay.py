@@ -120,3 +120,22 @@ def test_rate_hz_paces_lines_without_using_their_stamps(tmp_path: Path, monkeypa
     finally:
         port.close()
     assert len(data_frames(decode(first, "csv")[0])) == 26
+
+
+@pytest.mark.parametrize(("header", "rows", "drives"), [
+    ("Sample\tTime\tEncoder 1 Pos\tEncoder 2 Pos\tControl Effort",   # the 2025 ECP-210 app: duty targets
+     ["1\t0.001\t0\t3\t0", "2\t0.002\t-5\t3\t491", "3\t0.004\t-20\t4\t491"], [0.0, 491.0, 491.0]),
+    (" Sample   Time     Commanded Pos   Encoder 1 Pos   Control Effort",   # ECP Executive: volts
+     ["[    0    0.000               0               0          0.5000;",
+      "     1    0.009              -1              -2          0.5000;",
+      "     2    0.018              -1              -9          0.0000]"], [0.5, 0.5, 0.0]),
+])
+def test_a_lab_export_replays_with_its_control_effort_as_the_drive(
+        tmp_path: Path, header: str, rows: list[str], drives: list[float]) -> None:
+    """The export's Control Effort is the ecp line's target, as exported (an Executive export's
+    0.5 V had been rounded to 0: its steps reached daq with no drive)."""
+    path = tmp_path / "export.txt"
+    path.write_text("\n".join([header, "", *rows]) + "\n")
+    frames = data_frames(decode(read_all(f"replay://{path}?speed=max"), "ecp")[0])
+    assert [f.drive for f in frames] == [(d, 0.0) for d in drives]
+    assert [f.t_us for f in frames] == [round(float(r.replace("[", " ").split()[1]) * 1e6) for r in rows]
