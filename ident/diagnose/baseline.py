@@ -21,7 +21,8 @@ def base_spec(prob: Problem, fixed: dict[str, float]) -> ModelSpec:
         fixed = {**fixed, "rest_2_m": 0.0}
     if prob.drift is not None:
         fixed = {**fixed, "drift_spacing_s": prob.drift_spacing_s}
-    return ModelSpec((), prob.carts, fixed, prob.inputs, prob.held, prob.y.shape[1], prob.drift, prob.input_switch)
+    return ModelSpec((), prob.carts, fixed, prob.inputs, prob.held, prob.y.shape[1], prob.drift, prob.input_switch,
+                     prob.still_until)
 
 
 def fit_baseline(prob: Problem, fixed: dict[str, float]) -> FitResult:

@@ -90,7 +90,8 @@ class ModelSpec:
     names; `fixed` maps parameter name -> value; `inputs` (N, m) force inputs held over each
     step and switching within it at `input_switch` (N, m) (`ident.physics.free.switched_input`),
     `held` (N,) the held cart's measured motion from its first sample, `drift` (N, K) the rest
-    drift's spline basis (all on the work grid)."""
+    drift's spline basis (all on the work grid); `onset` the work sample where the carts begin
+    to move (a forced window still until its input acts: a coupled mode rings from there)."""
 
     effects: tuple[str, ...]
     carts: int
@@ -100,6 +101,7 @@ class ModelSpec:
     outputs: int = 0
     drift: FloatArray | None = None
     input_switch: FloatArray | None = None
+    onset: int = 0
 
     @property
     def observed(self) -> int:
@@ -162,7 +164,7 @@ class ModelSpec:
         x = simulate_free(lin, z0, dt, n_samples, c, terms, u, self._switch(u)) + rest[:, None, :]
         x = x[:, :, :self.observed]
         if "coupled_mode" in self.effects:
-            x = x + _extra_mode(theta[:, self.block("coupled_mode")], dt, n_samples, self.observed)
+            x = x + _extra_mode(theta[:, self.block("coupled_mode")], dt, n_samples, self.observed, self.onset)
         if "quantization" in self.effects:
             q = theta[:, self.block("quantization")]
             x = smoothed_staircase(x, q[:, 0], q[:, 1], q[:, 2])
@@ -233,13 +235,15 @@ def smoothed_staircase(x: FloatArray, q: FloatArray, offset: FloatArray, blur: F
     return out
 
 
-def _extra_mode(extra: FloatArray, dt: float, n_samples: int, carts: int) -> FloatArray:
-    """e^{-σ τ}(a_j cos ωτ + b_j sin ωτ) per output: (P, N, carts)."""
-    tau = dt * np.arange(n_samples)
+def _extra_mode(extra: FloatArray, dt: float, n_samples: int, carts: int, onset: int = 0) -> FloatArray:
+    """e^{-σ τ}(a_j cos ωτ + b_j sin ωτ) per output, τ from the work sample `onset` (0 before
+    it): (P, N, carts)."""
+    tau = dt * np.arange(-onset, n_samples - onset)
     w = 2 * np.pi * extra[:, 0][:, None]
     env = np.exp(-extra[:, 1][:, None] * tau[None, :])
     cos, sin = env * np.cos(w * tau), env * np.sin(w * tau)
     a = extra[:, 2:2 + carts]
     b = extra[:, 2 + carts:2 + 2 * carts]
     out: FloatArray = cos[:, :, None] * a[:, None, :] + sin[:, :, None] * b[:, None, :]
+    out[:, :onset] = 0.0
     return out

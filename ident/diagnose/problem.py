@@ -23,7 +23,8 @@ class Problem:
     switching within a step at `input_switch` (N, m): `ident.physics.free.switched_input`), `drift`
     (N, K) the rest drift's spline basis on knots `drift_spacing_s` apart (`drift`) or None,
     `anchor` the work samples before the blocked cross-validation's first held-out block (one
-    period of the main mode; 0: the first sixth of the motion, `fitting.block_edges`)."""
+    period of the main mode; 0: the first sixth of the motion, `fitting.block_edges`),
+    `still_until` the work samples the carts rest before a force input first acts (0: none)."""
 
     tau: FloatArray
     y: FloatArray
@@ -37,6 +38,7 @@ class Problem:
     drift_spacing_s: float = 0.0
     anchor: int = 0
     input_switch: FloatArray | None = None
+    still_until: int = 0
 
 
 def _costs(spec: ModelSpec, prob: Problem, rows: FloatArray) -> FloatArray:
