@@ -38,8 +38,10 @@ NOISE_SIGMAS = 4.0
 QUIET_FRACTION = 1.0 / 12.0
 #: ... unless it comes back after that stretch above this multiple of the limit: the hand's
 #: force passed through zero (a flick braked to its path's end and held there) and it is
-#: still there (`release_instant`)
-RETURN_FACTOR = 2.0
+#: still there (`release_instant`); a flick whose push faded and that the hand held again at
+#: its path's end, at 1.55 limits, had been dated at the push's end, 47 ms (8 samples) early
+#: (red team `coulomb+quantization` 10701, 178 Hz)
+RETURN_FACTOR = 1.5
 #: ... and a weak blip (at most that multiple) after a quiet gap of more than the fine window
 #: (the filter's whole width: no smear of the hand's force reaches that far) is not the hand
 #: (`_without_blips`)

@@ -328,6 +328,19 @@ def test_a_flick_braked_to_its_path_end_and_held_there_is_dated_at_the_let_go() 
     assert abs(releases[0].release_time_s - case.truth["release_time_s"]) <= 1.5 * step, releases[0].release_time_s
 
 
+def test_a_flick_held_again_at_its_path_end_is_dated_at_the_let_go() -> None:
+    """Red team `coulomb+quantization` 10701 (178 Hz, a 0.13 mm lattice with noise before it):
+    the hand's push faded as the cart neared the end of its path, and the hand held it there
+    again for the 40 ms before the let-go at 1.55 times the fine residual's limit. It was dated
+    where the push faded, 47 ms (8 samples) early, and the diagnosis named a spurious coupled
+    mode and put ζ 17 % off."""
+    case = _case("coulomb+quantization", 10701)
+    releases = find_releases(case.t, case.y)
+    step = float(np.median(np.diff(case.t)))
+    assert len(releases) == 1
+    assert abs(releases[0].release_time_s - case.truth["release_time_s"]) <= step, releases[0].release_time_s
+
+
 def test_a_second_mode_under_a_lattice_is_kept_through_the_elimination(tmp_path: Path,
                                                                         capsys: pytest.CaptureFixture[str]) -> None:
     """Red team `coupled_span` 2000 (unseen seeds 2000-2002; 266 Hz, a 0.88 mm lattice worth
