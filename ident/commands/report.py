@@ -18,7 +18,7 @@ from ident import progress
 from ident.commands.fit import run_id_of
 from ident.data import FloatArray, IdData
 from ident.errors import DataFileError, IdentError
-from ident.fitrun import RunFileOptions, RunIdentity, fit_file, load_run
+from ident.fitrun import RunFileOptions, RunIdentity, fit_file, load_run, with_run_drive
 from ident.fitrun.analysis import case_samples, diagnosis_columns, on_one_grid
 from ident.report.content import CaseResult
 from ident.report.figures import write_figures
@@ -91,13 +91,15 @@ def fit_here(path: Path, fit_dir: Path, options: RunFileOptions = _READ_AS_IS) -
 
 
 def fitted_samples(run_file: Path, report: FitReport,
-                   options: RunFileOptions = _READ_AS_IS) -> tuple[IdData, FloatArray] | None:
-    """The samples the report's fits used (its carts' columns) and the other carts' positions
-    (N, k) its diagnosis took as inputs (a held cart; k may be 0, `diagnosis_columns`), or None
-    without the file."""
+                   options: RunFileOptions = _READ_AS_IS) -> tuple[IdData, FloatArray, bool] | None:
+    """The samples the report's fits used (its carts' columns), the other carts' positions
+    (N, k) its diagnosis took as inputs (a held cart; k may be 0, `diagnosis_columns`) and
+    whether the input is a recorded force (a run begun by the rig's drive: `with_run_drive`),
+    or None without the file."""
     if report.status != "ok" or not run_file.is_file():
         return None
     outputs = report.pem.outputs if report.pem else [s.output for s in report.simple[:1]]
+    options = with_run_drive(run_file, options)
     try:
         data = on_one_grid(load_run(run_file, options))
     except (IdentError, OSError):
@@ -107,7 +109,7 @@ def fitted_samples(run_file: Path, report: FitReport,
         return None
     columns = [numbers.index(c) for c in outputs]
     fitted = case_samples(data, tuple(c + 1 for c in columns))
-    return fitted, diagnosis_columns(data, fitted, columns)[:, len(columns):]
+    return fitted, diagnosis_columns(data, fitted, columns)[:, len(columns):], options.input_col is not None
 
 
 def gather(paths: list[Path], work_dir: Path,
@@ -121,7 +123,7 @@ def gather(paths: list[Path], work_dir: Path,
             progress.advance()
         runs.append(_gather_one(path, work_dir, options))
     return [FittedRun(r.report, r.fit_dir, r.source,
-                      *(fitted_samples(_run_file(r), r.report, options) or (None, None))) for r in runs]
+                      *(fitted_samples(_run_file(r), r.report, options) or (None, None, False))) for r in runs]
 
 
 def _run_file(run: FittedRun) -> Path:

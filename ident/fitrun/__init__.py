@@ -26,6 +26,7 @@ from ident.fitrun.usecase import (
                                    load_run,
                                    report_of,
                                    with_pending,
+                                   with_run_drive,
 )
 
 __all__ = [
@@ -51,4 +52,5 @@ __all__ = [
                                    "to_fit_report",
                                    "with_diagnosis",
                                    "with_pending",
+                                   "with_run_drive",
 ]

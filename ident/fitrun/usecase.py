@@ -77,13 +77,25 @@ class RunFit:
     report: FitReport
 
 
+def with_run_drive(path: str | Path, options: RunFileOptions, release: int | None = None) -> RunFileOptions:
+    """`options` with the drive as the input for a `daq` run begun by the rig's drive
+    (`ident.io.run_drive`: its response is to that drive), unless a release or an input is
+    given; `options` as they are otherwise."""
+    if release is not None or options.input_col is not None or options.release_time_s is not None:
+        return options
+    drive = run_drive(path)
+    return options if drive is None else dataclasses.replace(options, input_col=drive)
+
+
 def load_run(path: str | Path, options: RunFileOptions = RunFileOptions(),
              release: int | None = None, select: ReleaseSelector = select_or_whole) -> IdData:
     """Load a run file; with `release` K, the run cut to its K-th release by `select`
-    (`FIRST_COMPLETE`: the first complete one). Without `release`: a motor input or a known
+    (`FIRST_COMPLETE`: the first complete one). A `daq` run begun by the rig's drive is loaded
+    with the drive as its input (`with_run_drive`). Without `release`: a motor input or a known
     release time (a daq run's metadata, a `daq export`'s comments, `options.release_time_s`)
     gives the run as loaded; a raw record whose release is not known is cut to its first
     complete release, as `ident fit` and `ident diagnose` do (the release finder decides)."""
+    options = with_run_drive(path, options, release)
     # raw: a record of several releases, or one that starts in motion, has no single
     # release to build the step from
     step_m = DEFAULT_STEP_M if options.step_m is None else options.step_m
@@ -112,9 +124,7 @@ def fit_first(path: str | Path, who: RunIdentity = RunIdentity(), *,
     """Stage 1: load and fit (simple identification, PEM); a failed report for a bad run. A
     `daq` run begun by the rig's drive is fitted as the response to it (`ident.io.run_drive`)
     unless a release or an input is given."""
-    if release is None and options.input_col is None and options.release_time_s is None:
-        drive = run_drive(path)
-        options = options if drive is None else dataclasses.replace(options, input_col=drive)
+    options = with_run_drive(path, options, release)
     settings = settings or FitSettings(step_input=options.input_col is None)
     started = time.perf_counter()
     try:
@@ -200,4 +210,5 @@ __all__ = [
     "load_run",
     "report_of",
     "with_pending",
+    "with_run_drive",
 ]

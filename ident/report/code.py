@@ -94,12 +94,16 @@ for ax in axes:
 plt.show()"""
 
 
-def diagnosis(case: LabCase, carts: int) -> str:
-    """What the linear simulation gets wrong: the effects and their held-out gains."""
+def diagnosis(case: LabCase, carts: int, forced: bool = False) -> str:
+    """What the linear simulation gets wrong: the effects and their held-out gains (`forced`:
+    the run's input is a recorded force, the rig's drive, which the model takes too)."""
+    drive = ("\n# the run began where the rig's drive switched: the model is driven by it too"
+             if forced else "")
+    force = ", u=data.u" if forced else ""
     return f"""\
 data, meta = runs["{case}"]
-# a held cart's measured motion enters as an input (its columns after the fitted carts')
-found = diagnose(data.t, np.column_stack([data.y, held["{case}"]]), carts={carts}).report
+# a held cart's measured motion enters as an input (its columns after the fitted carts'){drive}
+found = diagnose(data.t, np.column_stack([data.y, held["{case}"]]), carts={carts}{force}).report
 print(f"cause: {{found.cause}}, gain {{found.gain_points:+.3f}} fit-% points held out")
 for c in found.candidates:
     print(f"  {{c.effect:18s}} gain {{c.gain_points:+.3f}}  significant: {{c.significant}}")

@@ -48,6 +48,7 @@ class CaseResult:
     report: FitReport
     figures: dict[str, str]   # kind ("simple", "pem", ...) -> stem
     data_file: str | None = None   # the exported samples, relative to the report; None: no code
+    forced: bool = False           # the samples' input is a recorded force (a run begun by the drive)
 
 
 def _f(value: float | None, digits: int = 4) -> str:
@@ -121,7 +122,8 @@ def code_setup_blocks(results: list[CaseResult]) -> list[Block]:
         Heading(2, "The Python of this report"),
         Para("Every number below was computed by cartlab's public API; the code blocks are "
              "that code. The samples each fit used are exported beside this report "
-             "(`data/<case>.csv`: time (s), release step input (m), positions (m); "
+             "(`data/<case>.csv`: time (s), the input (the release step, m; for a run begun by "
+             "the rig's drive, that drive as recorded), positions (m); "
              "`data/<case>.json`: release time, pulled cart). `report.ipynb` holds the same "
              "code as a notebook: run it top to bottom and it prints the same numbers."),
         Code(code.SETUP),
@@ -282,7 +284,7 @@ def diagnosis_blocks(results: list[CaseResult]) -> list[Block]:
         ev = d.evidence
         blocks.append(Heading(3, f"5.{diagnosed.index(r) + 1} {CASE_TITLES[r.case]}"))
         if r.data_file:
-            blocks.append(Code(code.diagnosis(r.case, 2 if r.case == "both" else 1)))
+            blocks.append(Code(code.diagnosis(r.case, 2 if r.case == "both" else 1, r.forced)))
         blocks.append(Para(d.explanation))
         refs = f"{{fig:diagnosis-{r.case}}} " if "diagnosis" in r.figures else ""
         blocks.append(Para(

@@ -34,13 +34,15 @@ class FittedRun:
     """A run's final report, the directory holding its figures, and the samples its fits
     used (`data`: the fitted carts' columns; None when the run file is not at hand), with the
     other carts' positions (N, k) on `data.t` its diagnosis took as inputs (`held`: a held
-    cart's motion; k may be 0)."""
+    cart's motion; k may be 0); `forced`: `data.u` is a recorded force input (a run begun by
+    the rig's drive), which the diagnosis took too."""
 
     report: FitReport
     fit_dir: Path
     source: Path
     data: IdData | None = None
     held: FloatArray | None = None
+    forced: bool = False
 
 
 class NotebookError(IdentError, RuntimeError):
@@ -100,7 +102,7 @@ def write_report_dir(runs: list[FittedRun], out_dir: Path,
     out_dir.mkdir(parents=True, exist_ok=True)
     chosen = pick_cases(runs)
     results = [CaseResult(r.report.case, r.report, copy_figures(r, out_dir),  # type: ignore[arg-type]
-                          export_data(r, out_dir)) for r in chosen]
+                          export_data(r, out_dir), r.forced) for r in chosen]
     stamp = f"{__version__} on {datetime.now(UTC):%Y-%m-%d %H:%M} UTC"
     unused = [r.report for r in runs if r not in chosen]
     blocks = report_blocks(results, stamp, unused)

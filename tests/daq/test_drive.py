@@ -29,6 +29,7 @@ import pytest
 from daq.decode.text import encode_ecp
 from daq.run_file import RunData, export_csv, export_json, load_run
 from ident.cli import main as ident_main
+from ident.commands.report import write_lab_report
 from ident.errors import IdentValueError
 from ident.fitrun import RunIdentity, complete, fit_first
 from ident.io import load
@@ -161,6 +162,30 @@ def test_the_worker_s_fit_of_a_driven_run_is_the_response_to_its_drive(
     assert report.status == "ok" and report.pem is not None and report.diagnosis is not None
     assert report.pem.fit_percent[0] > 99.0
     assert report.diagnosis.window_start_s < 0.01 and report.diagnosis.cause == "none"
+
+
+@pytest.mark.timeout(300)
+def test_a_lab_report_of_a_driven_run_and_its_notebook_take_the_drive(
+        pulse: tuple[Array, Array, list[Path]], tmp_path: Path) -> None:
+    """`ident report RUN.mcap`: the fits and the diagnosis are of the response to the drive, the
+    exported samples carry it as the input, and the notebook's diagnosis, run beside them, gives
+    the same numbers."""
+    import nbformat
+    from nbclient import NotebookClient
+
+    out = tmp_path / "report"
+    [result] = write_lab_report([pulse[2][1]], out, run_notebook=False)
+    diagnosis = result.report.diagnosis
+    assert result.case == "cart1" and diagnosis is not None and result.forced
+    assert diagnosis.window_start_s < 0.01 and diagnosis.cause == "none"
+    table = np.loadtxt(out / "data" / "cart1.csv", delimiter=",", skiprows=1)
+    assert set(np.unique(table[:, 1])) == {0.0, -round(DUTY, 4)}   # the duty as sent, from its value at the start
+    notebook = nbformat.read(out / "report.ipynb", as_version=4)
+    NotebookClient(notebook, timeout=240, kernel_name="python3",
+                   resources={"metadata": {"path": str(out)}}).execute()
+    numbers = json.loads(notebook.cells[-1].outputs[0]["text"])
+    assert numbers["cart1"]["diagnosis"]["cause"] == diagnosis.cause
+    assert numbers["cart1"]["diagnosis"]["gain"] == pytest.approx(diagnosis.gain_points, rel=1e-6, abs=1e-9)
 
 
 def test_a_small_drive_step_that_swings_back_toward_its_hold_is_still_the_drive_s_run(tmp_path: Path) -> None:
