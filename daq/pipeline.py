@@ -40,6 +40,7 @@ from daq.detector import (
     ReleaseDetector,
     Settled,
 )
+from daq.drive import DriveSwitches
 from daq.frames import DataFrame, Dialect, InfoFrame
 from daq.held import lab_case, moving_carts
 from daq.run_ids import new_run_id
@@ -60,16 +61,6 @@ DEFAULT_COUNTS_PER_M: dict[str, float] = {"cartlab": 20000.0, "csv": 1.0, "ecp":
 BATCH_NS = 20_000_000
 MAX_BATCH = 500
 MAX_LIVE_GAPS = 100   # gap intervals kept for the live status (a run keeps all of its own)
-# a release dated within DRIVE_LEAD_NS after or DRIVE_LAG_NS before a switch of the rig's drive
-# (`DataFrame.drive`) is the drive's step, not a hand's (the 2025 ECP-210 motor pulses' edges were
-# dated 8 ms after and 1 ms before the switch); it is re-dated to the switch when the drive had
-# been steady for DRIVE_LEAD_NS before it (a closed loop's drive changes at every sample)
-DRIVE_LEAD_NS = 200_000_000
-DRIVE_LAG_NS = 50_000_000
-# a candidate the hand's rules turn down within DRIVE_RECENT_NS after such a switch is the drive's
-# step all the same (the 2023 open-loop 3 mm steps swing back toward their hold: "came back")
-DRIVE_RECENT_NS = 1_000_000_000
-MAX_SWITCHES = 64
 log = logging.getLogger(__name__)
 
 
@@ -179,11 +170,8 @@ class Acquisition:
         self.run: _Run | None = None
         self._unit: RawUnit = "m" if config.dialect == "csv" else "counts"
         self._ring: deque[tuple[int, tuple[float, ...], tuple[float, float] | None]] = deque()
-        self._drive: tuple[float, float] | None = None
-        self._drive_since_ns = 0
+        self._drive = DriveSwitches()
         self._last_release_ns = -(2**62)   # the last run's release (device ns)
-        # (device ns of the first sample of a new drive, ns the drive had been steady before it)
-        self._switches: deque[tuple[int, int]] = deque(maxlen=MAX_SWITCHES)
         # a release is known up to first_release_confirm_s after its trigger (see daq.detector)
         self._ring_ns = int((config.detector.pre_trigger_s + config.detector.first_release_confirm_s + 1.0) * 1e9)
         self._live_seq = 0
@@ -273,10 +261,7 @@ class Acquisition:
             self._gap(t_ns, step.lost, step.anomaly)
         self.last_t_ns, self.last_raw = t_ns, raw
         drive = frame.drive
-        if drive != self._drive and drive is not None:
-            if self._drive is not None:
-                self._switches.append((t_ns, t_ns - self._drive_since_ns))
-            self._drive, self._drive_since_ns = drive, t_ns
+        self._drive.push(t_ns, drive)
         ring = self._ring
         ring.append((t_ns, raw, drive))
         while ring[0][0] < t_ns - self._ring_ns:
@@ -336,7 +321,7 @@ class Acquisition:
             elif isinstance(event, Rejected | Disarmed):
                 if isinstance(event, Rejected):   # shown at -v: why handling made no run
                     log.debug("candidate at %.3f s turned down: %s", event.t_s, event.reason)
-                    switch = self._recent_switch(round(event.t_s * 1e9))
+                    switch = self._drive.recent(round(event.t_s * 1e9), self._last_release_ns)
                     if switch is not None:   # the drive moved the carts, whatever a hand's rules say
                         log.debug("... but the drive switched at %.3f s", switch / 1e9)
                         self._events(self.detector.drive_release(switch / 1e9), t_ns)
@@ -344,16 +329,6 @@ class Acquisition:
                 self._set_state("idle", t_ns)
         if self.detector.state == "idle" and self.state == "settled":
             self._set_state("idle", t_ns)
-
-    def _recent_switch(self, t_ns: int) -> int | None:
-        """The last switch of a drive that had been steady for `DRIVE_LEAD_NS`, within
-        `DRIVE_RECENT_NS` before `t_ns` and after the last run's release (device ns), or None."""
-        for switch, steady in reversed(self._switches):
-            if switch < t_ns - DRIVE_RECENT_NS or switch <= self._last_release_ns:
-                return None
-            if steady >= DRIVE_LEAD_NS and switch <= t_ns:
-                return switch
-        return None
 
     def _set_state(self, state: DetectorState, t_ns: int) -> None:
         if state == self.state:
@@ -375,14 +350,10 @@ class Acquisition:
     def _start_run(self, event: Released) -> int:
         """Open the run of `event`; its release instant (device ns)."""
         self._flush_batches()
-        release_ns = round(event.t_release_s * 1e9)
-        switched = [(t, steady) for t, steady in self._switches
-                    if release_ns - DRIVE_LEAD_NS <= t <= release_ns + DRIVE_LAG_NS]
-        if switched:   # the drive moved the carts: a step response, from the first sample of a new drive
-            first_switch, steady = switched[0]
-            if steady >= DRIVE_LEAD_NS:
-                release_ns = first_switch
-            log.debug("release at %.3f s is the drive's switch at %.3f s", event.t_release_s, first_switch / 1e9)
+        # the drive moved the carts: a step response, from the first sample of a new drive
+        driven, release_ns = self._drive.at_release(round(event.t_release_s * 1e9))
+        if driven:
+            log.debug("release at %.3f s is the drive's (dated %.3f s)", event.t_release_s, release_ns / 1e9)
         self._last_release_ns = release_ns
         first_ns = release_ns - int(self.config.detector.pre_trigger_s * 1e9)
         ring = list(self._ring)
@@ -402,7 +373,7 @@ class Acquisition:
             detector_settings=self.config.detector.as_metadata(), detector_method=METHOD,
             release_time_s=(release_ns - first_t) / 1e9, release_t_ns=release_ns, first_t_ns=first_t,
             pre_trigger_s=self.config.detector.pre_trigger_s, pulled_cart=event.channel + 1,
-            lab_case=self.config.lab_case, trigger="drive" if switched else "hand", counters=self.counters(),
+            lab_case=self.config.lab_case, trigger="drive" if driven else "hand", counters=self.counters(),
             software_version=daq.__version__,
             started_utc=now.isoformat(timespec="milliseconds"), utc_offset_ns=self.utc_offset_ns)
         gains, offsets_m = cal.linear_terms()

@@ -1,17 +1,22 @@
 """The blocked cross-validation's anchoring stretch: one period of the window's main mode, or a
-sixth of the window when its carts end stuck by dry friction (`anchor_of`). No I/O."""
+sixth of the window when its carts end stuck by dry friction (`anchor_of`); a forced window's
+start state, at rest until its input acts (`still_until`, `still_start`). No I/O."""
 
 from __future__ import annotations
 
 import numpy as np
 
-from ident.diagnose.problem import FloatArray
+from ident.diagnose.problem import FloatArray, Problem
 from ident.diagnose.select import ALPHA
 from ident.diagnose.window import Window
 from ident.physics.measures import noise_std
 
 #: Work samples the blocked cross-validation's anchoring stretch holds at least.
 MIN_ANCHOR = 10
+
+# a forced window still for at least this many work samples before its input first switches
+# starts at rest there (`still_start`)
+MIN_STILL_START = 10
 
 
 def anchor_of(win: Window, dt: float, fine: FloatArray, y: FloatArray) -> int:
@@ -83,3 +88,24 @@ def rings_at_end(fine: FloatArray, period: int) -> bool:
         if (ss_slow - ss_swing) / 2.0 > bar * max(ss_swing, 1e-300) / (m - 4):
             return True
     return False
+
+
+def still_until(inputs: FloatArray, y: FloatArray) -> int:
+    """The work samples (`MIN_STILL_START` at least) the carts `y` (N, c) rest still before the
+    force `inputs` (N, m) first switch; 0 when they move before, or it never switches."""
+    changed = np.flatnonzero(np.any(inputs != inputs[0], axis=1))
+    if changed.size == 0 or changed[0] < MIN_STILL_START:
+        return 0
+    return int(changed[0]) if ends_stuck(y[:changed[0]], int(changed[0])) else 0
+
+
+def still_start(prob: Problem) -> dict[str, float]:
+    """A forced window whose carts rest until its input first switches (`Problem.still_until`,
+    from `still_until`) starts at rest: x0 the still position, v0 0. Fitted freely, the state at the window start
+    rang the linear model before the input acted (a 2025 ECP-210 motor pulse's daq run, cart at
+    rest for 0.5 s) and took up misfit of the response after it."""
+    if not prob.still_until:
+        return {}
+    still = np.median(prob.y[:prob.still_until], axis=0)
+    fixed = {f"x0_{i + 1}_m": float(still[i]) for i in range(min(prob.carts, still.size))}
+    return {**fixed, **{f"v0_{i + 1}_m_s": 0.0 for i in range(prob.carts)}}

@@ -36,7 +36,7 @@ from numpy.typing import NDArray
 from ident import progress, summary
 from ident.diagnose import candidates as cands
 from ident.diagnose import explain
-from ident.diagnose.anchor import anchor_of, ends_stuck
+from ident.diagnose.anchor import anchor_of, still_start, still_until
 from ident.diagnose.backward import settle
 from ident.diagnose.candidates import Problem, fit_baseline
 from ident.diagnose.drift import drift_basis, drift_spacing, slow_residual
@@ -70,9 +70,6 @@ _T = TypeVar("_T")
 
 FloatArray = NDArray[np.float64]
 
-# a forced window still for at least this many work samples before its input first switches
-# starts at rest there (`_still_start`)
-MIN_STILL_START = 10
 MODEL_NAMES = {1: "single cart m x'' + c x' + k (x - rest) = 0",
                2: "two-cart chain M x'' + C x' + K (x - rest) = 0"}
 
@@ -287,28 +284,7 @@ def _work_problem(cut: Stretch, step_m: float | None) -> tuple[Problem, dict[str
                    anchor=anchor_of(win, dt, y_arr[win.start:], y_arr[idx]),
                    input_switch=None if work_u is None else work_u[1],
                    still_until=0 if work_u is None else still_until(work_u[0], y_arr[idx]))
-    return prob, {**_fixed_rest(win, cut.carts, step_m), **_still_start(prob)}
-
-
-def still_until(inputs: FloatArray, y: FloatArray) -> int:
-    """The work samples (`MIN_STILL_START` at least) the carts `y` (N, c) rest still before the
-    force `inputs` (N, m) first switch; 0 when they move before, or it never switches."""
-    changed = np.flatnonzero(np.any(inputs != inputs[0], axis=1))
-    if changed.size == 0 or changed[0] < MIN_STILL_START:
-        return 0
-    return int(changed[0]) if ends_stuck(y[:changed[0]], int(changed[0])) else 0
-
-
-def _still_start(prob: Problem) -> dict[str, float]:
-    """A forced window whose carts rest until its input first switches (`Problem.still_until`)
-    starts at rest: x0 the still position, v0 0. Fitted freely, the state at the window start
-    rang the linear model before the input acted (a 2025 ECP-210 motor pulse's daq run, cart at
-    rest for 0.5 s) and took up misfit of the response after it."""
-    if not prob.still_until:
-        return {}
-    still = np.median(prob.y[:prob.still_until], axis=0)
-    fixed = {f"x0_{i + 1}_m": float(still[i]) for i in range(min(prob.carts, still.size))}
-    return {**fixed, **{f"v0_{i + 1}_m_s": 0.0 for i in range(prob.carts)}}
+    return prob, {**_fixed_rest(win, cut.carts, step_m), **still_start(prob)}
 
 
 def _fixed_rest(win: Window, carts: int, step_m: float | None) -> dict[str, float]:
