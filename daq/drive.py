@@ -29,6 +29,7 @@ class DriveSwitches:
         self._since_ns = 0
         # (device ns of the first sample of a new drive, ns the drive had been steady before it)
         self._switches: deque[tuple[int, int]] = deque()
+        self._last_release_ns = -(2**62)   # the last run's release (`at_release`)
 
     def push(self, t_ns: int, drive: tuple[float, float] | None) -> None:
         """One sample's drive (None: the stream has none)."""
@@ -43,18 +44,18 @@ class DriveSwitches:
     def at_release(self, release_ns: int) -> tuple[bool, int]:
         """Whether the drive switched about a release dated `release_ns` (so the run is the
         drive's), and the release instant: the first such switch's when the drive had been
-        steady before it, else `release_ns`."""
+        steady before it, else `release_ns`. The run is taken to start there."""
         near = [(t, steady) for t, steady in self._switches if release_ns - LEAD_NS <= t <= release_ns + LAG_NS]
-        if not near:
-            return False, release_ns
-        first, steady = near[0]
-        return True, first if steady >= LEAD_NS else release_ns
+        if near and near[0][1] >= LEAD_NS:
+            release_ns = near[0][0]
+        self._last_release_ns = release_ns
+        return bool(near), release_ns
 
-    def recent(self, t_ns: int, after_ns: int) -> int | None:
+    def recent(self, t_ns: int) -> int | None:
         """The last switch of a drive steady for `LEAD_NS` before it, within `RECENT_NS` before
-        `t_ns` and later than `after_ns` (device ns), or None."""
+        `t_ns` and later than the last run's release (device ns), or None."""
         for switch, steady in reversed(self._switches):
-            if switch < t_ns - RECENT_NS or switch <= after_ns:
+            if switch < t_ns - RECENT_NS or switch <= self._last_release_ns:
                 return None
             if steady >= LEAD_NS and switch <= t_ns:
                 return switch

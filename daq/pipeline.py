@@ -171,7 +171,6 @@ class Acquisition:
         self._unit: RawUnit = "m" if config.dialect == "csv" else "counts"
         self._ring: deque[tuple[int, tuple[float, ...], tuple[float, float] | None]] = deque()
         self._drive = DriveSwitches()
-        self._last_release_ns = -(2**62)   # the last run's release (device ns)
         # a release is known up to first_release_confirm_s after its trigger (see daq.detector)
         self._ring_ns = int((config.detector.pre_trigger_s + config.detector.first_release_confirm_s + 1.0) * 1e9)
         self._live_seq = 0
@@ -321,7 +320,7 @@ class Acquisition:
             elif isinstance(event, Rejected | Disarmed):
                 if isinstance(event, Rejected):   # shown at -v: why handling made no run
                     log.debug("candidate at %.3f s turned down: %s", event.t_s, event.reason)
-                    switch = self._drive.recent(round(event.t_s * 1e9), self._last_release_ns)
+                    switch = self._drive.recent(round(event.t_s * 1e9))
                     if switch is not None:   # the drive moved the carts, whatever a hand's rules say
                         log.debug("... but the drive switched at %.3f s", switch / 1e9)
                         self._events(self.detector.drive_release(switch / 1e9), t_ns)
@@ -354,7 +353,6 @@ class Acquisition:
         driven, release_ns = self._drive.at_release(round(event.t_release_s * 1e9))
         if driven:
             log.debug("release at %.3f s is the drive's (dated %.3f s)", event.t_release_s, release_ns / 1e9)
-        self._last_release_ns = release_ns
         first_ns = release_ns - int(self.config.detector.pre_trigger_s * 1e9)
         ring = list(self._ring)
         start = next((i for i, (t, _, _) in enumerate(ring) if t >= first_ns), len(ring))
